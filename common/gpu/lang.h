@@ -1,0 +1,131 @@
+// One device dialect for C++ (tests, CPU tools), OpenCL C (kernels/) and GLSL (shaders/).
+//
+// Shared device code is written in the common subset of the three languages: GLSL-style
+// vector math (vec3, dot, cross), explicit casts through F32()/U32()/I32(), constructors
+// through V3()/V3S(), no pointers, no out-parameters (functions return structs instead).
+// Buffers are reached through the names in SCENE_PARAMS/SCENE_ARGS: kernel arguments in
+// OpenCL C and C++, global storage blocks in GLSL.
+#ifndef MCPT_GPU_LANG_H
+#define MCPT_GPU_LANG_H
+
+#if defined(__OPENCL_VERSION__)
+#define MCPT_OPENCL 1
+#elif defined(GL_core_profile) || defined(VULKAN) || defined(MCPT_GLSL)
+#ifndef MCPT_GLSL
+#define MCPT_GLSL 1
+#endif
+#else
+#define MCPT_CPP 1
+#endif
+
+// ---------------------------------------------------------------- C++ (GLM mirrors GLSL)
+#if defined(MCPT_CPP)
+#include <glm/glm.hpp>
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+namespace mcpt::gpu {
+using uint = uint32_t;
+using glm::vec2;
+using glm::vec3;
+using glm::vec4;
+using glm::uvec4;
+using glm::clamp;
+using glm::cross;
+using glm::dot;
+using glm::length;
+using glm::max;
+using glm::min;
+using glm::mix;
+using glm::normalize;
+using std::abs;
+using std::floor;
+using std::sqrt;
+inline float inversesqrt(float x) { return 1.0f / std::sqrt(x); }
+inline uint float_as_uint(float f) { uint u; std::memcpy(&u, &f, 4); return u; }
+inline float uint_as_float(uint u) { float f; std::memcpy(&f, &u, 4); return f; }
+inline float fmax3(float a, float b, float c) { return std::max(a, std::max(b, c)); }
+}  // namespace mcpt::gpu
+#define MCPT_FN inline
+#define MCPT_STRUCT(name) struct name
+#define MCPT_NAMESPACE_BEGIN namespace mcpt::gpu {
+#define MCPT_NAMESPACE_END }
+#define MCPT_GLOBAL
+#define MCPT_CONST_BUF const
+#define V3(x, y, z) vec3(float(x), float(y), float(z))
+#define V3S(s) vec3(float(s))
+#define UV4(x, y, z, w) uvec4(uint(x), uint(y), uint(z), uint(w))
+#define F32(x) float(x)
+#define U32(x) uint(x)
+#define I32(x) int(x)
+#define ABSF(x) std::fabs(x)
+#define VABS(v) glm::abs(v)
+#define MINF(a, b) std::fmin(a, b)
+#define MAXF(a, b) std::fmax(a, b)
+#define ATAN2(y, x) std::atan2(y, x)
+#define SINF(x) std::sin(x)
+#define COSF(x) std::cos(x)
+#define SELECT3(a, b, c) ((c) ? (b) : (a))
+
+// ---------------------------------------------------------------- OpenCL C
+#elif defined(MCPT_OPENCL)
+#define vec2 float2
+#define vec3 float3
+#define vec4 float4
+#define uvec4 uint4
+#define MCPT_FN inline
+#define MCPT_STRUCT(name) \
+    typedef struct name name; \
+    struct name
+#define MCPT_NAMESPACE_BEGIN
+#define MCPT_NAMESPACE_END
+#define MCPT_GLOBAL __global
+#define MCPT_CONST_BUF __global const
+#define V3(x, y, z) ((float3)((float)(x), (float)(y), (float)(z)))
+#define V3S(s) ((float3)((float)(s)))
+#define UV4(x, y, z, w) ((uint4)((uint)(x), (uint)(y), (uint)(z), (uint)(w)))
+#define F32(x) ((float)(x))
+#define U32(x) ((uint)(x))
+#define I32(x) ((int)(x))
+#define ABSF(x) fabs(x)
+#define VABS(v) fabs(v)
+#define MINF(a, b) fmin(a, b)
+#define MAXF(a, b) fmax(a, b)
+#define ATAN2(y, x) atan2(y, x)
+#define SINF(x) sin(x)
+#define COSF(x) cos(x)
+#define inversesqrt(x) rsqrt(x)
+#define float_as_uint(x) as_uint(x)
+#define uint_as_float(x) as_float(x)
+#define fmax3(a, b, c) fmax(a, fmax(b, c))
+#define SELECT3(a, b, c) ((c) ? (b) : (a))
+
+// ---------------------------------------------------------------- GLSL (Vulkan)
+#else
+#define MCPT_FN
+#define MCPT_STRUCT(name) struct name
+#define MCPT_NAMESPACE_BEGIN
+#define MCPT_NAMESPACE_END
+#define MCPT_GLOBAL
+#define MCPT_CONST_BUF
+#define V3(x, y, z) vec3(float(x), float(y), float(z))
+#define V3S(s) vec3(float(s))
+#define UV4(x, y, z, w) uvec4(uint(x), uint(y), uint(z), uint(w))
+#define F32(x) float(x)
+#define U32(x) uint(x)
+#define I32(x) int(x)
+#define ABSF(x) abs(x)
+#define VABS(v) abs(v)
+#define MINF(a, b) min(a, b)
+#define MAXF(a, b) max(a, b)
+#define ATAN2(y, x) atan(y, x)
+#define SINF(x) sin(x)
+#define COSF(x) cos(x)
+#define float_as_uint(x) floatBitsToUint(x)
+#define uint_as_float(x) uintBitsToFloat(x)
+#define fmax3(a, b, c) max(a, max(b, c))
+#define SELECT3(a, b, c) ((c) ? (b) : (a))
+#endif
+
+#endif  // MCPT_GPU_LANG_H

@@ -1,0 +1,112 @@
+// The one definition of every GPU struct, constant and binding slot, read by C++, OpenCL C
+// and GLSL. Structs hold only 32-bit scalars so that C++, OpenCL C and GLSL std430/std140
+// agree on every offset without padding rules; C++ checks each size with static_assert.
+#ifndef MCPT_GPU_SHARED_TYPES_H
+#define MCPT_GPU_SHARED_TYPES_H
+
+#include "lang.h"
+
+MCPT_NAMESPACE_BEGIN
+
+// Material kinds (GpuMaterial.type).
+#define MAT_DIFFUSE 0u
+#define MAT_MIRROR 1u
+#define MAT_GLASS 2u
+
+// Light kinds (GpuLight.prim high bit).
+#define LIGHT_SPHERE_BIT 0x80000000u
+
+// k-d node layout (pbrt): axis in the low 2 bits of `flags`, 3 = leaf; below child implicit.
+#define KD_LEAF 3u
+
+// Binding slots, shared by the OpenCL kernel argument order and the Vulkan descriptor set.
+#define BINDING_PARAMS 0
+#define BINDING_NODES 1
+#define BINDING_LEAF_INDICES 2
+#define BINDING_TRIANGLES 3
+#define BINDING_SPHERES 4
+#define BINDING_MATERIALS 5
+#define BINDING_LIGHTS 6
+#define BINDING_ACCUM 7
+#define BINDING_COUNT 8
+
+// Default compute workgroup size along x (a device may lower it).
+#define WORKGROUP_SIZE 64
+
+// Interior: split = split position, flags = (above_child << 2) | axis.
+// Leaf: split = first index into the leaf-index array (as uint bits), flags = (count << 2) | 3.
+MCPT_STRUCT(KdNode) {
+    uint split_or_offset;
+    uint flags;
+};
+
+// A triangle in world space with its material; 40 bytes, scalar-aligned.
+MCPT_STRUCT(GpuTriangle) {
+    float v0x, v0y, v0z;
+    float v1x, v1y, v1z;
+    float v2x, v2y, v2z;
+    uint material;
+};
+
+MCPT_STRUCT(GpuSphere) {
+    float cx, cy, cz, radius;
+    uint material;
+    uint pad0, pad1, pad2;
+};
+
+MCPT_STRUCT(GpuMaterial) {
+    float r, g, b;  // diffuse albedo, mirror tint or glass tint
+    uint type;      // MAT_*
+    float er, eg, eb;  // emitted radiance (front side of triangles, outside of spheres)
+    float ior;         // glass index of refraction
+};
+
+// One entry of the light alias table (Walker/Vose): pick i uniformly, keep it with
+// probability `prob`, else take `alias`. `pmf` is the total probability of light i.
+MCPT_STRUCT(GpuLight) {
+    uint prim;  // triangle index, or sphere index | LIGHT_SPHERE_BIT
+    uint alias;
+    float prob;
+    float pmf;
+};
+
+// Per-dispatch parameters (OpenCL __constant buffer, Vulkan uniform buffer).
+MCPT_STRUCT(GpuParams) {
+    uint width, height;
+    uint pixel_offset, pixel_count;  // this dispatch covers pixels [offset, offset+count)
+    uint sample_offset, samples_per_dispatch;
+    uint accumulate;  // 0: overwrite the accumulation buffer, 1: add to it
+    uint seed;
+    uint max_depth, rr_depth;
+    uint num_triangles, num_spheres, num_lights, num_nodes;
+    float light_power_total;  // sum over lights of area * mean(Le): pdf_area(x) = mean(Le(x)) / total
+    float scene_min_x, scene_min_y, scene_min_z;
+    float scene_max_x, scene_max_y, scene_max_z;
+    float cam_px, cam_py, cam_pz;  // pinhole position
+    float cam_ux, cam_uy, cam_uz;  // right * tan(fov/2) * aspect
+    float cam_vx, cam_vy, cam_vz;  // up * tan(fov/2)
+    float cam_wx, cam_wy, cam_wz;  // forward (unit)
+    float light_scale;  // 1.0; negative-control tests scale every emitter
+    uint pad0, pad1;
+};
+
+// Accumulation buffer: two vec4 per pixel.
+//   [2*i]   = sum of radiance (rgb), number of non-finite samples (w)
+//   [2*i+1] = sum of squared radiance (rgb), number of finite samples (w)
+#define ACCUM_VEC4_PER_PIXEL 2u
+
+MCPT_NAMESPACE_END
+
+#if defined(MCPT_CPP)
+static_assert(sizeof(mcpt::gpu::KdNode) == 8, "KdNode must be 8 bytes");
+static_assert(sizeof(mcpt::gpu::GpuTriangle) == 40, "GpuTriangle must be 40 bytes");
+static_assert(sizeof(mcpt::gpu::GpuSphere) == 32, "GpuSphere must be 32 bytes");
+static_assert(sizeof(mcpt::gpu::GpuMaterial) == 32, "GpuMaterial must be 32 bytes");
+static_assert(sizeof(mcpt::gpu::GpuLight) == 16, "GpuLight must be 16 bytes");
+static_assert(sizeof(mcpt::gpu::GpuParams) == 36 * 4, "GpuParams must be 36 words");
+static_assert(offsetof(mcpt::gpu::GpuParams, light_power_total) == 14 * 4, "GpuParams layout");
+static_assert(offsetof(mcpt::gpu::GpuParams, cam_px) == 21 * 4, "GpuParams layout");
+static_assert(offsetof(mcpt::gpu::GpuParams, light_scale) == 33 * 4, "GpuParams layout");
+#endif
+
+#endif  // MCPT_GPU_SHARED_TYPES_H
