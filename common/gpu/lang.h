@@ -8,7 +8,7 @@
 #ifndef MCPT_GPU_LANG_H
 #define MCPT_GPU_LANG_H
 
-#if defined(__OPENCL_VERSION__)
+#if defined(__OPENCL_VERSION__) || defined(__OPENCL_C_VERSION__)
 #define MCPT_OPENCL 1
 #elif defined(GL_core_profile) || defined(VULKAN) || defined(MCPT_GLSL)
 #ifndef MCPT_GLSL
@@ -55,6 +55,8 @@ inline float fmax3(float a, float b, float c) { return std::max(a, std::max(b, c
 #define MCPT_CONST_BUF const
 #define V3(x, y, z) vec3(float(x), float(y), float(z))
 #define V3S(s) vec3(float(s))
+#define V4(x, y, z, w) vec4(float(x), float(y), float(z), float(w))
+#define V4S(s) vec4(float(s))
 #define UV4(x, y, z, w) uvec4(uint(x), uint(y), uint(z), uint(w))
 #define F32(x) float(x)
 #define U32(x) uint(x)
@@ -84,6 +86,8 @@ inline float fmax3(float a, float b, float c) { return std::max(a, std::max(b, c
 #define MCPT_CONST_BUF __global const
 #define V3(x, y, z) ((float3)((float)(x), (float)(y), (float)(z)))
 #define V3S(s) ((float3)((float)(s)))
+#define V4(x, y, z, w) ((float4)((float)(x), (float)(y), (float)(z), (float)(w)))
+#define V4S(s) ((float4)((float)(s)))
 #define UV4(x, y, z, w) ((uint4)((uint)(x), (uint)(y), (uint)(z), (uint)(w)))
 #define F32(x) ((float)(x))
 #define U32(x) ((uint)(x))
@@ -111,6 +115,8 @@ inline float fmax3(float a, float b, float c) { return std::max(a, std::max(b, c
 #define MCPT_CONST_BUF
 #define V3(x, y, z) vec3(float(x), float(y), float(z))
 #define V3S(s) vec3(float(s))
+#define V4(x, y, z, w) vec4(float(x), float(y), float(z), float(w))
+#define V4S(s) vec4(float(s))
 #define UV4(x, y, z, w) uvec4(uint(x), uint(y), uint(z), uint(w))
 #define F32(x) float(x)
 #define U32(x) uint(x)

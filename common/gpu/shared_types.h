@@ -92,7 +92,7 @@ MCPT_STRUCT(GpuParams) {
 
 // Accumulation buffer: two vec4 per pixel.
 //   [2*i]   = sum of radiance (rgb), number of non-finite samples (w)
-//   [2*i+1] = sum of squared radiance (rgb), number of finite samples (w)
+//   [2*i+1] = sum of squared radiance (rgb), number of rays traced (w)
 #define ACCUM_VEC4_PER_PIXEL 2u
 
 MCPT_NAMESPACE_END

@@ -1,0 +1,82 @@
+// Materials: Lambertian diffuse, perfect mirror, smooth dielectric (Fresnel, total internal
+// reflection). Directions point away from the surface; `n` faces the side of `wo`.
+#ifndef MCPT_GPU_BSDF_H
+#define MCPT_GPU_BSDF_H
+
+#include "sampling.h"
+#include "shared_types.h"
+
+MCPT_NAMESPACE_BEGIN
+
+MCPT_STRUCT(BsdfSample) {
+    vec3 wi;
+    vec3 weight;  // f * |cos| / pdf
+    float pdf;    // solid-angle pdf; 0 for delta lobes
+    float eta2;   // squared relative IOR crossed (1 unless refracted)
+    bool specular;
+    bool valid;
+};
+
+MCPT_FN vec3 material_color(GpuMaterial m) { return V3(m.r, m.g, m.b); }
+MCPT_FN vec3 material_emission(GpuMaterial m) { return V3(m.er, m.eg, m.eb); }
+
+MCPT_FN vec3 reflect_about(vec3 wo, vec3 n) { return n * (2.0f * dot(wo, n)) - wo; }
+
+// Unpolarized Fresnel reflectance of a dielectric; cos_i > 0, eta = n_transmitted / n_incident.
+MCPT_FN float fresnel_dielectric(float cos_i, float eta) {
+    float sin2_t = (1.0f - cos_i * cos_i) / (eta * eta);
+    if (sin2_t >= 1.0f) return 1.0f;  // total internal reflection
+    float cos_t = sqrt(MAXF(0.0f, 1.0f - sin2_t));
+    float r_par = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    float r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    return 0.5f * (r_par * r_par + r_perp * r_perp);
+}
+
+// Lambertian: f = albedo / pi.
+MCPT_FN vec3 diffuse_eval(GpuMaterial m, vec3 n, vec3 wi) {
+    return dot(n, wi) > 0.0f ? material_color(m) * MCPT_INV_PI : V3S(0.0f);
+}
+MCPT_FN float diffuse_pdf(vec3 n, vec3 wi) { return MAXF(0.0f, dot(n, wi)) * MCPT_INV_PI; }
+
+// Sample the material at a point with normal n (facing wo); `entering` tells whether wo is
+// on the outside of the surface (for glass). u = three uniforms.
+MCPT_FN BsdfSample sample_bsdf(GpuMaterial m, vec3 n, vec3 wo, bool entering, vec3 u) {
+    BsdfSample s;
+    s.wi = n;
+    s.weight = V3S(0.0f);
+    s.pdf = 0.0f;
+    s.eta2 = 1.0f;
+    s.specular = true;
+    s.valid = true;
+    if (m.type == MAT_DIFFUSE) {
+        // Cosine-weighted hemisphere: weight = albedo.
+        s.wi = frame_to_world(frame_from_normal(n), sample_cosine_hemisphere(u.x, u.y));
+        s.pdf = diffuse_pdf(n, s.wi);
+        s.weight = material_color(m);
+        s.specular = false;
+        s.valid = s.pdf > 0.0f;
+    } else if (m.type == MAT_MIRROR) {
+        s.wi = reflect_about(wo, n);
+        s.weight = material_color(m);
+    } else {
+        // Dielectric: reflect with probability F, else refract (radiance scales by 1/eta^2).
+        float eta = entering ? m.ior : 1.0f / m.ior;
+        float cos_i = MINF(1.0f, dot(wo, n));
+        float f = fresnel_dielectric(cos_i, eta);
+        if (u.z < f) {
+            s.wi = reflect_about(wo, n);
+            s.weight = V3S(1.0f);
+        } else {
+            float sin2_t = MAXF(0.0f, 1.0f - cos_i * cos_i) / (eta * eta);
+            float cos_t = sqrt(MAXF(0.0f, 1.0f - sin2_t));
+            s.wi = normalize(-wo / eta + n * (cos_i / eta - cos_t));
+            s.eta2 = eta * eta;
+            s.weight = material_color(m) / s.eta2;
+        }
+    }
+    return s;
+}
+
+MCPT_NAMESPACE_END
+
+#endif  // MCPT_GPU_BSDF_H

@@ -1,0 +1,42 @@
+// How device functions reach the scene buffers. OpenCL C and C++ pass them as arguments
+// (SCENE_PARAMS_ in declarations, SCENE_ARGS_ in calls, both ending with a comma); GLSL
+// declares them once as storage blocks at the binding slots of shared_types.h.
+#ifndef MCPT_GPU_SCENE_ACCESS_H
+#define MCPT_GPU_SCENE_ACCESS_H
+
+#include "shared_types.h"
+
+#if defined(MCPT_GLSL)
+layout(std140, binding = BINDING_PARAMS) uniform ParamsBlock { GpuParams params; };
+layout(std430, binding = BINDING_NODES) readonly buffer NodesBlock { KdNode nodes[]; };
+layout(std430, binding = BINDING_LEAF_INDICES) readonly buffer LeafBlock { uint leaf_indices[]; };
+layout(std430, binding = BINDING_TRIANGLES) readonly buffer TriBlock { GpuTriangle triangles[]; };
+layout(std430, binding = BINDING_SPHERES) readonly buffer SphereBlock { GpuSphere spheres[]; };
+layout(std430, binding = BINDING_MATERIALS) readonly buffer MatBlock { GpuMaterial materials[]; };
+layout(std430, binding = BINDING_LIGHTS) readonly buffer LightBlock { GpuLight lights[]; };
+// Traversal stack entries, from the tree depth (a specialization constant).
+layout(constant_id = 0) const uint KD_STACK_SIZE = 64u;
+#define SCENE_PARAMS_
+#define SCENE_ARGS_
+#define PARAM(x) params.x
+#else
+#if defined(MCPT_CPP)
+#define MCPT_UNUSED [[maybe_unused]]
+#else
+#define MCPT_UNUSED
+#endif
+#define SCENE_PARAMS_                                                                          \
+    MCPT_UNUSED MCPT_CONST_BUF GpuParams *params, MCPT_UNUSED MCPT_CONST_BUF KdNode *nodes,    \
+        MCPT_UNUSED MCPT_CONST_BUF uint *leaf_indices,                                         \
+        MCPT_UNUSED MCPT_CONST_BUF GpuTriangle *triangles,                                     \
+        MCPT_UNUSED MCPT_CONST_BUF GpuSphere *spheres,                                         \
+        MCPT_UNUSED MCPT_CONST_BUF GpuMaterial *materials,                                     \
+        MCPT_UNUSED MCPT_CONST_BUF GpuLight *lights,
+#define SCENE_ARGS_ params, nodes, leaf_indices, triangles, spheres, materials, lights,
+#define PARAM(x) params->x
+#ifndef KD_STACK_SIZE
+#define KD_STACK_SIZE 64u  // OpenCL builds pass -DKD_STACK_SIZE from the tree depth
+#endif
+#endif
+
+#endif  // MCPT_GPU_SCENE_ACCESS_H

@@ -1,0 +1,134 @@
+// Closest-hit and any-hit queries: spheres by brute force, triangles through the k-d tree
+// (pbrt-v3 KdTreeAccel traversal, front-to-back with a stack of KD_STACK_SIZE entries, which
+// the host sizes from the built tree's depth).
+#ifndef MCPT_GPU_TRAVERSE_H
+#define MCPT_GPU_TRAVERSE_H
+
+#include "intersect.h"
+#include "scene_access.h"
+
+MCPT_NAMESPACE_BEGIN
+
+#define SPHERE_BIT 0x80000000u
+#define TRACE_STACK_OVERFLOW 1u
+
+MCPT_STRUCT(Hit) {
+    float t;
+    float b1, b2;  // barycentrics of v1, v2 on a triangle hit
+    uint prim;     // triangle index, sphere index | SPHERE_BIT, or NO_HIT
+    uint status;   // 0, or TRACE_STACK_OVERFLOW (the query is unreliable)
+    uint tri_tests, node_visits;  // counted when MCPT_COUNTERS is defined
+};
+
+// Relative slack on node-interval pruning: visiting a child too many is harmless, skipping
+// one the ray reaches after rounding is not.
+#define KD_SLACK 1.0e-6f
+
+// Nearest hit with t < ray.tmax; with any_hit, the first hit found.
+MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
+    Hit hit;
+    hit.t = ray.tmax;
+    hit.b1 = 0.0f;
+    hit.b2 = 0.0f;
+    hit.prim = NO_HIT;
+    hit.status = 0u;
+    hit.tri_tests = 0u;
+    hit.node_visits = 0u;
+
+    // Spheres: few, tested one by one.
+    for (uint i = 0u; i < PARAM(num_spheres); ++i) {
+        Ray r = ray;
+        r.tmax = hit.t;
+        float t = intersect_sphere(r, spheres[i]);
+        if (t > 0.0f) {
+            hit.t = t;
+            hit.prim = i | SPHERE_BIT;
+            if (any_hit) return hit;
+        }
+    }
+    if (PARAM(num_triangles) == 0u) return hit;
+
+    // Clip the ray to the scene bounds.
+    vec3 inv_d = V3(1.0f / ray.d.x, 1.0f / ray.d.y, 1.0f / ray.d.z);
+    vec2 range = intersect_bounds(ray, V3(PARAM(scene_min_x), PARAM(scene_min_y), PARAM(scene_min_z)),
+                                  V3(PARAM(scene_max_x), PARAM(scene_max_y), PARAM(scene_max_z)), inv_d);
+    if (range.x > range.y) return hit;
+    float tmin = range.x, tmax = range.y;
+    WoopRay wr = woop_setup(ray.d);
+
+    uint stack_node[KD_STACK_SIZE];
+    float stack_tmin[KD_STACK_SIZE];
+    float stack_tmax[KD_STACK_SIZE];
+    uint sp = 0u;
+    uint node = 0u;
+    while (true) {
+        // Stop once the nearest hit lies before this node's interval.
+        if (hit.t < tmin) break;
+#ifdef MCPT_COUNTERS
+        hit.node_visits += 1u;
+#endif
+        KdNode n = nodes[node];
+        uint axis = n.flags & 3u;
+        if (axis != KD_LEAF) {
+            // Interior: order the children along the ray.
+            float split = uint_as_float(n.split_or_offset);
+            float o_a = vec3_at(ray.o, axis);
+            float d_a = vec3_at(ray.d, axis);
+            float t_plane = (split - o_a) * vec3_at(inv_d, axis);
+            bool below_first = (o_a < split) || (o_a == split && d_a <= 0.0f);
+            uint above = n.flags >> 2u;
+            uint first = below_first ? node + 1u : above;
+            uint second = below_first ? above : node + 1u;
+            bool in_plane = t_plane != t_plane;  // NaN: ray lies in the split plane
+            if (!in_plane && (t_plane > tmax * (1.0f + KD_SLACK) || t_plane <= 0.0f)) {
+                node = first;
+            } else if (!in_plane && t_plane < tmin * (1.0f - KD_SLACK)) {
+                node = second;
+            } else {
+                // Both: defer the far child.
+                if (sp >= KD_STACK_SIZE) {
+                    hit.status = TRACE_STACK_OVERFLOW;
+                    return hit;
+                }
+                float t_split = in_plane ? tmin : t_plane;
+                stack_node[sp] = second;
+                stack_tmin[sp] = t_split * (1.0f - KD_SLACK);
+                stack_tmax[sp] = tmax;
+                sp += 1u;
+                node = first;
+                tmax = in_plane ? tmax : t_plane * (1.0f + KD_SLACK);
+            }
+        } else {
+            // Leaf: test its triangles.
+            uint count = n.flags >> 2u;
+            uint first_index = n.split_or_offset;
+            for (uint i = 0u; i < count; ++i) {
+                uint tri_index = leaf_indices[first_index + i];
+#ifdef MCPT_COUNTERS
+                hit.tri_tests += 1u;
+#endif
+                Ray r = ray;
+                r.tmax = hit.t;
+                TriHit th = intersect_triangle(r, wr, triangles[tri_index]);
+                if (th.hit) {
+                    hit.t = th.t;
+                    hit.b1 = th.b1;
+                    hit.b2 = th.b2;
+                    hit.prim = tri_index;
+                    if (any_hit) return hit;
+                }
+            }
+            // Next deferred node.
+            if (sp == 0u) break;
+            sp -= 1u;
+            node = stack_node[sp];
+            tmin = stack_tmin[sp];
+            tmax = stack_tmax[sp];
+        }
+    }
+    return hit;
+}
+
+MCPT_NAMESPACE_END
+
+#endif  // MCPT_GPU_TRAVERSE_H
