@@ -1,0 +1,25 @@
+// Image output for renders (linear EXR, 8-bit sRGB PNG) and EXR input for tests and tools.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace mcpt {
+
+// Writes linear radiance `rgb` (3 floats per pixel, row-major, top row first) to `path`; the
+// format follows the extension, case-insensitively:
+//   .exr  32-bit float R, G, B channels, values written unchanged (ZIP compressed, lossless)
+//   .png  8-bit sRGB: exposure 1, clamped to [0, 1], exact sRGB curve, rounded; a pixel with
+//         any non-finite channel is written magenta
+// Throws mcpt::Error for another extension, a size mismatch, or a file that cannot be written.
+void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb);
+
+// Reads the R, G, B channels of an EXR file (3 floats per pixel, top row first, half channels
+// widened to float); throws mcpt::Error naming the file when it cannot be read.
+std::vector<float> read_exr(const std::string& path, int& width, int& height);
+
+// Linear value -> 8-bit sRGB as written to PNG: clamp to [0, 1], sRGB OETF, round to nearest.
+// Non-finite input maps to 0 (write_image paints such pixels magenta instead).
+uint8_t linear_to_srgb8(float linear);
+
+}  // namespace mcpt
