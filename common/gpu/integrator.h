@@ -241,11 +241,14 @@ MCPT_FN PathResult trace_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
         ray.d = bs.wi;
         ray.tmax = MCPT_FLT_MAX;
 
-        // Russian roulette on the throughput (with the IOR scaling undone).
+        // Russian roulette on the throughput (with the IOR scaling undone). Tests build a biased
+        // variant that forgets to reweight survivors (MCPT_NEGATIVE_CONTROL_RR).
         if (depth + 1u >= PARAM(rr_depth)) {
             float survive = MINF(1.0f, max_component(beta * eta_scale));
             if (ua.w >= survive) break;
+#ifndef MCPT_NEGATIVE_CONTROL_RR
             beta = beta / survive;
+#endif
         }
     }
     return path_result(radiance, rays);

@@ -20,6 +20,8 @@
 
 // ---------------------------------------------------------------- C++ (GLM mirrors GLSL)
 #if defined(MCPT_CPP)
+// The C++ build always counts traversal work (mcpt tree reports it; one definition only).
+#define MCPT_COUNTERS 1
 #include <glm/glm.hpp>
 
 #include <cmath>

@@ -1,0 +1,96 @@
+// mcpt tree: build the k-d tree of a scene and report its statistics and the work per ray
+// (triangle tests and node visits), measured with the shared traversal code on the CPU.
+#include <chrono>
+#include <cstdio>
+#include <random>
+
+#include "app/commands.h"
+#include "common/cpu_trace.h"
+
+namespace mcpt {
+
+namespace {
+
+struct TreeArgs {
+    std::string scene = "cornell";
+    std::string tree = "sah";
+    int depth = -1;
+    int rays = 65536;
+};
+
+struct RayWork {
+    double tri_tests = 0, node_visits = 0, hits = 0;
+    size_t rays = 0;
+    void add(const gpu::Hit& h) {
+        tri_tests += h.tri_tests, node_visits += h.node_visits, hits += h.prim != NO_HIT;
+        ++rays;
+    }
+    void print(const char* what) const {
+        std::printf("  %-34s %8zu rays: %7.2f triangle tests/ray, %7.2f node visits/ray, "
+                    "%5.1f%% hit\n",
+                    what, rays, tri_tests / double(rays), node_visits / double(rays),
+                    100.0 * hits / double(rays));
+    }
+};
+
+void run_tree(const TreeArgs& a) {
+    Scene scene = load_scene_argument(a.scene);
+    const KdTree tree = build_kdtree(scene.triangles, tree_options(a.tree, a.depth));
+    const GpuScene g = pack_scene(scene, tree);
+    std::printf("%s, %zu triangles, tree %s\n", a.scene.c_str(), scene.triangles.size(),
+                a.tree.c_str());
+    std::printf("%s", describe(tree.stats, scene.triangles.size()).c_str());
+    const double tri_bytes = double(scene.triangles.size() * sizeof(gpu::GpuTriangle));
+    std::printf("  bytes per triangle (tree + triangle data): %.1f\n",
+                (double(tree.stats.bytes) + tri_bytes) / double(std::max<size_t>(1, scene.triangles.size())));
+
+    // Camera rays through a square grid of pixels.
+    gpu::GpuParams p = g.params;
+    const int side = std::max(1, int(std::sqrt(double(a.rays))));
+    set_camera(p, scene.camera, side, side);
+    RayWork camera, random_rays;
+    for (int y = 0; y < side; ++y) {
+        for (int x = 0; x < side; ++x) {
+            const float fx = (x + 0.5f) / side * 2 - 1, fy = 1 - (y + 0.5f) / side * 2;
+            gpu::Ray r;
+            r.o = {p.cam_px, p.cam_py, p.cam_pz};
+            r.d = glm::normalize(glm::vec3(p.cam_wx, p.cam_wy, p.cam_wz) +
+                                 fx * glm::vec3(p.cam_ux, p.cam_uy, p.cam_uz) +
+                                 fy * glm::vec3(p.cam_vx, p.cam_vy, p.cam_vz));
+            r.tmax = 3.4e38f;
+            camera.add(cpu_trace(g, r, false));
+        }
+    }
+    // Random rays from points inside the bounds in uniform directions.
+    std::mt19937 rng(1);
+    std::uniform_real_distribution<float> u(0.f, 1.f);
+    const Bounds b = tree.bounds;
+    for (int i = 0; i < side * side; ++i) {
+        gpu::Ray r;
+        r.o = b.min + (b.max - b.min) * glm::vec3(u(rng), u(rng), u(rng));
+        const float z = 1 - 2 * u(rng), phi = 6.2831853f * u(rng), s = std::sqrt(1 - z * z);
+        r.d = {s * std::cos(phi), s * std::sin(phi), z};
+        r.tmax = 3.4e38f;
+        random_rays.add(cpu_trace(g, r, false));
+    }
+    std::printf("work per ray (shared traversal on the CPU):\n");
+    camera.print("camera rays");
+    random_rays.print("random rays from inside the bounds");
+}
+
+}  // namespace
+
+void add_tree_command(CLI::App& app) {
+    auto args = std::make_shared<TreeArgs>();
+    CLI::App* sub = app.add_subcommand("tree", "Build a scene's k-d tree, report stats and work/ray");
+    sub->add_option("scene", args->scene, "Built-in scene or .gltf/.glb file")->capture_default_str();
+    sub->add_option("--tree", args->tree, "sah, median or none")
+        ->check(CLI::IsMember({"sah", "median", "none"}))
+        ->capture_default_str();
+    sub->add_option("--depth", args->depth, "Depth limit (median: default 3)");
+    sub->add_option("--rays", args->rays, "Rays per measurement")->check(CLI::Range(1, 100000000))
+        ->capture_default_str();
+    sub->callback([args] { run_tree(*args); });
+}
+
+}  // namespace mcpt

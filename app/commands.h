@@ -1,0 +1,21 @@
+// The mcpt subcommands: each registers its options on the CLI11 app and runs.
+#pragma once
+#include <CLI/CLI.hpp>
+#include <string>
+
+#include "common/kdtree.h"
+#include "common/scene.h"
+
+namespace mcpt {
+
+void add_render_command(CLI::App& app);
+void add_devices_command(CLI::App& app);
+void add_tree_command(CLI::App& app);
+
+// A built-in scene name or a .gltf/.glb path, loaded and validated; warnings go to stderr.
+Scene load_scene_argument(const std::string& arg);
+
+// --tree and --depth into TreeOptions.
+TreeOptions tree_options(const std::string& kind, int depth);
+
+}  // namespace mcpt

@@ -1,0 +1,24 @@
+// mcpt: Monte Carlo path tracer with a k-d tree, on OpenCL (and Vulkan).
+#include <CLI/CLI.hpp>
+#include <iostream>
+
+#include "app/commands.h"
+
+int main(int argc, char** argv) {
+    CLI::App app{"mcpt: Monte Carlo path tracer with a k-d tree (OpenCL reference, Vulkan port)"};
+    app.require_subcommand(0, 1);
+    mcpt::add_render_command(app);
+    mcpt::add_devices_command(app);
+    mcpt::add_tree_command(app);
+    try {
+        app.parse(argc, argv);
+        // No subcommand: render the default scene on the best device.
+        if (app.get_subcommands().empty()) return app.get_subcommand("render")->parse(""), 0;
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e);
+    } catch (const std::exception& e) {
+        std::cerr << "mcpt: error: " << e.what() << "\n";
+        return 1;
+    }
+    return 0;
+}

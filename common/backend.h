@@ -1,0 +1,43 @@
+// What the render loop needs from a GPU API: compile for a scene, upload it, run one
+// dispatch, read the accumulation buffer back. opencl/ and vulkan/ implement it.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "gpu_scene.h"
+
+namespace mcpt {
+
+struct DeviceInfo {
+    std::string backend;   // "opencl" | "vulkan"
+    int index = 0;         // position in that backend's device list
+    std::string name;      // device name
+    std::string platform;  // OpenCL platform / Vulkan driver
+    std::string type;      // "gpu" | "cpu" | "other"
+    std::vector<std::pair<std::string, std::string>> limits;  // name, value
+};
+
+struct BackendOptions {
+    std::string device;          // "" (best), an index, or a name substring
+    bool fast_math = false;      // -cl-fast-relaxed-math / equivalent
+    std::string extra_defines;   // extra -D options for test variants (e.g. "-DMCPT_COUNTERS")
+};
+
+class Backend {
+public:
+    virtual ~Backend() = default;
+    // "opencl: NVIDIA H100 (NVIDIA CUDA)".
+    virtual std::string description() const = 0;
+    virtual const DeviceInfo& device() const = 0;
+    // Compiles the program for this scene (stack size), uploads its arrays and allocates the
+    // accumulation buffer for width*height pixels. Throws mcpt::Error on device limits.
+    virtual void load(const GpuScene& scene, int width, int height) = 0;
+    // Runs one dispatch and waits for it.
+    virtual void dispatch(const gpu::GpuParams& params) = 0;
+    // The accumulation buffer: ACCUM_VEC4_PER_PIXEL * 4 floats per pixel.
+    virtual void read_accum(std::vector<float>& out) = 0;
+    // Seconds spent compiling in load().
+    virtual double compile_seconds() const = 0;
+};
+
+}  // namespace mcpt

@@ -1,0 +1,16 @@
+// The device traversal and path tracer compiled for the CPU: the same functions the kernels
+// run, used by tests (against brute force) and by `mcpt tree` (work per ray).
+#pragma once
+#include "gpu/integrator.h"
+#include "gpu_scene.h"
+
+namespace mcpt {
+
+// Closest (or any) hit of the ray in the packed scene, through the shared trace_ray().
+gpu::Hit cpu_trace(const GpuScene& scene, const gpu::Ray& ray, bool any_hit);
+
+// One path sample through the shared trace_path(); params carries camera and depth settings.
+gpu::PathResult cpu_trace_path(const GpuScene& scene, const gpu::GpuParams& params, uint32_t pixel,
+                               uint32_t sample_index);
+
+}  // namespace mcpt

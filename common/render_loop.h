@@ -1,0 +1,46 @@
+// Progressive rendering on any Backend: short dispatches sized to a time target, device sums
+// flushed into double-precision host accumulators so nothing drifts over millions of samples.
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "backend.h"
+
+namespace mcpt {
+
+struct RenderOptions {
+    int width = 256, height = 256;
+    uint64_t spp = 0;          // samples per pixel; 0: run for `seconds`
+    double seconds = 0;        // time budget when spp == 0
+    uint32_t max_depth = 8;    // bounces
+    uint32_t rr_depth = 3;     // Russian roulette from this bounce on
+    uint32_t seed = 0;
+    float light_scale = 1.f;   // negative controls only
+    double dispatch_ms = 30;   // target duration of one dispatch
+    uint32_t flush_spp = 128;  // device float sums hold at most this many samples per pixel
+};
+
+struct RenderResult {
+    int width = 0, height = 0;
+    uint64_t spp = 0;             // samples per pixel taken
+    double seconds = 0;           // wall time of the dispatch loop
+    std::vector<double> sum;      // 3 per pixel: sum of finite samples
+    std::vector<double> sum_sq;   // 3 per pixel: sum of squared finite samples
+    std::vector<double> nonfinite;  // per pixel: non-finite samples (counted, not added)
+    double rays = 0;              // rays traced
+    uint64_t nonfinite_total = 0;
+
+    // Mean radiance per pixel (3 floats), the image.
+    std::vector<float> mean_image() const;
+    // Standard error of the mean per pixel and channel (3 floats), from the sample variance.
+    std::vector<float> std_error_image() const;
+    double mean_radiance() const;  // over all pixels and channels
+};
+
+using ProgressFn = std::function<void(double fraction, const RenderResult& so_far)>;
+
+RenderResult render(Backend& backend, const GpuScene& scene, const Camera& camera,
+                    const RenderOptions& options, const ProgressFn& progress = nullptr);
+
+}  // namespace mcpt

@@ -1,0 +1,235 @@
+#include "opencl/cl_backend.h"
+
+#include <CL/opencl.hpp>
+#include <algorithm>
+#include <chrono>
+#include <sstream>
+
+#include "common/error.h"
+#include "kPathtraceClSource.h"
+
+namespace mcpt {
+
+namespace {
+
+std::string lower(std::string s) {
+    std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+    return s;
+}
+
+std::string trim(std::string s) {
+    while (!s.empty() && (s.back() == '\0' || s.back() == ' ')) s.pop_back();
+    return s;
+}
+
+std::string human_bytes(uint64_t b) {
+    std::ostringstream o;
+    if (b >= (1ull << 30)) o << double(b) / double(1ull << 30) << " GiB";
+    else if (b >= (1ull << 20)) o << double(b) / double(1ull << 20) << " MiB";
+    else o << b << " B";
+    return o.str();
+}
+
+struct ClDevice {
+    cl::Platform platform;
+    cl::Device device;
+    DeviceInfo info;
+};
+
+std::vector<ClDevice> enumerate() {
+    std::vector<ClDevice> out;
+    std::vector<cl::Platform> platforms;
+    try {
+        cl::Platform::get(&platforms);
+    } catch (const cl::Error&) {
+        return out;  // no ICD or no platform
+    }
+    for (const cl::Platform& pl : platforms) {
+        std::vector<cl::Device> devices;
+        try {
+            pl.getDevices(CL_DEVICE_TYPE_ALL, &devices);
+        } catch (const cl::Error&) {
+            continue;
+        }
+        for (const cl::Device& d : devices) {
+            ClDevice cd{pl, d, {}};
+            DeviceInfo& i = cd.info;
+            i.backend = "opencl";
+            i.index = int(out.size());
+            i.name = trim(d.getInfo<CL_DEVICE_NAME>());
+            i.platform = trim(pl.getInfo<CL_PLATFORM_NAME>());
+            const cl_device_type t = d.getInfo<CL_DEVICE_TYPE>();
+            i.type = (t & CL_DEVICE_TYPE_GPU) ? "gpu" : (t & CL_DEVICE_TYPE_CPU) ? "cpu" : "other";
+            i.limits = {
+                {"version", trim(d.getInfo<CL_DEVICE_VERSION>())},
+                {"compute units", std::to_string(d.getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>())},
+                {"global memory", human_bytes(d.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>())},
+                {"max allocation", human_bytes(d.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>())},
+                {"local memory", human_bytes(d.getInfo<CL_DEVICE_LOCAL_MEM_SIZE>())},
+                {"max work-group size", std::to_string(d.getInfo<CL_DEVICE_MAX_WORK_GROUP_SIZE>())},
+            };
+            out.push_back(cd);
+        }
+    }
+    return out;
+}
+
+class OpenClBackend final : public Backend {
+public:
+    OpenClBackend(ClDevice dev, BackendOptions options)
+        : dev_(std::move(dev)), options_(std::move(options)) {
+        context_ = cl::Context(dev_.device);
+        queue_ = cl::CommandQueue(context_, dev_.device);
+        max_alloc_ = dev_.device.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>();
+        global_mem_ = dev_.device.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
+    }
+
+    std::string description() const override {
+        return "opencl: " + dev_.info.name + " (" + dev_.info.platform + ")";
+    }
+    const DeviceInfo& device() const override { return dev_.info; }
+    double compile_seconds() const override { return compile_seconds_; }
+
+    void load(const GpuScene& scene, int width, int height) override {
+        build(scene.stack_size);
+        // Check every buffer against the device limits before allocating.
+        const uint64_t accum_bytes = uint64_t(width) * uint64_t(height) * ACCUM_VEC4_PER_PIXEL * 16;
+        const std::pair<const char*, uint64_t> sizes[] = {
+            {"k-d nodes", scene.nodes.size() * sizeof(gpu::KdNode)},
+            {"leaf indices", scene.leaf_indices.size() * 4},
+            {"triangles", scene.triangles.size() * sizeof(gpu::GpuTriangle)},
+            {"accumulation buffer", accum_bytes}};
+        uint64_t total = accum_bytes + scene.device_bytes();
+        for (const auto& [what, bytes] : sizes) {
+            if (bytes > max_alloc_) {
+                throw Error(std::string("scene too large for ") + description() + ": " + what +
+                            " need " + human_bytes(bytes) + ", the device allows " +
+                            human_bytes(max_alloc_) + " per buffer");
+            }
+        }
+        if (total > global_mem_) {
+            throw Error("scene too large for " + description() + ": needs " + human_bytes(total) +
+                        " of " + human_bytes(global_mem_) + " device memory");
+        }
+        // Upload (empty arrays get one dummy element: OpenCL has no empty buffers).
+        params_ = make_buffer(&scene.params, sizeof(gpu::GpuParams), CL_MEM_READ_ONLY);
+        nodes_ = upload(scene.nodes);
+        leaf_ = upload(scene.leaf_indices);
+        tris_ = upload(scene.triangles);
+        spheres_ = upload(scene.spheres);
+        materials_ = upload(scene.materials);
+        lights_ = upload(scene.lights);
+        accum_ = cl::Buffer(context_, CL_MEM_READ_WRITE, accum_bytes);
+        accum_floats_ = size_t(accum_bytes / 4);
+        const cl::Buffer* args[] = {&params_, &nodes_, &leaf_, &tris_, &spheres_, &materials_,
+                                    &lights_, &accum_};
+        for (cl_uint i = 0; i < BINDING_COUNT; ++i) kernel_.setArg(i, *args[i]);
+    }
+
+    void dispatch(const gpu::GpuParams& p) override {
+        queue_.enqueueWriteBuffer(params_, CL_FALSE, 0, sizeof(p), &p);
+        const size_t global = (p.pixel_count + local_ - 1) / local_ * local_;
+        queue_.enqueueNDRangeKernel(kernel_, cl::NullRange, cl::NDRange(global), cl::NDRange(local_));
+        queue_.finish();
+    }
+
+    void read_accum(std::vector<float>& out) override {
+        out.resize(accum_floats_);
+        queue_.enqueueReadBuffer(accum_, CL_TRUE, 0, accum_floats_ * 4, out.data());
+    }
+
+private:
+    void build(uint32_t stack_size) {
+        std::string opts = "-cl-std=CL1.2 -DKD_STACK_SIZE=" + std::to_string(stack_size) + "u";
+        if (options_.fast_math) opts += " -cl-fast-relaxed-math";
+        if (!options_.extra_defines.empty()) opts += " " + options_.extra_defines;
+        if (program_() != nullptr && opts == built_options_) return;
+        const auto t0 = std::chrono::steady_clock::now();
+        program_ = cl::Program(context_, std::string(kPathtraceClSource));
+        try {
+            program_.build({dev_.device}, opts.c_str());
+        } catch (const cl::Error&) {
+            const std::string log = program_.getBuildInfo<CL_PROGRAM_BUILD_LOG>(dev_.device);
+            throw Error("OpenCL kernel build failed on " + description() + " with options '" +
+                        opts + "':\n" + log);
+        }
+        kernel_ = cl::Kernel(program_, "pathtrace");
+        compile_seconds_ =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        built_options_ = opts;
+        // Work-group size within the kernel's and device's limits.
+        const size_t kmax = kernel_.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(dev_.device);
+        local_ = std::max<size_t>(1, std::min<size_t>(WORKGROUP_SIZE, kmax));
+    }
+
+    cl::Buffer make_buffer(const void* data, size_t bytes, cl_mem_flags flags) {
+        return cl::Buffer(context_, flags | CL_MEM_COPY_HOST_PTR, bytes, const_cast<void*>(data));
+    }
+    template <class T>
+    cl::Buffer upload(const std::vector<T>& v) {
+        if (v.empty()) {
+            const T dummy{};
+            return make_buffer(&dummy, sizeof(T), CL_MEM_READ_ONLY);
+        }
+        return make_buffer(v.data(), v.size() * sizeof(T), CL_MEM_READ_ONLY);
+    }
+
+    ClDevice dev_;
+    BackendOptions options_;
+    cl::Context context_;
+    cl::CommandQueue queue_;
+    cl::Program program_;
+    cl::Kernel kernel_;
+    std::string built_options_;
+    cl::Buffer params_, nodes_, leaf_, tris_, spheres_, materials_, lights_, accum_;
+    size_t accum_floats_ = 0;
+    size_t local_ = WORKGROUP_SIZE;
+    uint64_t max_alloc_ = 0, global_mem_ = 0;
+    double compile_seconds_ = 0;
+};
+
+}  // namespace
+
+std::vector<DeviceInfo> list_opencl_devices() {
+    std::vector<DeviceInfo> out;
+    for (const ClDevice& d : enumerate()) out.push_back(d.info);
+    return out;
+}
+
+const char* opencl_kernel_source() { return kPathtraceClSource; }
+
+std::unique_ptr<Backend> make_opencl_backend(const BackendOptions& options) {
+    std::vector<ClDevice> devices = enumerate();
+    if (devices.empty()) {
+        throw Error("no OpenCL device found (install an ICD such as pocl-opencl-icd)");
+    }
+    const ClDevice* chosen = nullptr;
+    const std::string& sel = options.device;
+    if (sel.empty()) {
+        // Best: the first GPU, else the first device.
+        for (const ClDevice& d : devices)
+            if (d.info.type == "gpu" && !chosen) chosen = &d;
+        if (!chosen) chosen = &devices.front();
+    } else if (std::all_of(sel.begin(), sel.end(), ::isdigit)) {
+        const size_t i = std::stoul(sel);
+        if (i >= devices.size()) {
+            throw Error("OpenCL device index " + sel + " out of range (" +
+                        std::to_string(devices.size()) + " devices; see 'mcpt devices')");
+        }
+        chosen = &devices[i];
+    } else {
+        for (const ClDevice& d : devices) {
+            if (!chosen && (lower(d.info.name).find(lower(sel)) != std::string::npos ||
+                            lower(d.info.platform).find(lower(sel)) != std::string::npos))
+                chosen = &d;
+        }
+        if (!chosen) throw Error("no OpenCL device matches '" + sel + "' (see 'mcpt devices')");
+    }
+    try {
+        return std::make_unique<OpenClBackend>(*chosen, options);
+    } catch (const cl::Error& e) {
+        throw Error(std::string("OpenCL error ") + std::to_string(e.err()) + " in " + e.what());
+    }
+}
+
+}  // namespace mcpt

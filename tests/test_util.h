@@ -1,0 +1,53 @@
+// Helpers shared by the tests: the OpenCL device under test and simple statistics.
+#pragma once
+#include <cmath>
+#include <cstdlib>
+#include <memory>
+#include <string>
+
+#include "common/render_loop.h"
+#include "opencl/cl_backend.h"
+
+namespace mcpt::test {
+
+// The OpenCL device the tests run on: $MCPT_TEST_OPENCL_DEVICE (index or name), else the
+// first CPU device (PoCL in CI), else the best device.
+inline std::string test_opencl_device() {
+    if (const char* e = std::getenv("MCPT_TEST_OPENCL_DEVICE")) return e;
+    for (const DeviceInfo& d : list_opencl_devices())
+        if (d.type == "cpu") return std::to_string(d.index);
+    return "";
+}
+
+inline std::unique_ptr<Backend> test_opencl_backend(const std::string& defines = "",
+                                                    bool fast_math = false) {
+    BackendOptions o;
+    o.device = test_opencl_device();
+    o.extra_defines = defines;
+    o.fast_math = fast_math;
+    return make_opencl_backend(o);
+}
+
+// Mean radiance over all pixels, channels and samples, with its standard error (samples are
+// independent across pixels, so the pooled variance applies).
+struct MeanEstimate {
+    double mean = 0, std_error = 0;
+    double z(double expected) const { return (mean - expected) / std_error; }
+};
+
+inline MeanEstimate pooled_mean(const RenderResult& r) {
+    double n = 0, s = 0, s2 = 0;
+    for (size_t i = 0; i < r.nonfinite.size(); ++i) {
+        const double count = double(r.spp) - r.nonfinite[i];
+        n += 3 * count;
+        for (int c = 0; c < 3; ++c) s += r.sum[3 * i + c], s2 += r.sum_sq[3 * i + c];
+    }
+    MeanEstimate e;
+    e.mean = s / n;
+    const double var = (s2 / n - e.mean * e.mean) * n / (n - 1);
+    // Channels of one sample are correlated (grey scene): count samples, not channels.
+    e.std_error = std::sqrt(var / (n / 3));
+    return e;
+}
+
+}  // namespace mcpt::test
