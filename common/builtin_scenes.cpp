@@ -1,0 +1,153 @@
+// Built-in scenes. Winding matters: a triangle (v0, v1, v2) has the front normal
+// cross(v1 - v0, v2 - v0), and only its front side emits, so every quad is checked against the
+// normal it is meant to have.
+#include "builtin_scenes.h"
+
+#include <cmath>
+
+#include "error.h"
+
+namespace mcpt {
+namespace {
+
+// Adds the quad a-b-c-d (counter-clockwise seen from its front side) as triangles (a, b, c) and
+// (a, c, d); throws if either triangle's normal does not point along `normal`.
+void add_quad(Scene& scene, const glm::vec3& a, const glm::vec3& b, const glm::vec3& c,
+              const glm::vec3& d, const glm::vec3& normal, uint32_t material) {
+    const glm::vec3 n1 = glm::cross(b - a, c - a), n2 = glm::cross(c - a, d - a);
+    const float want = 0.999f * glm::length(normal);
+    if (glm::dot(glm::normalize(n1), normal) < want || glm::dot(glm::normalize(n2), normal) < want)
+        throw Error("internal error: built-in quad wound against its intended normal");
+    scene.triangles.push_back({a, b, c, material});
+    scene.triangles.push_back({a, c, d, material});
+}
+
+// Adds the six faces of the box [lo, hi] with normals pointing out of it, or into it if inward.
+void add_box(Scene& scene, const glm::vec3& lo, const glm::vec3& hi, bool inward,
+             uint32_t material) {
+    for (int axis = 0; axis < 3; ++axis) {
+        const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+        for (float side : {-1.f, 1.f}) {
+            // The face plane, and corners ordered counter-clockwise around +axis.
+            glm::vec3 corner[4];
+            const float uv[4][2] = {{lo[u], lo[v]}, {hi[u], lo[v]}, {hi[u], hi[v]}, {lo[u], hi[v]}};
+            for (int k = 0; k < 4; ++k) {
+                corner[k][axis] = side > 0.f ? hi[axis] : lo[axis];
+                corner[k][u] = uv[k][0];
+                corner[k][v] = uv[k][1];
+            }
+            // The wanted normal; reverse the corners when it is -axis.
+            glm::vec3 normal(0.f);
+            normal[axis] = inward ? -side : side;
+            if (normal[axis] > 0.f)
+                add_quad(scene, corner[0], corner[1], corner[2], corner[3], normal, material);
+            else
+                add_quad(scene, corner[0], corner[3], corner[2], corner[1], normal, material);
+        }
+    }
+}
+
+Material diffuse(const std::string& name, const glm::vec3& color) {
+    Material m;
+    m.name = name;
+    m.type = MaterialType::Diffuse;
+    m.color = color;
+    return m;
+}
+
+// The Cornell box: x, z in [-1, 1], y in [0, 2], open towards the camera at +z.
+Scene make_cornell() {
+    Scene s;
+    s.name = "cornell";
+    const uint32_t white = s.add_material(diffuse("white", glm::vec3(0.73f)));
+    const uint32_t red = s.add_material(diffuse("red", {0.65f, 0.05f, 0.05f}));
+    const uint32_t green = s.add_material(diffuse("green", {0.12f, 0.45f, 0.15f}));
+    Material light_m = diffuse("light", glm::vec3(0.f));
+    light_m.emission = {17.f, 12.f, 4.f};
+    const uint32_t light = s.add_material(light_m);
+    Material glass_m;
+    glass_m.name = "glass";
+    glass_m.type = MaterialType::Glass;
+    glass_m.color = glm::vec3(1.f);
+    glass_m.ior = 1.5f;
+    const uint32_t glass = s.add_material(glass_m);
+    Material mirror_m;
+    mirror_m.name = "mirror";
+    mirror_m.type = MaterialType::Mirror;
+    mirror_m.color = glm::vec3(0.95f);
+    const uint32_t mirror = s.add_material(mirror_m);
+
+    // Walls, each facing into the box.
+    add_quad(s, {-1, 0, -1}, {-1, 0, 1}, {1, 0, 1}, {1, 0, -1}, {0, 1, 0}, white);    // floor
+    add_quad(s, {-1, 2, -1}, {1, 2, -1}, {1, 2, 1}, {-1, 2, 1}, {0, -1, 0}, white);   // ceiling
+    add_quad(s, {-1, 0, -1}, {1, 0, -1}, {1, 2, -1}, {-1, 2, -1}, {0, 0, 1}, white);  // back
+    add_quad(s, {-1, 0, -1}, {-1, 2, -1}, {-1, 2, 1}, {-1, 0, 1}, {1, 0, 0}, red);    // left
+    add_quad(s, {1, 0, -1}, {1, 0, 1}, {1, 2, 1}, {1, 2, -1}, {-1, 0, 0}, green);     // right
+
+    // The 0.5 x 0.5 area light just below the ceiling, facing down.
+    const float h = 0.25f, y = 1.98f;
+    add_quad(s, {-h, y, -h}, {h, y, -h}, {h, y, h}, {-h, y, h}, {0, -1, 0}, light);
+
+    // A glass sphere front right, a mirror sphere back left.
+    s.spheres.push_back({{0.45f, 0.35f, 0.3f}, 0.35f, glass});
+    s.spheres.push_back({{-0.45f, 0.35f, -0.35f}, 0.35f, mirror});
+
+    // The classic camera in front of the open side.
+    s.camera.position = {0.f, 1.f, 3.9f};
+    s.camera.forward = {0.f, 0.f, -1.f};
+    s.camera.up = {0.f, 1.f, 0.f};
+    s.camera.yfov = 0.6911f;
+    s.has_camera = true;
+    s.max_depth_hint = 0;
+    return s;
+}
+
+}  // namespace
+
+std::vector<std::string> builtin_scene_names() {
+    return {"cornell", "furnace"};
+}
+
+Scene make_builtin_scene(const std::string& name) {
+    if (name == "cornell") return make_cornell();
+    if (name == "furnace") return make_furnace_scene(0.5f, 1.f);
+    // Unknown: list the valid names.
+    std::string valid;
+    for (const std::string& n : builtin_scene_names()) valid += (valid.empty() ? "" : ", ") + n;
+    throw Error("unknown built-in scene '" + name + "' (valid: " + valid + ")");
+}
+
+// Every surface has albedo a and emits Le, and the enclosure is closed, so the radiance L leaving
+// any point in any direction solves L = Le + a * L, i.e. exactly
+//     L = Le / (1 - a)
+// (0.5 / 1 gives L = 2). Paths are unbounded (Russian roulette ends them), hence the huge
+// max_depth_hint.
+Scene make_furnace_scene(float albedo, float emission) {
+    if (!(albedo >= 0.f && albedo < 1.f))
+        throw Error("furnace albedo must be in [0, 1), got " + std::to_string(albedo));
+    if (!(std::isfinite(emission) && emission > 0.f))
+        throw Error("furnace emission must be finite and > 0, got " + std::to_string(emission));
+    Scene s;
+    s.name = "furnace";
+    Material m = diffuse("furnace", glm::vec3(albedo));
+    m.emission = glm::vec3(emission);
+    const uint32_t mat = s.add_material(m);
+
+    // The closed enclosure [-2, 2]^3 facing inward.
+    add_box(s, glm::vec3(-2.f), glm::vec3(2.f), /*inward=*/true, mat);
+    // A sphere and a closed small cube (side 0.8) inside it, facing outward.
+    s.spheres.push_back({{0.6f, -0.8f, 0.f}, 0.6f, mat});
+    const glm::vec3 cube_center(-0.7f, -0.6f, 0.3f);
+    add_box(s, cube_center - glm::vec3(0.4f), cube_center + glm::vec3(0.4f), /*inward=*/false, mat);
+
+    // The camera inside, near the +z wall, looking at -z.
+    s.camera.position = {0.f, 0.f, 1.9f};
+    s.camera.forward = {0.f, 0.f, -1.f};
+    s.camera.up = {0.f, 1.f, 0.f};
+    s.camera.yfov = 0.6911f;
+    s.has_camera = true;
+    s.max_depth_hint = 100000;
+    return s;
+}
+
+}  // namespace mcpt

@@ -1,0 +1,22 @@
+// Scenes built in code: the Cornell box (the default) and a closed white furnace whose exact
+// radiance is known, for testing the integrators.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "scene.h"
+
+namespace mcpt {
+
+// The valid names for make_builtin_scene(), the default ("cornell") first.
+std::vector<std::string> builtin_scene_names();
+
+// "cornell" | "furnace"; throws mcpt::Error listing the valid names otherwise.
+Scene make_builtin_scene(const std::string& name);
+
+// A closed furnace in which every surface is diffuse with the same grey albedo and emission, so
+// the radiance everywhere is emission / (1 - albedo). albedo in [0, 1), emission > 0 (finite),
+// otherwise throws mcpt::Error.
+Scene make_furnace_scene(float albedo, float emission);
+
+}  // namespace mcpt

@@ -1,0 +1,502 @@
+// load_gltf(): small .gltf/.glb files written by the tests (data-URI buffers, hand-built GLB)
+// plus the hand-checked files in tests/data/.
+#include "common/gltf_loader.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "common/error.h"
+#include "common/scene.h"
+
+namespace mcpt {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+constexpr int kU8 = 5121, kU16 = 5123, kU32 = 5125, kFloat = 5126;
+constexpr double kQuarterPi = 0.78539816339744831;
+
+std::string base64(const std::vector<unsigned char>& in) {
+    static const char* table = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    std::string out;
+    for (size_t i = 0; i < in.size(); i += 3) {
+        const uint32_t n = uint32_t(in[i]) << 16 | (i + 1 < in.size() ? in[i + 1] << 8 : 0) |
+                           (i + 2 < in.size() ? in[i + 2] : 0);
+        out += table[n >> 18 & 63];
+        out += table[n >> 12 & 63];
+        out += i + 1 < in.size() ? table[n >> 6 & 63] : '=';
+        out += i + 2 < in.size() ? table[n & 63] : '=';
+    }
+    return out;
+}
+
+// A per-process scratch directory.
+fs::path temp_dir() {
+    const fs::path dir = fs::temp_directory_path() / ("mcpt_gltf_test_" + std::to_string(getpid()));
+    fs::create_directories(dir);
+    return dir;
+}
+
+// Removes the scratch directory after the last test.
+class ScratchCleanup : public ::testing::Environment {
+  public:
+    void TearDown() override {
+        std::error_code ec;
+        fs::remove_all(temp_dir(), ec);
+    }
+};
+const ::testing::Environment* const kCleanup =
+    ::testing::AddGlobalTestEnvironment(new ScratchCleanup);
+
+void write_file(const fs::path& path, const std::string& bytes) {
+    std::ofstream out(path, std::ios::binary);
+    out.write(bytes.data(), std::streamsize(bytes.size()));
+}
+
+// Builds a glTF document around one binary buffer.
+struct Gltf {
+    json doc = {
+        {"asset", {{"version", "2.0"}}}, {"scenes", {{{"nodes", json::array()}}}}, {"scene", 0}};
+    std::vector<unsigned char> bin;
+
+    int push(const char* key, const json& item) {
+        doc[key].push_back(item);
+        return int(doc[key].size() - 1);
+    }
+    int view(const void* data, size_t size, size_t stride = 0) {
+        while (bin.size() % 4) bin.push_back(0);
+        json v = {{"buffer", 0}, {"byteOffset", bin.size()}, {"byteLength", size}};
+        if (stride) v["byteStride"] = stride;
+        bin.insert(bin.end(), (const unsigned char*)data, (const unsigned char*)data + size);
+        return push("bufferViews", v);
+    }
+    int accessor(int view, int component, size_t count, const char* type, size_t offset = 0) {
+        return push("accessors", {{"bufferView", view},
+                                  {"componentType", component},
+                                  {"count", count},
+                                  {"type", type},
+                                  {"byteOffset", offset}});
+    }
+    int positions(const std::vector<glm::vec3>& p) {
+        return accessor(view(p.data(), p.size() * 12), kFloat, p.size(), "VEC3");
+    }
+    template <class T>
+    int indices(const std::vector<T>& i, int component) {
+        return accessor(view(i.data(), i.size() * sizeof(T)), component, i.size(), "SCALAR");
+    }
+    int mesh(int pos, int idx = -1, int material = -1) {
+        json prim = {{"attributes", {{"POSITION", pos}}}};
+        if (idx >= 0) prim["indices"] = idx;
+        if (material >= 0) prim["material"] = material;
+        return push("meshes", {{"primitives", {prim}}});
+    }
+    int root(json node) {
+        const int n = push("nodes", node);
+        doc["scenes"][0]["nodes"].push_back(n);
+        return n;
+    }
+    int emissive_material() {
+        return push("materials", {{"emissiveFactor", {1, 1, 1}},
+                                  {"pbrMetallicRoughness", {{"metallicFactor", 0}}}});
+    }
+    json finished() const {
+        json d = doc;
+        d["buffers"] = {{{"byteLength", bin.size()},
+                         {"uri", "data:application/octet-stream;base64," + base64(bin)}}};
+        return d;
+    }
+    std::string write(const std::string& name) const {
+        const fs::path path = temp_dir() / name;
+        write_file(path, finished().dump(1));
+        return path.string();
+    }
+    // GLB: 12-byte header, a JSON chunk padded with spaces, a BIN chunk padded with zeros.
+    std::string write_glb(const std::string& name) const {
+        json d = doc;
+        std::vector<unsigned char> b = bin;
+        while (b.size() % 4) b.push_back(0);
+        d["buffers"] = {{{"byteLength", bin.size()}}};
+        std::string js = d.dump();
+        while (js.size() % 4) js += ' ';
+        std::string out = "glTF";
+        auto u32 = [&out](uint32_t v) { out.append(reinterpret_cast<const char*>(&v), 4); };
+        u32(2);
+        u32(uint32_t(12 + 8 + js.size() + 8 + b.size()));
+        u32(uint32_t(js.size()));
+        u32(0x4E4F534A);  // JSON
+        out += js;
+        u32(uint32_t(b.size()));
+        u32(0x004E4942);  // BIN
+        out.append(reinterpret_cast<const char*>(b.data()), b.size());
+        const fs::path path = temp_dir() / name;
+        write_file(path, out);
+        return path.string();
+    }
+};
+
+const std::vector<glm::vec3> kQuad = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+
+// The unit quad in z = 0 (facing +z), indexed with the given type, under one node.
+Gltf quad_gltf(json node = json::object(), int index_type = kU16) {
+    Gltf g;
+    const int pos = g.positions(kQuad);
+    int idx = -1;
+    if (index_type == kU8) idx = g.indices(std::vector<uint8_t>{0, 1, 2, 0, 2, 3}, kU8);
+    if (index_type == kU16) idx = g.indices(std::vector<uint16_t>{0, 1, 2, 0, 2, 3}, kU16);
+    if (index_type == kU32) idx = g.indices(std::vector<uint32_t>{0, 1, 2, 0, 2, 3}, kU32);
+    node["mesh"] = g.mesh(pos, idx, g.emissive_material());
+    g.root(node);
+    return g;
+}
+
+// The message of the mcpt::Error that load_gltf throws ("" if none).
+std::string load_error(const std::string& path) {
+    try {
+        load_gltf(path);
+    } catch (const Error& e) {
+        return e.what();
+    }
+    return "";
+}
+
+void expect_vec(const glm::vec3& got, const glm::vec3& want, float eps = 1e-5f) {
+    EXPECT_NEAR(got.x, want.x, eps);
+    EXPECT_NEAR(got.y, want.y, eps);
+    EXPECT_NEAR(got.z, want.z, eps);
+}
+
+bool has_warning(const Scene& s, const std::string& text) {
+    for (const std::string& w : s.warnings)
+        if (w.find(text) != std::string::npos) return true;
+    return false;
+}
+
+TEST(GltfLoader, QuadWithTranslationAndScale) {
+    const Gltf g = quad_gltf({{"translation", {1, 2, 3}}, {"scale", {2, 2, 2}}});
+    Scene s = load_gltf(g.write("trs.gltf"));
+    ASSERT_EQ(s.triangles.size(), 2u);
+    expect_vec(s.triangles[0].v0, {1, 2, 3});
+    expect_vec(s.triangles[0].v1, {3, 2, 3});
+    expect_vec(s.triangles[0].v2, {3, 4, 3});
+    expect_vec(s.triangles[1].v2, {1, 4, 3});
+    EXPECT_EQ(s.name, "trs");
+    // No camera in the file: framed from +z.
+    EXPECT_TRUE(s.has_camera);
+    expect_vec(s.camera.forward, {0, 0, -1});
+    EXPECT_GT(s.camera.position.z, 3.f);
+    EXPECT_TRUE(s.warnings.empty());
+    EXPECT_EQ(validate_scene(s).degenerate_dropped, 0u);
+}
+
+TEST(GltfLoader, RotationAndMatrixInAHierarchy) {
+    // Parent: translate (0, 0, 5); child: matrix = 90 degrees about z, then translate (10, 0, 0).
+    Gltf g = quad_gltf({{"translation", {0, 0, 5}}, {"children", {1}}});
+    const json mesh = g.doc["nodes"][0]["mesh"];
+    g.doc["nodes"][0].erase("mesh");
+    g.push("nodes",
+           {{"mesh", mesh}, {"matrix", {0, 1, 0, 0, -1, 0, 0, 0, 0, 0, 1, 0, 10, 0, 0, 1}}});
+    Scene s = load_gltf(g.write("matrix.gltf"));
+    ASSERT_EQ(s.triangles.size(), 2u);
+    expect_vec(s.triangles[0].v0, {10, 0, 5});
+    expect_vec(s.triangles[0].v1, {10, 1, 5});  // (1, 0, 0) -> (0, 1, 0) -> +translation
+    expect_vec(s.triangles[0].v2, {9, 1, 5});
+
+    // The same rotation as a quaternion (x, y, z, w).
+    Scene r =
+        load_gltf(quad_gltf({{"rotation", {0, 0, std::sin(kQuarterPi), std::cos(kQuarterPi)}}})
+                      .write("q.gltf"));
+    expect_vec(r.triangles[0].v1, {0, 1, 0});
+}
+
+TEST(GltfLoader, MirroringTransformKeepsFrontSide) {
+    Scene s = load_gltf(quad_gltf({{"scale", {-1, 1, 1}}}).write("mirror.gltf"));
+    ASSERT_EQ(s.triangles.size(), 2u);
+    for (const Triangle& t : s.triangles) {
+        const glm::vec3 n = glm::cross(t.v1 - t.v0, t.v2 - t.v0);
+        EXPECT_GT(n.z, 0.f);  // the quad still faces +z
+    }
+}
+
+TEST(GltfLoader, CameraNode) {
+    Gltf g = quad_gltf();
+    g.push("cameras", {{"type", "orthographic"},
+                       {"orthographic", {{"xmag", 1}, {"ymag", 1}, {"znear", 0.1}, {"zfar", 10}}}});
+    g.push("cameras", {{"type", "perspective"},
+                       {"name", "cam"},
+                       {"perspective", {{"yfov", 0.5}, {"znear", 0.1}}}});
+    // An orthographic camera first (skipped), then a perspective one under a translated parent,
+    // turned 90 degrees about +y so that it looks along -x.
+    g.root({{"camera", 0}});
+    const int parent = g.root({{"translation", {0, 0, 1}}, {"children", {4}}});
+    EXPECT_EQ(parent, 2);
+    g.push("nodes", json::object());
+    g.push("nodes", {{"camera", 1},
+                     {"translation", {0, 1, 4}},
+                     {"rotation", {0, std::sin(kQuarterPi), 0, std::cos(kQuarterPi)}}});
+    Scene s = load_gltf(g.write("camera.gltf"));
+    ASSERT_TRUE(s.has_camera);
+    expect_vec(s.camera.position, {0, 1, 5});
+    expect_vec(s.camera.forward, {-1, 0, 0});
+    expect_vec(s.camera.up, {0, 1, 0});
+    EXPECT_FLOAT_EQ(s.camera.yfov, 0.5f);
+    EXPECT_TRUE(has_warning(s, "orthographic")) << ::testing::PrintToString(s.warnings);
+}
+
+TEST(GltfLoader, MaterialMapping) {
+    Gltf g;
+    const int pos = g.positions({kQuad[0], kQuad[1], kQuad[2]});
+    const json pbr_metal = {{"metallicFactor", 1.0},
+                            {"roughnessFactor", 0.05},
+                            {"baseColorFactor", {0.9, 0.8, 0.7, 1}}};
+    const json mats[] = {
+        // 0: emissive with KHR_materials_emissive_strength
+        {{"name", "lamp"},
+         {"emissiveFactor", {1, 0.5, 0.25}},
+         {"pbrMetallicRoughness", {{"metallicFactor", 0}}},
+         {"extensions", {{"KHR_materials_emissive_strength", {{"emissiveStrength", 4.0}}}}}},
+        // 1: glass with an ior
+        {{"pbrMetallicRoughness", {{"baseColorFactor", {0.9, 1, 0.9, 1}}, {"metallicFactor", 0}}},
+         {"extensions",
+          {{"KHR_materials_transmission", {{"transmissionFactor", 1.0}}},
+           {"KHR_materials_ior", {{"ior", 1.33}}}}}},
+        // 2: mirror
+        {{"pbrMetallicRoughness", pbr_metal}},
+        // 3: diffuse
+        {{"pbrMetallicRoughness",
+          {{"baseColorFactor", {0.2, 0.4, 0.6, 1}}, {"metallicFactor", 0}}}},
+        // 4: rough metal -> diffuse with a warning
+        {{"name", "brushed"}, {"pbrMetallicRoughness", {{"roughnessFactor", 0.5}}}},
+        // 5: weak transmission -> not glass (default pbr: metallic 1, roughness 1 -> diffuse)
+        {{"extensions", {{"KHR_materials_transmission", {{"transmissionFactor", 0.3}}}}},
+         {"pbrMetallicRoughness", {{"metallicFactor", 0}}}},
+    };
+    g.doc["extensionsUsed"] = {"KHR_materials_emissive_strength", "KHR_materials_transmission",
+                               "KHR_materials_ior"};
+    for (const json& m : mats) g.push("materials", m);
+    json prims = json::array();
+    for (int i = 0; i < 6; ++i)
+        prims.push_back({{"attributes", {{"POSITION", pos}}}, {"material", i}});
+    prims.push_back({{"attributes", {{"POSITION", pos}}}});  // no material
+    g.push("meshes", {{"primitives", prims}});
+    g.root({{"mesh", 0}});
+    Scene s = load_gltf(g.write("materials.gltf"));
+    ASSERT_EQ(s.materials.size(), 7u);
+    ASSERT_EQ(s.triangles.size(), 7u);
+
+    const Material& lamp = s.materials[s.triangles[0].material];
+    EXPECT_EQ(lamp.name, "lamp");
+    expect_vec(lamp.emission, {4, 2, 1});
+    const Material& glass = s.materials[s.triangles[1].material];
+    EXPECT_EQ(glass.type, MaterialType::Glass);
+    EXPECT_FLOAT_EQ(glass.ior, 1.33f);
+    expect_vec(glass.color, {0.9f, 1, 0.9f});
+    const Material& mirror = s.materials[s.triangles[2].material];
+    EXPECT_EQ(mirror.type, MaterialType::Mirror);
+    expect_vec(mirror.color, {0.9f, 0.8f, 0.7f});
+    const Material& diffuse = s.materials[s.triangles[3].material];
+    EXPECT_EQ(diffuse.type, MaterialType::Diffuse);
+    expect_vec(diffuse.color, {0.2f, 0.4f, 0.6f});
+    expect_vec(diffuse.emission, {0, 0, 0});
+    EXPECT_EQ(s.materials[s.triangles[4].material].type, MaterialType::Diffuse);
+    EXPECT_TRUE(has_warning(s, "brushed"));
+    EXPECT_EQ(s.materials[s.triangles[5].material].type, MaterialType::Diffuse);
+    const Material& fallback = s.materials[s.triangles[6].material];
+    EXPECT_EQ(fallback.type, MaterialType::Diffuse);
+    expect_vec(fallback.color, glm::vec3(0.8f));
+    EXPECT_EQ(s.warnings.size(), 1u) << ::testing::PrintToString(s.warnings);
+    EXPECT_EQ(validate_scene(s).degenerate_dropped, 0u);
+
+    // Glass without KHR_materials_ior gets 1.5.
+    g.doc["materials"][1]["extensions"].erase("KHR_materials_ior");
+    Scene d = load_gltf(g.write("materials_noior.gltf"));
+    EXPECT_FLOAT_EQ(d.materials[1].ior, 1.5f);
+}
+
+class GltfIndexTypes : public ::testing::TestWithParam<int> {};
+
+TEST_P(GltfIndexTypes, LoadsTheQuad) {
+    Scene s =
+        load_gltf(quad_gltf({}, GetParam()).write("idx" + std::to_string(GetParam()) + ".gltf"));
+    ASSERT_EQ(s.triangles.size(), 2u);
+    expect_vec(s.triangles[1].v0, kQuad[0]);
+    expect_vec(s.triangles[1].v1, kQuad[2]);
+    expect_vec(s.triangles[1].v2, kQuad[3]);
+}
+
+// Unsigned byte, short and int indices.
+INSTANTIATE_TEST_SUITE_P(All, GltfIndexTypes, ::testing::Values(kU8, kU16, kU32));
+
+TEST(GltfLoader, NonIndexedInterleavedWithStride) {
+    // Positions interleaved with a 3-float normal: byteStride 24, POSITION at offset 0.
+    const float data[] = {0, 0, 0, 9, 9, 9, 2, 0, 0, 9, 9, 9, 0, 2, 0, 9, 9, 9};
+    Gltf g;
+    const int view = g.view(data, sizeof(data), 24);
+    const int pos = g.accessor(view, kFloat, 3, "VEC3");
+    g.root({{"mesh", g.mesh(pos, -1, g.emissive_material())}});
+    Scene s = load_gltf(g.write("stride.gltf"));
+    ASSERT_EQ(s.triangles.size(), 1u);
+    expect_vec(s.triangles[0].v1, {2, 0, 0});
+    expect_vec(s.triangles[0].v2, {0, 2, 0});
+
+    // Stride past the end of the view.
+    g.doc["accessors"][0]["byteOffset"] = 16;
+    g.doc["accessors"][0]["count"] = 3;
+    EXPECT_NE(load_error(g.write("stride_oob.gltf")).find("out of bounds"), std::string::npos);
+}
+
+TEST(GltfLoader, SparsePositions) {
+    // Base: the quad; sparse: corner 2 moved to (5, 5, 0).
+    Gltf g = quad_gltf();
+    const uint16_t si[] = {2};
+    const float sv[] = {5, 5, 0};
+    const int iv = g.view(si, sizeof(si)), vv = g.view(sv, sizeof(sv));
+    g.doc["accessors"][0]["sparse"] = {{"count", 1},
+                                       {"indices", {{"bufferView", iv}, {"componentType", kU16}}},
+                                       {"values", {{"bufferView", vv}}}};
+    Scene s = load_gltf(g.write("sparse.gltf"));
+    ASSERT_EQ(s.triangles.size(), 2u);
+    expect_vec(s.triangles[0].v2, {5, 5, 0});
+}
+
+TEST(GltfLoader, BinaryGlb) {
+    Gltf g = quad_gltf({{"translation", {0, 0, -1}}});
+    Scene s = load_gltf(g.write_glb("quad.glb"));
+    ASSERT_EQ(s.triangles.size(), 2u);
+    expect_vec(s.triangles[0].v1, {1, 0, -1});
+    EXPECT_TRUE(s.materials[0].is_emissive());
+
+    // A truncated GLB is an error naming the file.
+    std::ifstream in(g.write_glb("full.glb"), std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const fs::path cut = temp_dir() / "truncated.glb";
+    write_file(cut, bytes.substr(0, bytes.size() / 2));
+    const std::string e = load_error(cut.string());
+    EXPECT_NE(e.find("truncated.glb"), std::string::npos) << e;
+    EXPECT_NE(e.find("binary"), std::string::npos) << e;
+}
+
+TEST(GltfLoader, UnsupportedFeaturesWarnOnce) {
+    Gltf g = quad_gltf();
+    g.doc["extensionsUsed"] = {"KHR_lights_punctual", "KHR_texture_transform"};
+    g.doc["images"] = {{{"uri", "missing.png"}}};  // never read
+    g.doc["textures"] = {{{"source", 0}}};
+    g.doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
+    g.doc["materials"][0]["normalTexture"] = {{"index", 0}};
+    // A LINES primitive (skipped) and a morph target.
+    g.doc["meshes"][0]["primitives"].push_back({{"attributes", {{"POSITION", 0}}}, {"mode", 1}});
+    g.doc["meshes"][0]["primitives"].push_back({{"attributes", {{"POSITION", 0}}}, {"mode", 1}});
+    g.doc["meshes"][0]["primitives"][0]["targets"] = {{{"POSITION", 0}}};
+    // A skin and an animation.
+    g.doc["skins"] = {{{"joints", {0}}}};
+    g.doc["animations"] = {{{"channels", json::array()}, {"samplers", json::array()}}};
+    Scene s = load_gltf(g.write("warnings.gltf"));
+    EXPECT_EQ(s.triangles.size(), 2u);
+    for (const char* w : {"KHR_lights_punctual", "KHR_texture_transform",
+                          "textures are not supported; using factors only", "normalTexture",
+                          "LINES", "morph targets", "skins", "animations"})
+        EXPECT_TRUE(has_warning(s, w)) << w << " in " << ::testing::PrintToString(s.warnings);
+    EXPECT_EQ(s.warnings.size(), 8u) << ::testing::PrintToString(s.warnings);
+}
+
+TEST(GltfLoader, MissingFile) {
+    const std::string e = load_error("/nonexistent/dir/scene.gltf");
+    EXPECT_NE(e.find("/nonexistent/dir/scene.gltf"), std::string::npos) << e;
+    EXPECT_NE(e.find("not found"), std::string::npos) << e;
+}
+
+TEST(GltfLoader, GarbageAndTruncatedJson) {
+    const fs::path garbage = temp_dir() / "garbage.gltf";
+    write_file(garbage, "this is { not json");
+    std::string e = load_error(garbage.string());
+    EXPECT_NE(e.find("garbage.gltf"), std::string::npos) << e;
+    EXPECT_NE(e.find("cannot load glTF"), std::string::npos) << e;
+
+    const std::string full = quad_gltf().finished().dump();
+    const fs::path cut = temp_dir() / "cut.gltf";
+    write_file(cut, full.substr(0, full.size() / 2));
+    e = load_error(cut.string());
+    EXPECT_NE(e.find("cut.gltf"), std::string::npos) << e;
+
+    const fs::path empty = temp_dir() / "empty.gltf";
+    write_file(empty, "");
+    EXPECT_NE(load_error(empty.string()).find("empty.gltf"), std::string::npos);
+}
+
+TEST(GltfLoader, IndexOutOfRange) {
+    Gltf g;
+    const int pos = g.positions(kQuad);
+    const int idx = g.indices(std::vector<uint16_t>{0, 1, 7}, kU16);
+    g.root({{"mesh", g.mesh(pos, idx)}});
+    const std::string e = load_error(g.write("badindex.gltf"));
+    EXPECT_NE(e.find("index 7 out of range"), std::string::npos) << e;
+    EXPECT_NE(e.find("badindex.gltf"), std::string::npos) << e;
+}
+
+TEST(GltfLoader, AccessorOutOfBounds) {
+    Gltf g = quad_gltf();
+    g.doc["accessors"][0]["count"] = 40;
+    std::string e = load_error(g.write("oob.gltf"));
+    EXPECT_NE(e.find("out of bounds"), std::string::npos) << e;
+
+    // Array indices that point nowhere.
+    g = quad_gltf();
+    g.doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = 9;
+    EXPECT_NE(load_error(g.write("noacc.gltf")).find("accessor 9 out of range"), std::string::npos);
+    g = quad_gltf();
+    g.doc["meshes"][0]["primitives"][0]["material"] = 3;
+    EXPECT_NE(load_error(g.write("nomat.gltf")).find("material index 3"), std::string::npos);
+    g = quad_gltf();
+    g.doc["nodes"][0]["children"] = {0};
+    EXPECT_NE(load_error(g.write("cycle.gltf")).find("more than once"), std::string::npos);
+}
+
+TEST(GltfLoader, NonFloatPosition) {
+    Gltf g;
+    const std::vector<uint16_t> p = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    const int pos = g.accessor(g.view(p.data(), p.size() * 2), kU16, 3, "VEC3");
+    g.root({{"mesh", g.mesh(pos)}});
+    const std::string e = load_error(g.write("intpos.gltf"));
+    EXPECT_NE(e.find("POSITION must be float"), std::string::npos) << e;
+}
+
+TEST(GltfLoader, UnsupportedRequiredExtension) {
+    Gltf g = quad_gltf();
+    g.doc["extensionsUsed"] = {"KHR_draco_mesh_compression"};
+    g.doc["extensionsRequired"] = {"KHR_draco_mesh_compression"};
+    const std::string e = load_error(g.write("draco.gltf"));
+    EXPECT_NE(e.find("KHR_draco_mesh_compression"), std::string::npos) << e;
+    EXPECT_NE(e.find("requires unsupported"), std::string::npos) << e;
+    // A supported extension may be required.
+    g.doc["extensionsRequired"] = {"KHR_materials_ior"};
+    EXPECT_EQ(load_error(g.write("ior_required.gltf")), "");
+}
+
+// Hand-checked files shipped with the tests.
+TEST(GltfLoader, DataFiles) {
+    const std::string dir = MCPT_TEST_DATA_DIR;
+    Scene s = load_gltf(dir + "/emissive_triangle.gltf");
+    ASSERT_EQ(s.triangles.size(), 1u);
+    expect_vec(s.triangles[0].v0, {0, 0, -2});
+    expect_vec(s.triangles[0].v1, {1, 0, -2});
+    expect_vec(s.triangles[0].v2, {0, 1, -2});
+    ASSERT_TRUE(s.has_camera);
+    expect_vec(s.camera.position, {0, 0, 3});
+    EXPECT_FLOAT_EQ(s.camera.yfov, 0.8f);
+    expect_vec(s.materials[0].emission, {2, 2, 2});
+    EXPECT_EQ(validate_scene(s).degenerate_dropped, 0u);
+
+    const std::string e = load_error(dir + "/requires_draco.gltf");
+    EXPECT_NE(e.find("KHR_draco_mesh_compression"), std::string::npos) << e;
+}
+
+}  // namespace
+}  // namespace mcpt
