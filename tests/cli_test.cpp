@@ -10,14 +10,14 @@
 
 namespace {
 
-struct Run {
+struct CliRun {
     int status = -1;  // exit code, or -1 if killed by a signal
     std::string output;
 };
 
-Run run_mcpt(const std::string& args) {
+CliRun run_mcpt(const std::string& args) {
     const std::string cmd = std::string(MCPT_BINARY) + " " + args + " 2>&1";
-    Run r;
+    CliRun r;
     FILE* pipe = popen(cmd.c_str(), "r");
     if (!pipe) return r;
     std::array<char, 4096> buf{};
@@ -34,7 +34,7 @@ std::string temp_file(const std::string& name, const std::string& content) {
 }
 
 void expect_error(const std::string& args, const std::string& message) {
-    const Run r = run_mcpt(args);
+    const CliRun r = run_mcpt(args);
     EXPECT_EQ(r.status, 1) << args << "\n" << r.output;
     EXPECT_NE(r.output.find(message), std::string::npos)
         << "expected '" << message << "' for: " << args << "\n" << r.output;
@@ -78,14 +78,14 @@ TEST(Cli, UnsupportedImageFormat) {
 TEST(Cli, RendersDefaultSceneToExr) {
     const std::string out = (std::filesystem::temp_directory_path() / "mcpt_cli.exr").string();
     std::filesystem::remove(out);
-    const Run r = run_mcpt("render --spp 2 --width 32 --height 32 -q -o " + out);
+    const CliRun r = run_mcpt("render --spp 2 --width 32 --height 32 -q -o " + out);
     EXPECT_EQ(r.status, 0) << r.output;
     EXPECT_TRUE(std::filesystem::exists(out));
     EXPECT_NE(r.output.find("non-finite samples: 0"), std::string::npos) << r.output;
 }
 
 TEST(Cli, DevicesListsOpenCl) {
-    const Run r = run_mcpt("devices");
+    const CliRun r = run_mcpt("devices");
     EXPECT_EQ(r.status, 0);
     EXPECT_NE(r.output.find("opencl:"), std::string::npos) << r.output;
 }

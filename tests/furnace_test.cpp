@@ -37,7 +37,7 @@ FurnaceRun render_furnace(float albedo, float light_scale, const std::string& de
 class Furnace : public ::testing::TestWithParam<float> {};
 
 TEST_P(Furnace, MatchesExactRadiance) {
-    const FurnaceRun run = render_furnace(GetParam(), 1.f, "", 128);
+    const FurnaceRun run = render_furnace(GetParam(), 1.f, "", 256);
     const double z = run.estimate.z(run.exact);
     RecordProperty("relative_std_error", std::to_string(run.estimate.std_error / run.exact));
     EXPECT_EQ(run.nonfinite, 0u);
@@ -48,7 +48,7 @@ TEST_P(Furnace, MatchesExactRadiance) {
 }
 
 TEST_P(Furnace, RejectsTwoPercentBrighterLight) {
-    const FurnaceRun run = render_furnace(GetParam(), 1.02f, "", 128);
+    const FurnaceRun run = render_furnace(GetParam(), 1.02f, "", 256);
     EXPECT_GT(run.estimate.z(run.exact), kZLimit) << "a 2% brighter light went unnoticed";
 }
 
