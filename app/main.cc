@@ -10,10 +10,13 @@ int main(int argc, char** argv) {
     mcpt::add_render_command(app);
     mcpt::add_devices_command(app);
     mcpt::add_tree_command(app);
+    mcpt::add_compare_command(app);
     try {
         app.parse(argc, argv);
         // No subcommand: render the default scene on the best device.
         if (app.get_subcommands().empty()) return app.get_subcommand("render")->parse(""), 0;
+    } catch (const mcpt::ExitStatus& e) {
+        return e.code;
     } catch (const CLI::ParseError& e) {
         return app.exit(e);
     } catch (const std::exception& e) {

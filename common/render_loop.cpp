@@ -43,13 +43,18 @@ double RenderResult::mean_radiance() const {
 
 RenderResult render(Backend& backend, const GpuScene& scene, const Camera& camera,
                     const RenderOptions& opt, const ProgressFn& progress) {
-    using clock = std::chrono::steady_clock;
     if (opt.width <= 0 || opt.height <= 0 || opt.width > 16384 || opt.height > 16384) {
         throw Error("image size must be between 1x1 and 16384x16384");
     }
+    backend.load(scene, opt.width, opt.height);
+    return render_loaded(backend, scene, camera, opt, progress);
+}
+
+RenderResult render_loaded(Backend& backend, const GpuScene& scene, const Camera& camera,
+                           const RenderOptions& opt, const ProgressFn& progress) {
+    using clock = std::chrono::steady_clock;
     if (opt.spp == 0 && !(opt.seconds > 0)) throw Error("give a sample count or a time budget");
     const uint32_t npix = uint32_t(opt.width) * uint32_t(opt.height);
-    backend.load(scene, opt.width, opt.height);
 
     gpu::GpuParams p = scene.params;
     set_camera(p, camera, opt.width, opt.height);

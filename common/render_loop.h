@@ -40,7 +40,13 @@ struct RenderResult {
 
 using ProgressFn = std::function<void(double fraction, const RenderResult& so_far)>;
 
+// Loads the scene on the backend, then renders it.
 RenderResult render(Backend& backend, const GpuScene& scene, const Camera& camera,
                     const RenderOptions& options, const ProgressFn& progress = nullptr);
+
+// Renders on a backend that already holds the scene at options' size (load() done):
+// for repeated renders with other seeds or light scales.
+RenderResult render_loaded(Backend& backend, const GpuScene& scene, const Camera& camera,
+                           const RenderOptions& options, const ProgressFn& progress = nullptr);
 
 }  // namespace mcpt

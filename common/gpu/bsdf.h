@@ -70,6 +70,9 @@ MCPT_FN BsdfSample sample_bsdf(GpuMaterial m, vec3 n, vec3 wo, bool entering, ve
             float sin2_t = MAXF(0.0f, 1.0f - cos_i * cos_i) / (eta * eta);
             float cos_t = sqrt(MAXF(0.0f, 1.0f - sin2_t));
             s.wi = normalize(-wo / eta + n * (cos_i / eta - cos_t));
+#ifdef MCPT_NEGATIVE_CONTROL_NO_REFRACTION
+            s.valid = false;  // tests: a variant that drops transmission through glass
+#endif
             s.eta2 = eta * eta;
             s.weight = material_color(m) / s.eta2;
         }

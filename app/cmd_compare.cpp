@@ -1,0 +1,152 @@
+// mcpt compare: render one scene on two backends and report speed side by side and whether
+// the images agree, statistically (independent seeds) and with the same seed.
+// Exit status: 0 agree, 2 differ, 1 error.
+#include <cstdio>
+
+#include "app/commands.h"
+#include "common/compare.h"
+#include "common/error.h"
+#include "common/image_io.h"
+
+namespace mcpt {
+
+namespace {
+
+struct CompareArgs {
+    std::string scene = "cornell";
+    std::string a = "opencl", b = "vulkan";
+    int width = 64, height = 64;
+    int batches = 32;
+    uint64_t spp = 4;
+    uint64_t same_seed_spp = 4;
+    int max_depth = -1;
+    std::string tree = "sah";
+    double alpha = 0.01;
+    std::string output;
+    float b_light_scale = 1.f;
+    std::string b_defines;
+};
+
+struct Side {
+    std::unique_ptr<Backend> backend;
+    BatchSet batches;
+    RenderResult same_seed;
+};
+
+void run_compare(const CompareArgs& args) {
+    Scene scene = load_scene_argument(args.scene);
+    const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, tree_options(args.tree, -1)));
+    RenderOptions ro;
+    ro.width = args.width, ro.height = args.height;
+    ro.max_depth = uint32_t(args.max_depth >= 0 ? args.max_depth
+                                                : (scene.max_depth_hint > 0 ? scene.max_depth_hint : 8));
+    BatchOptions bo;
+    bo.batches = args.batches;
+    bo.spp_per_batch = args.spp;
+
+    Side sides[2];
+    const std::string specs[2] = {args.a, args.b};
+    for (int s = 0; s < 2; ++s) {
+        // Independent seeds per side, then one same-seed render.
+        BackendOptions opt;
+        RenderOptions side_ro = ro;
+        if (s == 1) opt.extra_defines = args.b_defines, side_ro.light_scale = args.b_light_scale;
+        sides[s].backend = open_backend(specs[s], opt);
+        bo.seed_base = 1000u + 100000u * uint32_t(s);
+        sides[s].batches = render_batches(*sides[s].backend, g, scene.camera, side_ro, bo);
+        side_ro.spp = args.same_seed_spp;
+        side_ro.seed = 7;
+        sides[s].same_seed = render_loaded(*sides[s].backend, g, scene.camera, side_ro);
+    }
+
+    // Speed, side by side.
+    const double pixels = double(args.width) * args.height;
+    std::printf("scene %s, %dx%d, %d batches x %llu spp per backend, max depth %u\n",
+                args.scene.c_str(), args.width, args.height, args.batches,
+                (unsigned long long)args.spp, ro.max_depth);
+    std::printf("%-26s %-40s %-40s\n", "", "A", "B");
+    std::printf("%-26s %-40s %-40s\n", "backend", sides[0].backend->description().c_str(),
+                sides[1].backend->description().c_str());
+    double rate[2];
+    for (int s = 0; s < 2; ++s) {
+        const BatchSet& bs = sides[s].batches;
+        rate[s] = double(bs.batches) * double(bs.spp_per_batch) * pixels / bs.seconds;
+    }
+    auto row = [](const char* name, double x, double y, const char* unit) {
+        std::printf("%-26s %-40s %-40s\n", name, (std::to_string(x) + unit).c_str(),
+                    (std::to_string(y) + unit).c_str());
+    };
+    row("compile/pipeline (s)", sides[0].backend->compile_seconds(),
+        sides[1].backend->compile_seconds(), "");
+    row("time per sample (ns)", 1e9 / rate[0], 1e9 / rate[1], "");
+    row("M samples/s", rate[0] * 1e-6, rate[1] * 1e-6, "");
+    row("M rays/s", sides[0].batches.rays / sides[0].batches.seconds * 1e-6,
+        sides[1].batches.rays / sides[1].batches.seconds * 1e-6, "");
+    std::printf("speed ratio B/A: %.3f\n", rate[1] / rate[0]);
+
+    // Statistical agreement.
+    const Agreement agreement = test_agreement(sides[0].batches, sides[1].batches, args.alpha);
+    std::printf("mean radiance B vs A: %+.3f%%\n", 100 * agreement.mean_relative_diff);
+    std::printf("statistical (alpha %.3g, %zu pixels tested): %s\n", args.alpha,
+                agreement.pixels_tested, agreement.verdict().c_str());
+    if (sides[0].batches.nonfinite + sides[1].batches.nonfinite > 0) {
+        std::printf("non-finite samples: A %llu, B %llu\n",
+                    (unsigned long long)sides[0].batches.nonfinite,
+                    (unsigned long long)sides[1].batches.nonfinite);
+    }
+    // Same-seed agreement.
+    const SameSeedDiff d = same_seed_diff(sides[0].same_seed, sides[1].same_seed);
+    std::printf("same seed (%llu spp): %zu of %zu pixels diverged (> %.0e relative), %.3f%%; "
+                "max |difference| %.3g\n",
+                (unsigned long long)args.same_seed_spp, d.diverged, d.pixels, d.tolerance,
+                100 * d.fraction_diverged(), d.max_abs_diff);
+    if (!args.output.empty()) {
+        // p-value, signed z (B - A), mean difference per pixel.
+        std::vector<float> img(3 * agreement.p_image.size());
+        for (size_t i = 0; i < agreement.p_image.size(); ++i) {
+            img[3 * i] = agreement.p_image[i];
+            img[3 * i + 1] = agreement.z_image[i];
+            img[3 * i + 2] = float(sides[1].batches.mean[i] - sides[0].batches.mean[i]);
+        }
+        write_image(args.output, args.width, args.height, img);
+        std::printf("wrote %s (R: p-value, G: z of B - A, B: mean difference)\n",
+                    args.output.c_str());
+    }
+    if (!agreement.agree) throw ExitStatus{2};
+}
+
+}  // namespace
+
+void add_compare_command(CLI::App& app) {
+    auto a = std::make_shared<CompareArgs>();
+    CLI::App* sub = app.add_subcommand("compare", "A/B-test two backends on one scene");
+    sub->add_option("scene", a->scene, "Built-in scene or .gltf/.glb file")->capture_default_str();
+    sub->add_option("--a", a->a, "Backend A: opencl|vulkan[:device]")->capture_default_str();
+    sub->add_option("--b", a->b, "Backend B: opencl|vulkan[:device]")->capture_default_str();
+    sub->add_option("--width", a->width)->check(CLI::Range(1, 4096))->capture_default_str();
+    sub->add_option("--height", a->height)->check(CLI::Range(1, 4096))->capture_default_str();
+    sub->add_option("--batches", a->batches, "Independent batches per backend")
+        ->check(CLI::Range(2, 100000))
+        ->capture_default_str();
+    sub->add_option("--spp", a->spp, "Samples per pixel per batch")->check(CLI::Range(1, 1000000))
+        ->capture_default_str();
+    sub->add_option("--same-seed-spp", a->same_seed_spp, "Samples per pixel of the same-seed test")
+        ->check(CLI::Range(1, 1000000))
+        ->capture_default_str();
+    sub->add_option("--max-depth", a->max_depth, "Bounces (default 8, or the scene's)");
+    sub->add_option("--tree", a->tree, "sah, median or none")
+        ->check(CLI::IsMember({"sah", "median", "none"}))
+        ->capture_default_str();
+    sub->add_option("--alpha", a->alpha, "Family-wise false alarm rate")
+        ->check(CLI::Range(1e-12, 0.5))
+        ->capture_default_str();
+    sub->add_option("-o,--output", a->output, "Write p-value / z / difference image (.exr)");
+    sub->add_option("--b-light-scale", a->b_light_scale,
+                    "Scale B's emitters (negative control: 1.02 must be detected)");
+    sub->add_option("--b-defines", a->b_defines,
+                    "Extra OpenCL defines for B (negative controls, e.g. "
+                    "-DMCPT_NEGATIVE_CONTROL_NO_REFRACTION)");
+    sub->callback([a] { run_compare(*a); });
+}
+
+}  // namespace mcpt

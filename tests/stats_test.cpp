@@ -1,0 +1,58 @@
+// The statistics behind `mcpt compare`: distributions against known values, and the tests'
+// false-alarm rate and power on synthetic data with a known answer.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "common/stats.h"
+
+namespace mcpt::stats {
+namespace {
+
+TEST(Stats, DistributionsMatchTables) {
+    EXPECT_NEAR(normal_cdf(1.959963985), 0.975, 1e-9);
+    EXPECT_NEAR(normal_quantile(0.975), 1.959963985, 1e-8);
+    EXPECT_NEAR(normal_quantile(1e-10), -6.361340902, 1e-6);
+    EXPECT_NEAR(student_t_two_sided_p(2.228138852, 10), 0.05, 1e-8);  // t table, 10 dof
+    EXPECT_NEAR(student_t_two_sided_p(63.65674116, 1), 0.01, 1e-8);
+    EXPECT_NEAR(student_t_cdf(-1.0, 5), 0.1816087, 1e-6);
+    EXPECT_DOUBLE_EQ(student_t_two_sided_p(0.0, 7), 1.0);
+}
+
+TEST(Stats, SidakAndBenjaminiHochberg) {
+    EXPECT_NEAR(sidak_level(0.05, 1), 0.05, 1e-15);
+    EXPECT_NEAR(sidak_level(0.05, 100), 1 - std::pow(0.95, 0.01), 1e-15);
+    const std::vector<bool> d = benjamini_hochberg({0.001, 0.008, 0.039, 0.041, 0.3}, 0.05);
+    EXPECT_EQ(d, (std::vector<bool>{true, true, false, false, false}));
+}
+
+// Welch's test on normal samples: 5% false alarms at level 0.05 when the means are equal
+// (even with unequal variances), and a shift of 5 standard errors is found.
+TEST(Stats, WelchFalseAlarmRateAndPower) {
+    std::mt19937 rng(11);
+    std::normal_distribution<double> noise(0.0, 1.0);
+    auto sample = [&](double shift, double scale, int n, double& mean, double& var) {
+        double s = 0, s2 = 0;
+        for (int i = 0; i < n; ++i) {
+            const double x = shift + scale * noise(rng);
+            s += x, s2 += x * x;
+        }
+        mean = s / n;
+        var = (s2 - n * mean * mean) / (n - 1);
+    };
+    int false_alarms = 0, detections = 0;
+    const int trials = 4000;
+    for (int t = 0; t < trials; ++t) {
+        double ma, va, mb, vb;
+        sample(0.0, 1.0, 32, ma, va);
+        sample(0.0, 3.0, 32, mb, vb);  // unequal variances: Welch's case
+        false_alarms += welch_test(ma, va, 32, mb, vb, 32).p < 0.05;
+        sample(5.0 * std::sqrt(10.0 / 32.0), 3.0, 32, mb, vb);  // 5 standard errors away
+        detections += welch_test(ma, va, 32, mb, vb, 32).p < 0.05;
+    }
+    EXPECT_NEAR(false_alarms / double(trials), 0.05, 0.012);
+    EXPECT_GT(detections / double(trials), 0.98);
+}
+
+}  // namespace
+}  // namespace mcpt::stats
