@@ -35,3 +35,17 @@ inline Scene make_bumpy_mesh_scene(int segments) {
 }
 
 }  // namespace mcpt::test
+
+namespace mcpt::test {
+
+// The scene scaled about the origin by `scale`, then moved by `offset`: radiance is
+// invariant, so the image must not change.
+inline Scene transform_scene(Scene scene, double scale, glm::dvec3 offset) {
+    auto map = [&](glm::vec3 p) { return glm::vec3(glm::dvec3(p) * scale + offset); };
+    for (Triangle& t : scene.triangles) t.v0 = map(t.v0), t.v1 = map(t.v1), t.v2 = map(t.v2);
+    for (Sphere& s : scene.spheres) s.center = map(s.center), s.radius = float(s.radius * scale);
+    scene.camera.position = map(scene.camera.position);
+    return scene;
+}
+
+}  // namespace mcpt::test

@@ -86,7 +86,19 @@ MCPT_FN TriHit intersect_triangle(Ray ray, WoopRay w, GpuTriangle tri) {
     h.b0 = u * inv_det;
     h.b1 = v * inv_det;
     h.b2 = wv * inv_det;
-    h.hit = h.t > 0.0f && h.t < ray.tmax;
+    // Reject t within its rounding error of zero (pbrt-v4): an origin on the triangle's
+    // plane must not hit the triangle itself.
+    float max_zt = fmax3(ABSF(az), ABSF(bz), ABSF(cz)) * ABSF(w.sz);
+    float max_xt = fmax3(ABSF(ax), ABSF(bx), ABSF(cx));
+    float max_yt = fmax3(ABSF(ay), ABSF(by), ABSF(cy));
+    float delta_z = gamma_bound(3.0f) * max_zt;
+    float delta_x = gamma_bound(5.0f) * (max_xt + max_zt);
+    float delta_y = gamma_bound(5.0f) * (max_yt + max_zt);
+    float delta_e = 2.0f * (gamma_bound(2.0f) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    float max_e = fmax3(ABSF(u), ABSF(v), ABSF(wv));
+    float delta_t = 3.0f * (gamma_bound(3.0f) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) *
+                    ABSF(inv_det);
+    h.hit = h.t > delta_t && h.t < ray.tmax;
     return h;
 }
 
