@@ -267,6 +267,11 @@ MCPT_FN PixelSums render_pixel(SCENE_PARAMS_ uint pixel) {
     for (uint i = 0u; i < PARAM(samples_per_dispatch); ++i) {
         PathResult r = trace_path(SCENE_ARGS_ pixel, PARAM(sample_offset) + i);
         vec3 l = r.radiance;
+#ifdef MCPT_TEST_INJECT_NAN
+        // Tests: poison every 4th sample of pixel 0 (NaN) and of pixel 1 (+Inf).
+        if (pixel <= 1u && ((PARAM(sample_offset) + i) & 3u) == 0u)
+            l.x = pixel == 0u ? quiet_nan() : uint_as_float(0x7f800000u);
+#endif
         acc.sum_sq.w += F32(r.rays);
         // Non-finite samples are counted, never added.
         if (is_nonfinite3(l)) {
