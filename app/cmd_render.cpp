@@ -12,6 +12,9 @@
 #include "common/image_io.h"
 #include "common/render_loop.h"
 #include "opencl/cl_backend.h"
+#if MCPT_WITH_VULKAN
+#include "vulkan/vk_backend.h"
+#endif
 
 namespace mcpt {
 
@@ -31,6 +34,7 @@ struct RenderArgs {
     uint32_t seed = 0;
     bool fast_math = false;
     bool quiet = false;
+    double target_error = 0;  // stop once the mean relative standard error is below this
 };
 
 std::unique_ptr<Backend> open_backend(const RenderArgs& a) {
@@ -38,7 +42,12 @@ std::unique_ptr<Backend> open_backend(const RenderArgs& a) {
     o.device = a.device;
     o.fast_math = a.fast_math;
     if (a.backend == "opencl") return make_opencl_backend(o);
-    throw Error("unknown backend '" + a.backend + "' (available: opencl)");
+#if MCPT_WITH_VULKAN
+    if (a.backend == "vulkan") return make_vulkan_backend(o);
+    throw Error("unknown backend '" + a.backend + "' (available: opencl, vulkan)");
+#else
+    throw Error("unknown backend '" + a.backend + "' (available: opencl; built without Vulkan)");
+#endif
 }
 
 void print_progress(double frac, const RenderResult& r) {
@@ -71,13 +80,32 @@ void run_render(const RenderArgs& a) {
     ro.width = a.width, ro.height = a.height;
     ro.spp = a.spp;
     ro.seconds = a.seconds;
+    if (ro.spp == 0 && ro.seconds <= 0 && a.target_error > 0) ro.seconds = HUGE_VAL;
     if (ro.spp == 0 && ro.seconds <= 0) ro.spp = 64;
+    // --target-error: mean standard error / mean radiance, checked at every flush (>= 16 spp).
+    double rel_error = HUGE_VAL;
+    if (a.target_error > 0) {
+        ro.stop_when = [&](const RenderResult& r) {
+            const std::vector<float> e = r.std_error_image();
+            double sum = 0;
+            for (float v : e) sum += v;
+            const double mean_l = r.mean_radiance();
+            rel_error = mean_l > 0 && r.spp >= 2 ? sum / double(e.size()) / mean_l : HUGE_VAL;
+            return r.spp >= 16 && rel_error < a.target_error;
+        };
+    }
     ro.max_depth = uint32_t(a.max_depth >= 0 ? a.max_depth
                                              : (scene.max_depth_hint > 0 ? scene.max_depth_hint : 8));
     ro.seed = a.seed;
     const bool bar = !a.quiet && isatty(2);
+    auto progress = [&](double frac, const RenderResult& so_far) {
+        // With a target error, progress is the fraction of the samples it needs.
+        if (a.target_error > 0 && rel_error < HUGE_VAL)
+            frac = std::max(frac, std::min(1.0, std::pow(a.target_error / rel_error, 2)));
+        print_progress(frac, so_far);
+    };
     const RenderResult r = render(*backend, gpu_scene, scene.camera, ro,
-                                  bar ? ProgressFn(print_progress) : ProgressFn());
+                                  bar ? ProgressFn(progress) : ProgressFn());
     if (bar) std::fprintf(stderr, "\n");
 
     // Throughput and the error the image still carries.
@@ -96,6 +124,11 @@ void run_render(const RenderArgs& a) {
     std::printf("standard error per pixel and channel (sample variance): mean %.4g, max %.4g; "
                 "relative to mean radiance %.4g: %.2f%%\n",
                 mean_err, max_err, mean_l, mean_l > 0 ? 100.0 * mean_err / mean_l : 0.0);
+    if (a.target_error > 0) {
+        const bool reached = mean_l > 0 && r.spp >= 16 && mean_err / mean_l < a.target_error;
+        std::printf("target relative error %.2f%%: %s\n", 100 * a.target_error,
+                    reached ? "reached" : "not reached (stopped by --time or --spp)");
+    }
     if (r.nonfinite_total > 0) {
         std::printf("WARNING: %llu non-finite samples (NaN/Inf) were counted and left out\n",
                     (unsigned long long)r.nonfinite_total);
@@ -113,12 +146,15 @@ void add_render_command(CLI::App& app) {
     CLI::App* sub = app.add_subcommand("render", "Render a built-in scene or a glTF file");
     sub->add_option("scene", args->scene, "Built-in scene (cornell, furnace) or .gltf/.glb file")
         ->capture_default_str();
-    sub->add_option("--backend", args->backend, "opencl")->capture_default_str();
+    sub->add_option("--backend", args->backend, "opencl or vulkan")->capture_default_str();
     sub->add_option("--device", args->device, "Device index or name substring (mcpt devices)");
     auto* spp = sub->add_option("--spp", args->spp, "Samples per pixel (default 64)");
     sub->add_option("--time", args->seconds, "Render for this many seconds instead")
         ->excludes(spp)
         ->check(CLI::PositiveNumber);
+    sub->add_option("--target-error", args->target_error,
+                    "Stop once mean standard error / mean radiance is below this (e.g. 0.05)")
+        ->check(CLI::Range(1e-6, 1.0));
     sub->add_option("--width", args->width, "Image width")->check(CLI::Range(1, 16384))
         ->capture_default_str();
     sub->add_option("--height", args->height, "Image height")->check(CLI::Range(1, 16384))

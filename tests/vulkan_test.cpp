@@ -1,0 +1,239 @@
+// The Vulkan port against the validation layer, the furnace, its device limits and the
+// OpenCL reference. Every test skips when there is no Vulkan device (lavapipe in CI).
+#include <gtest/gtest.h>
+
+#if MCPT_WITH_VULKAN
+
+#include <cstdlib>
+#include <cstring>
+#include <iostream>
+#include <optional>
+
+#include "common/builtin_scenes.h"
+#include "common/error.h"
+#include "common/gpu_scene.h"
+#include "test_util.h"
+#include "vulkan/vk_backend.h"
+
+namespace mcpt {
+namespace {
+
+constexpr double kZLimit = 4.5;  // as in furnace_test.cpp
+
+// Sets an environment variable for one scope, restoring the previous value.
+class ScopedEnv {
+  public:
+    ScopedEnv(const char* name, const char* value) : name_(name) {
+        if (const char* old = std::getenv(name)) old_ = old;
+        setenv(name, value, 1);
+    }
+    ~ScopedEnv() {
+        if (old_)
+            setenv(name_, old_->c_str(), 1);
+        else
+            unsetenv(name_);
+    }
+
+  private:
+    const char* name_;
+    std::optional<std::string> old_;
+};
+
+bool have_vulkan() {
+    return !list_vulkan_devices().empty();
+}
+
+#define SKIP_WITHOUT_VULKAN()                                                 \
+    do {                                                                      \
+        if (!have_vulkan()) {                                                 \
+            GTEST_SKIP() << "no Vulkan device (install mesa-vulkan-drivers)"; \
+        }                                                                     \
+    } while (0)
+
+// The Vulkan device the tests run on: $MCPT_TEST_VULKAN_DEVICE (index or name), else the best.
+std::unique_ptr<VulkanBackend> open_vulkan() {
+    BackendOptions o;
+    if (const char* e = std::getenv("MCPT_TEST_VULKAN_DEVICE")) o.device = e;
+    std::unique_ptr<Backend> b = make_vulkan_backend(o);
+    auto* vk = dynamic_cast<VulkanBackend*>(b.get());
+    if (!vk) return nullptr;
+    b.release();
+    return std::unique_ptr<VulkanBackend>(vk);
+}
+
+struct Packed {
+    Scene scene;
+    GpuScene gpu;
+};
+
+Packed pack(Scene scene) {
+    validate_scene(scene);
+    GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, TreeOptions{}));
+    return {std::move(scene), std::move(g)};
+}
+
+RenderResult render_on(Backend& backend, const Packed& p, int size, uint64_t spp, uint32_t seed,
+                       float light_scale = 1.f) {
+    RenderOptions o;
+    o.width = o.height = size;
+    o.spp = spp;
+    o.seed = seed;
+    o.light_scale = light_scale;
+    if (p.scene.max_depth_hint > 0) o.max_depth = uint32_t(p.scene.max_depth_hint);
+    return render(backend, p.gpu, p.scene.camera, o);
+}
+
+// (a) Both built-in scenes under VK_LAYER_KHRONOS_validation: no message, no NaN/Inf.
+TEST(VulkanValidation, BuiltinScenesRenderWithoutMessages) {
+    SKIP_WITHOUT_VULKAN();
+    ScopedEnv validation("MCPT_VULKAN_VALIDATION", "1");
+    std::unique_ptr<VulkanBackend> vk;
+    try {
+        vk = open_vulkan();
+    } catch (const Error& e) {
+        if (std::strstr(e.what(), "not installed")) GTEST_SKIP() << e.what();
+        throw;
+    }
+    ASSERT_TRUE(vk);
+    for (const std::string name : {"cornell", "furnace"}) {
+        const Packed p = pack(make_builtin_scene(name));
+        const RenderResult r = render_on(*vk, p, 32, 4, 1);
+        EXPECT_EQ(r.nonfinite_total, 0u) << name;
+        EXPECT_GT(r.rays, 0) << name;
+        EXPECT_GT(r.mean_radiance(), 0) << name;
+        EXPECT_EQ(vk->validation_messages(), 0u) << name << ": see the messages on stderr";
+    }
+    if (vk->has_gpu_timer()) {
+        EXPECT_GT(vk->gpu_seconds(), 0);
+    }
+    EXPECT_GT(vk->compile_seconds(), 0);
+}
+
+// (b) The white furnace: Le / (1 - rho) = 2 within its confidence interval, sharp enough that a
+// 2% brighter light is rejected.
+TEST(VulkanFurnace, MatchesExactRadianceAndRejectsBrighterLight) {
+    SKIP_WITHOUT_VULKAN();
+    auto vk = open_vulkan();
+    const Packed p = pack(make_furnace_scene(0.5f, 1.0f));
+    const double exact = 1.0 / (1.0 - 0.5);
+    const RenderResult r = render_on(*vk, p, 32, 256, 7);
+    const test::MeanEstimate e = test::pooled_mean(r);
+    RecordProperty("relative_std_error", std::to_string(e.std_error / exact));
+    EXPECT_EQ(r.nonfinite_total, 0u);
+    EXPECT_LT(std::abs(e.z(exact)), kZLimit)
+        << "mean " << e.mean << " exact " << exact << " std error " << e.std_error;
+    EXPECT_LT(e.std_error / exact, 0.02 / (2 * kZLimit));
+    const test::MeanEstimate bright = test::pooled_mean(render_on(*vk, p, 32, 256, 7, 1.02f));
+    EXPECT_GT(bright.z(exact), kZLimit) << "a 2% brighter light went unnoticed";
+}
+
+// (c) A buffer over maxStorageBufferRange is refused with a clear message, before allocation;
+// the limit is lowered through MCPT_VULKAN_MAX_BUFFER_BYTES instead of allocating 128 MiB.
+TEST(VulkanLimits, RefusesBufferOverMaxStorageBufferRange) {
+    SKIP_WITHOUT_VULKAN();
+    auto vk = open_vulkan();
+    const Packed p = pack(make_builtin_scene("cornell"));
+    {
+        ScopedEnv limit("MCPT_VULKAN_MAX_BUFFER_BYTES", "256");
+        try {
+            vk->load(p.gpu, 32, 32);
+            FAIL() << "a 256-byte maxStorageBufferRange was not enforced";
+        } catch (const Error& e) {
+            const std::string m = e.what();
+            EXPECT_NE(m.find("scene too large for vulkan: "), std::string::npos) << m;
+            EXPECT_NE(m.find("maxStorageBufferRange is 256 B"), std::string::npos) << m;
+        }
+    }
+    // An image whose accumulation buffer exceeds any device's range (8 GiB > 4 GiB).
+    try {
+        vk->load(p.gpu, 16384, 16384);
+        FAIL() << "an 8 GiB accumulation buffer was accepted";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("accumulation buffer needs 8 GiB"), std::string::npos)
+            << e.what();
+    }
+    // The same backend still works within the limits.
+    const RenderResult r = render_on(*vk, p, 16, 1, 0);
+    EXPECT_GT(r.mean_radiance(), 0);
+}
+
+// A dispatch split into workgroup-count-limited vkCmdDispatchBase calls gives the same sums.
+TEST(VulkanDispatch, SplitDispatchMatchesSingleDispatch) {
+    SKIP_WITHOUT_VULKAN();
+    const Packed p = pack(make_builtin_scene("cornell"));
+    const int size = 32;
+    auto run = [&](bool split) {
+        std::optional<ScopedEnv> limit;
+        if (split) limit.emplace("MCPT_VULKAN_MAX_GROUP_COUNT", "1");
+        auto vk = open_vulkan();
+        vk->load(p.gpu, size, size);
+        gpu::GpuParams params = p.gpu.params;
+        set_camera(params, p.scene.camera, size, size);
+        params.max_depth = 8, params.rr_depth = 3, params.seed = 5, params.light_scale = 1.f;
+        params.pixel_offset = 0, params.pixel_count = size * size;
+        params.sample_offset = 0, params.samples_per_dispatch = 2, params.accumulate = 0;
+        vk->dispatch(params);
+        EXPECT_GT(uint32_t(size * size), vk->local_size()) << "no split to test";
+        std::vector<float> accum;
+        vk->read_accum(accum);
+        return accum;
+    };
+    const std::vector<float> single = run(false), split = run(true);
+    ASSERT_EQ(single.size(), split.size());
+    size_t differ = 0;
+    for (size_t i = 0; i < single.size(); ++i) differ += single[i] != split[i];
+    EXPECT_EQ(differ, 0u);
+}
+
+// (d) Same seed, same random stream: Vulkan and OpenCL agree pixel by pixel up to float
+// rounding (which can send a few paths elsewhere).
+TEST(VulkanVsOpenCl, SameSeedImagesAgree) {
+    SKIP_WITHOUT_VULKAN();
+    if (list_opencl_devices().empty()) GTEST_SKIP() << "no OpenCL device";
+    const Packed p = pack(make_builtin_scene("cornell"));
+    auto cl = test::test_opencl_backend();
+    auto vk = open_vulkan();
+    const std::vector<float> a = render_on(*cl, p, 16, 4, 3).mean_image();
+    const std::vector<float> b = render_on(*vk, p, 16, 4, 3).mean_image();
+    ASSERT_EQ(a.size(), b.size());
+    size_t diverged = 0;
+    const size_t pixels = a.size() / 3;
+    for (size_t i = 0; i < pixels; ++i) {
+        bool agree = true;
+        for (int c = 0; c < 3; ++c) {
+            const float x = a[3 * i + c], y = b[3 * i + c];
+            agree = agree && std::abs(x - y) <= 1e-3f * std::max(std::abs(x), std::abs(y));
+        }
+        diverged += !agree;
+    }
+    const double fraction = double(diverged) / double(pixels);
+    RecordProperty("fraction_diverged", std::to_string(fraction));
+    std::cout << "vulkan vs opencl, cornell 16x16 4 spp seed 3: " << diverged << " of " << pixels
+              << " pixels diverged (" << 100.0 * fraction << "%)\n";
+    EXPECT_LE(fraction, 0.05);
+}
+
+// Device list and options the port cannot honour.
+TEST(VulkanDevices, ListedWithLimitsAndOpenClOnlyOptionsRefused) {
+    SKIP_WITHOUT_VULKAN();
+    for (const DeviceInfo& d : list_vulkan_devices()) {
+        EXPECT_EQ(d.backend, "vulkan");
+        bool has_range = false;
+        for (const auto& [k, v] : d.limits) has_range = has_range || k == "maxStorageBufferRange";
+        EXPECT_TRUE(has_range) << d.name;
+    }
+    BackendOptions o;
+    o.fast_math = true;
+    EXPECT_THROW(make_vulkan_backend(o), Error);
+    o.fast_math = false;
+    o.extra_defines = "-DMCPT_NEGATIVE_CONTROL_RR";
+    EXPECT_THROW(make_vulkan_backend(o), Error);
+    o.extra_defines.clear();
+    o.device = "no such device";
+    EXPECT_THROW(make_vulkan_backend(o), Error);
+}
+
+}  // namespace
+}  // namespace mcpt
+
+#endif  // MCPT_WITH_VULKAN

@@ -1,0 +1,478 @@
+#include "vulkan/vk_backend.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
+#include <cstring>
+
+#include "common/error.h"
+#include "pathtrace_comp_spv.h"
+#include "vulkan/vk_context.h"
+#include "vulkan/vk_device.h"
+
+namespace mcpt {
+
+using vk::Buffer;
+using vk::human_bytes;
+
+struct VulkanBackend::Impl {
+    std::unique_ptr<vk::Instance> instance;
+    vk::PhysicalDevice pd;
+    std::unique_ptr<vk::Device> dev;
+    VkQueryPool timer = VK_NULL_HANDLE;  // two timestamps per dispatch, if the queue has them
+    VkShaderModule module = VK_NULL_HANDLE;
+    VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
+    VkPipelineLayout pipeline_layout = VK_NULL_HANDLE;
+    VkDescriptorPool descriptor_pool = VK_NULL_HANDLE;
+    VkDescriptorSet set = VK_NULL_HANDLE;
+    VkPipelineCache cache = VK_NULL_HANDLE;
+    VkPipeline pipeline = VK_NULL_HANDLE;
+    std::string cache_path;
+    std::vector<char> cache_data;  // as last read or written
+
+    // Scene resources, replaced by each load().
+    Buffer params, nodes, leaf, tris, spheres, materials, lights, accum, readback;
+    uint32_t pixels = 0;
+
+    // Pipeline specialization, dispatch limit, timings.
+    uint32_t local = WORKGROUP_SIZE;
+    uint32_t max_groups = 1;
+    uint32_t built_stack = 0;
+    bool built_dispatch_base = false;
+    double compile_seconds = 0;
+    double gpu_seconds = 0;
+
+    ~Impl() { destroy(); }
+
+    std::string description() const {
+        return "vulkan: " + pd.info.name + " (" + pd.info.platform + ")";
+    }
+
+    void init(std::unique_ptr<vk::Instance> inst, vk::PhysicalDevice chosen) {
+        instance = std::move(inst);
+        pd = std::move(chosen);
+        const VkPhysicalDeviceLimits& l = pd.props.limits;
+        dev = std::make_unique<vk::Device>(*instance, pd, description());
+        const vk::DeviceFns& f = dev->fn();
+        const VkDevice device = dev->handle();
+
+        // Timestamp pool, if the queue family has timestamps.
+        if (pd.timestamp_valid_bits > 0) {
+            VkQueryPoolCreateInfo qpi{};
+            qpi.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO;
+            qpi.queryType = VK_QUERY_TYPE_TIMESTAMP;
+            qpi.queryCount = 2;
+            VK_CHECK(f.vkCreateQueryPool, device, &qpi, nullptr, &timer);
+        }
+
+        // Shader module from the embedded SPIR-V.
+        VkShaderModuleCreateInfo si{};
+        si.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
+        si.codeSize = sizeof(kPathtraceSpirv);
+        si.pCode = kPathtraceSpirv;
+        VK_CHECK(f.vkCreateShaderModule, device, &si, nullptr, &module);
+
+        // Descriptor set layout: params uniform buffer, storage buffers at the BINDING_* slots.
+        VkDescriptorSetLayoutBinding bindings[BINDING_COUNT]{};
+        for (uint32_t b = 0; b < BINDING_COUNT; ++b) {
+            bindings[b].binding = b;
+            bindings[b].descriptorType = b == BINDING_PARAMS ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER
+                                                             : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+            bindings[b].descriptorCount = 1;
+            bindings[b].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
+        }
+        VkDescriptorSetLayoutCreateInfo li{};
+        li.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
+        li.bindingCount = BINDING_COUNT;
+        li.pBindings = bindings;
+        VK_CHECK(f.vkCreateDescriptorSetLayout, device, &li, nullptr, &set_layout);
+        VkPipelineLayoutCreateInfo pli{};
+        pli.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+        pli.setLayoutCount = 1;
+        pli.pSetLayouts = &set_layout;
+        VK_CHECK(f.vkCreatePipelineLayout, device, &pli, nullptr, &pipeline_layout);
+
+        // Descriptor pool and the one set.
+        const VkDescriptorPoolSize sizes[] = {
+            {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
+            {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, BINDING_COUNT - 1}};
+        VkDescriptorPoolCreateInfo dpi{};
+        dpi.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+        dpi.maxSets = 1;
+        dpi.poolSizeCount = 2;
+        dpi.pPoolSizes = sizes;
+        VK_CHECK(f.vkCreateDescriptorPool, device, &dpi, nullptr, &descriptor_pool);
+        VkDescriptorSetAllocateInfo dsi{};
+        dsi.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+        dsi.descriptorPool = descriptor_pool;
+        dsi.descriptorSetCount = 1;
+        dsi.pSetLayouts = &set_layout;
+        VK_CHECK(f.vkAllocateDescriptorSets, device, &dsi, &set);
+
+        // Pipeline cache, seeded from disk when the file matches this device and driver.
+        cache_path = vk::pipeline_cache_path(pd.props);
+        cache_data = vk::read_pipeline_cache(cache_path, pd.props);
+        VkPipelineCacheCreateInfo ci{};
+        ci.sType = VK_STRUCTURE_TYPE_PIPELINE_CACHE_CREATE_INFO;
+        ci.initialDataSize = cache_data.size();
+        ci.pInitialData = cache_data.empty() ? nullptr : cache_data.data();
+        VK_CHECK(f.vkCreatePipelineCache, device, &ci, nullptr, &cache);
+
+        // Workgroup size within the device's limits; dispatch size limit.
+        local = std::max(1u, std::min({uint32_t(WORKGROUP_SIZE), l.maxComputeWorkGroupSize[0],
+                                       l.maxComputeWorkGroupInvocations}));
+        max_groups =
+            uint32_t(vk::env_limit("MCPT_VULKAN_MAX_GROUP_COUNT", l.maxComputeWorkGroupCount[0]));
+    }
+
+    void destroy() {
+        if (dev) {
+            const vk::DeviceFns& f = dev->fn();
+            const VkDevice device = dev->handle();
+            f.vkDeviceWaitIdle(device);
+            release_scene();
+            if (pipeline) f.vkDestroyPipeline(device, pipeline, nullptr);
+            if (cache) f.vkDestroyPipelineCache(device, cache, nullptr);
+            if (descriptor_pool) f.vkDestroyDescriptorPool(device, descriptor_pool, nullptr);
+            if (pipeline_layout) f.vkDestroyPipelineLayout(device, pipeline_layout, nullptr);
+            if (set_layout) f.vkDestroyDescriptorSetLayout(device, set_layout, nullptr);
+            if (module) f.vkDestroyShaderModule(device, module, nullptr);
+            if (timer) f.vkDestroyQueryPool(device, timer, nullptr);
+            dev.reset();
+        }
+        instance.reset();
+    }
+
+    template <class T>
+    Buffer upload(const std::vector<T>& v) {
+        // Empty arrays get one dummy element: Vulkan has no empty buffers.
+        const T dummy{};
+        return v.empty() ? dev->upload(&dummy, sizeof(T))
+                         : dev->upload(v.data(), v.size() * sizeof(T));
+    }
+
+    void release_scene() {
+        for (Buffer* b :
+             {&params, &nodes, &leaf, &tris, &spheres, &materials, &lights, &accum, &readback})
+            dev->free_buffer(*b);
+        pixels = 0;
+    }
+
+    void build(uint32_t stack_size, bool dispatch_base) {
+        if (pipeline && stack_size == built_stack && dispatch_base == built_dispatch_base) return;
+        const vk::DeviceFns& f = dev->fn();
+        if (pipeline) f.vkDestroyPipeline(dev->handle(), pipeline, nullptr);
+        pipeline = VK_NULL_HANDLE;
+        const auto t0 = std::chrono::steady_clock::now();
+        // Specialization: id 0 = KD_STACK_SIZE, id 1 = local_size_x.
+        const uint32_t values[2] = {stack_size, local};
+        const VkSpecializationMapEntry entries[2] = {{0, 0, 4}, {1, 4, 4}};
+        VkSpecializationInfo spec{};
+        spec.mapEntryCount = 2;
+        spec.pMapEntries = entries;
+        spec.dataSize = sizeof(values);
+        spec.pData = values;
+        VkComputePipelineCreateInfo ci{};
+        ci.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
+        ci.flags = dispatch_base ? VK_PIPELINE_CREATE_DISPATCH_BASE_BIT : 0;
+        ci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+        ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+        ci.stage.module = module;
+        ci.stage.pName = "main";
+        ci.stage.pSpecializationInfo = &spec;
+        ci.layout = pipeline_layout;
+        VK_CHECK(f.vkCreateComputePipelines, dev->handle(), cache, 1, &ci, nullptr, &pipeline);
+        compile_seconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        built_stack = stack_size;
+        built_dispatch_base = dispatch_base;
+
+        // Save the cache if the driver's data changed.
+        size_t size = 0;
+        if (f.vkGetPipelineCacheData(dev->handle(), cache, &size, nullptr) != VK_SUCCESS) return;
+        std::vector<char> data(size);
+        if (f.vkGetPipelineCacheData(dev->handle(), cache, &size, data.data()) != VK_SUCCESS)
+            return;
+        data.resize(size);
+        if (data == cache_data) return;
+        vk::write_pipeline_cache(cache_path, data);
+        cache_data = std::move(data);
+    }
+
+    // ---- Backend
+
+    void check_limits(const GpuScene& scene, uint64_t accum_bytes) const {
+        // Every storage buffer against maxStorageBufferRange and maxMemoryAllocationSize.
+        const VkPhysicalDeviceLimits& l = pd.props.limits;
+        const uint64_t range =
+            vk::env_limit("MCPT_VULKAN_MAX_BUFFER_BYTES", l.maxStorageBufferRange);
+        const std::string lowered =
+            range < l.maxStorageBufferRange ? " (lowered by MCPT_VULKAN_MAX_BUFFER_BYTES)" : "";
+        const std::pair<const char*, uint64_t> sizes[] = {
+            {"k-d nodes", scene.nodes.size() * sizeof(gpu::KdNode)},
+            {"leaf indices", scene.leaf_indices.size() * 4},
+            {"triangles", scene.triangles.size() * sizeof(gpu::GpuTriangle)},
+            {"spheres", scene.spheres.size() * sizeof(gpu::GpuSphere)},
+            {"materials", scene.materials.size() * sizeof(gpu::GpuMaterial)},
+            {"lights", scene.lights.size() * sizeof(gpu::GpuLight)},
+            {"accumulation buffer", accum_bytes}};
+        for (const auto& [what, bytes] : sizes) {
+            const char* need = std::strcmp(what, "accumulation buffer") == 0 ? " needs " : " need ";
+            if (bytes > range) {
+                throw Error("scene too large for " + description() + ": " + what + need +
+                            human_bytes(bytes) + ", maxStorageBufferRange is " +
+                            human_bytes(range) + lowered);
+            }
+            if (pd.max_allocation > 0 && bytes > pd.max_allocation) {
+                throw Error("scene too large for " + description() + ": " + what + need +
+                            human_bytes(bytes) + ", maxMemoryAllocationSize is " +
+                            human_bytes(pd.max_allocation));
+            }
+        }
+        // Everything against the heap that device-local buffers come from.
+        const uint64_t total = accum_bytes + scene.device_bytes() + sizeof(gpu::GpuParams);
+        for (uint32_t t = 0; t < pd.memory.memoryTypeCount; ++t) {
+            if (pd.memory.memoryTypes[t].propertyFlags & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT) {
+                const uint64_t heap =
+                    pd.memory.memoryHeaps[pd.memory.memoryTypes[t].heapIndex].size;
+                if (total > heap) {
+                    throw Error("scene too large for " + description() + ": needs " +
+                                human_bytes(total) + " of " + human_bytes(heap) + " device memory");
+                }
+                break;
+            }
+        }
+    }
+
+    void load(const GpuScene& scene, int width, int height) {
+        // Check every buffer against the device limits before allocating or compiling.
+        const uint64_t npix = uint64_t(width) * uint64_t(height);
+        const uint64_t accum_bytes = npix * ACCUM_VEC4_PER_PIXEL * 16;
+        check_limits(scene, accum_bytes);
+        dev->wait_idle();
+        release_scene();
+
+        // Pipeline for this scene's stack depth (dispatch base only if one dispatch may need
+        // more workgroups than the device allows).
+        const uint64_t groups = (npix + local - 1) / local;
+        build(scene.stack_size, groups > max_groups);
+
+        // Upload; the accumulation buffer is device-local, zeroed, read back directly when
+        // host-visible and through a readback buffer otherwise.
+        params = dev->create_buffer(sizeof(gpu::GpuParams), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
+                                    vk::kHostMemory, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+        std::memcpy(params.mapped, &scene.params, sizeof(gpu::GpuParams));
+        nodes = upload(scene.nodes);
+        leaf = upload(scene.leaf_indices);
+        tris = upload(scene.triangles);
+        spheres = upload(scene.spheres);
+        materials = upload(scene.materials);
+        lights = upload(scene.lights);
+        accum = dev->create_buffer(accum_bytes,
+                                   VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
+                                       VK_BUFFER_USAGE_TRANSFER_SRC_BIT |
+                                       VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                   0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+        if (!accum.mapped) {
+            readback = dev->create_buffer(accum_bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                          vk::kHostMemory, VK_MEMORY_PROPERTY_HOST_CACHED_BIT);
+        }
+        dev->begin_commands();
+        dev->fn().vkCmdFillBuffer(dev->cmd(), accum.buffer, 0, VK_WHOLE_SIZE, 0);
+        dev->barrier(
+            VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+            VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
+            VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT);
+        dev->submit_and_wait();
+        pixels = uint32_t(npix);
+
+        // Descriptor set: every buffer at its BINDING_* slot.
+        const Buffer* by_slot[BINDING_COUNT] = {};
+        by_slot[BINDING_PARAMS] = &params;
+        by_slot[BINDING_NODES] = &nodes;
+        by_slot[BINDING_LEAF_INDICES] = &leaf;
+        by_slot[BINDING_TRIANGLES] = &tris;
+        by_slot[BINDING_SPHERES] = &spheres;
+        by_slot[BINDING_MATERIALS] = &materials;
+        by_slot[BINDING_LIGHTS] = &lights;
+        by_slot[BINDING_ACCUM] = &accum;
+        VkDescriptorBufferInfo infos[BINDING_COUNT];
+        VkWriteDescriptorSet writes[BINDING_COUNT]{};
+        for (uint32_t b = 0; b < BINDING_COUNT; ++b) {
+            infos[b] = {by_slot[b]->buffer, 0, VK_WHOLE_SIZE};
+            writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+            writes[b].dstSet = set;
+            writes[b].dstBinding = b;
+            writes[b].descriptorCount = 1;
+            writes[b].descriptorType = b == BINDING_PARAMS ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER
+                                                           : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+            writes[b].pBufferInfo = &infos[b];
+        }
+        dev->fn().vkUpdateDescriptorSets(dev->handle(), BINDING_COUNT, writes, 0, nullptr);
+    }
+
+    void dispatch(const gpu::GpuParams& p) {
+        if (!pipeline || pixels == 0) throw Error("vulkan: dispatch() before load()");
+        if (uint64_t(p.pixel_offset) + p.pixel_count > pixels) {
+            throw Error("vulkan: dispatch of pixels [" + std::to_string(p.pixel_offset) + ", " +
+                        std::to_string(uint64_t(p.pixel_offset) + p.pixel_count) +
+                        ") outside the " + std::to_string(pixels) + " loaded");
+        }
+        if (p.pixel_count == 0) return;
+        // Parameters: the previous dispatch has finished, so the mapped UBO is free.
+        std::memcpy(params.mapped, &p, sizeof(p));
+
+        // Record: order after the previous dispatch, time, dispatch (split if too large).
+        const vk::DeviceFns& f = dev->fn();
+        const VkCommandBuffer cmd = dev->cmd();
+        dev->begin_commands();
+        dev->barrier(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+                     VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                     VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+        if (timer) {
+            f.vkCmdResetQueryPool(cmd, timer, 0, 2);
+            f.vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, timer, 0);
+        }
+        f.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
+        f.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_layout, 0, 1, &set,
+                                  0, nullptr);
+        const uint32_t groups = (p.pixel_count + local - 1) / local;
+        if (groups <= max_groups) {
+            f.vkCmdDispatch(cmd, groups, 1, 1);
+        } else {
+            for (uint32_t base = 0; base < groups; base += max_groups)
+                f.vkCmdDispatchBase(cmd, base, 0, 0, std::min(max_groups, groups - base), 1, 1);
+        }
+        if (timer) f.vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timer, 1);
+        dev->barrier(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+                     VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                     VK_ACCESS_HOST_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT);
+
+        // Submit, wait, add the device time.
+        dev->submit_and_wait();
+        if (timer) {
+            uint64_t t[2] = {0, 0};
+            VK_CHECK(f.vkGetQueryPoolResults, dev->handle(), timer, 0, 2, sizeof(t), t,
+                     sizeof(uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
+            const uint64_t mask =
+                pd.timestamp_valid_bits >= 64 ? ~0ull : (1ull << pd.timestamp_valid_bits) - 1;
+            gpu_seconds +=
+                double((t[1] - t[0]) & mask) * double(pd.props.limits.timestampPeriod) * 1e-9;
+        }
+    }
+
+    void read_accum(std::vector<float>& out) {
+        if (pixels == 0) throw Error("vulkan: read_accum() before load()");
+        out.resize(size_t(accum.size / 4));
+        if (accum.mapped) {
+            std::memcpy(out.data(), accum.mapped, size_t(accum.size));
+            return;
+        }
+        // Not host-visible: copy into the readback buffer first.
+        dev->begin_commands();
+        const VkBufferCopy region{0, 0, accum.size};
+        dev->fn().vkCmdCopyBuffer(dev->cmd(), accum.buffer, readback.buffer, 1, &region);
+        dev->barrier(VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                     VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
+        dev->submit_and_wait();
+        std::memcpy(out.data(), readback.mapped, size_t(accum.size));
+    }
+};
+
+// ---- VulkanBackend: forwards to Impl
+
+VulkanBackend::VulkanBackend(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+VulkanBackend::~VulkanBackend() = default;
+std::string VulkanBackend::description() const {
+    return impl_->description();
+}
+const DeviceInfo& VulkanBackend::device() const {
+    return impl_->pd.info;
+}
+void VulkanBackend::load(const GpuScene& scene, int width, int height) {
+    impl_->load(scene, width, height);
+}
+void VulkanBackend::dispatch(const gpu::GpuParams& params) {
+    impl_->dispatch(params);
+}
+void VulkanBackend::read_accum(std::vector<float>& out) {
+    impl_->read_accum(out);
+}
+double VulkanBackend::compile_seconds() const {
+    return impl_->compile_seconds;
+}
+bool VulkanBackend::has_gpu_timer() const {
+    return impl_->timer != VK_NULL_HANDLE;
+}
+double VulkanBackend::gpu_seconds() const {
+    return impl_->gpu_seconds;
+}
+size_t VulkanBackend::validation_messages() const {
+    return impl_->instance->messages();
+}
+uint32_t VulkanBackend::local_size() const {
+    return impl_->local;
+}
+
+std::vector<DeviceInfo> list_vulkan_devices() {
+    std::vector<DeviceInfo> out;
+    try {
+        vk::Instance instance(false);
+        for (const vk::PhysicalDevice& d : instance.devices()) out.push_back(d.info);
+    } catch (const Error&) {
+        // No loader, no ICD or no device: an empty list.
+    }
+    return out;
+}
+
+std::unique_ptr<Backend> make_vulkan_backend(const BackendOptions& options) {
+    if (options.fast_math) {
+        throw Error(
+            "--fast-math is OpenCL only: the Vulkan shader is SPIR-V compiled at build "
+            "time");
+    }
+    if (!options.extra_defines.empty()) {
+        throw Error("extra defines (" + options.extra_defines +
+                    ") are OpenCL only: the Vulkan shader is SPIR-V compiled at build time");
+    }
+    auto instance = std::make_unique<vk::Instance>(vk::validation_requested());
+    std::vector<vk::PhysicalDevice> devices = instance->devices();
+    if (devices.empty()) throw Error(vk::kNoDeviceMessage);
+    const vk::PhysicalDevice* chosen = nullptr;
+    const std::string& sel = options.device;
+    if (sel.empty()) {
+        // Best: the first discrete or integrated GPU, else the first device.
+        for (const vk::PhysicalDevice& d : devices) {
+            if (!chosen && (d.props.deviceType == VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU ||
+                            d.props.deviceType == VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU))
+                chosen = &d;
+        }
+        if (!chosen) chosen = &devices.front();
+    } else if (std::all_of(sel.begin(), sel.end(), ::isdigit)) {
+        const size_t i = std::stoul(sel);
+        if (i >= devices.size()) {
+            throw Error("Vulkan device index " + sel + " out of range (" +
+                        std::to_string(devices.size()) + " devices; see 'mcpt devices')");
+        }
+        chosen = &devices[i];
+    } else {
+        for (const vk::PhysicalDevice& d : devices) {
+            if (!chosen && (vk::lower(d.info.name).find(vk::lower(sel)) != std::string::npos ||
+                            vk::lower(d.info.platform).find(vk::lower(sel)) != std::string::npos))
+                chosen = &d;
+        }
+        if (!chosen) throw Error("no Vulkan device matches '" + sel + "' (see 'mcpt devices')");
+    }
+    // Vulkan 1.1 and a compute queue are all the shader needs.
+    if (chosen->props.apiVersion < VK_API_VERSION_1_1) {
+        throw Error("Vulkan device " + chosen->info.name + " supports only Vulkan " +
+                    vk::version_string(chosen->props.apiVersion) + "; mcpt needs 1.1");
+    }
+    if (chosen->queue_family == UINT32_MAX)
+        throw Error("Vulkan device " + chosen->info.name + " has no compute queue");
+    auto impl = std::make_unique<VulkanBackend::Impl>();
+    impl->init(std::move(instance), *chosen);
+    return std::make_unique<VulkanBackend>(std::move(impl));
+}
+
+}  // namespace mcpt

@@ -1,0 +1,60 @@
+// Vulkan backend (the port): device discovery, compute pipeline from the SPIR-V embedded at
+// build time, buffer upload, dispatch and read-back. Vulkan 1.1 core only; the loader is
+// opened at run time, so mcpt runs (OpenCL only) where no Vulkan is installed.
+//
+// Environment:
+//   MCPT_VULKAN_VALIDATION=1          enable VK_LAYER_KHRONOS_validation and count its
+//                                     warnings and errors (printed to stderr)
+//   MCPT_VULKAN_MAX_BUFFER_BYTES=N    lower the effective maxStorageBufferRange to N bytes
+//                                     (tests of the "scene too large" path)
+//   MCPT_VULKAN_MAX_GROUP_COUNT=N     lower the effective maxComputeWorkGroupCount[0] to N
+//                                     (tests of dispatches split with vkCmdDispatchBase)
+//   XDG_CACHE_HOME / HOME             the pipeline cache lives in $XDG_CACHE_HOME/mcpt or
+//                                     ~/.cache/mcpt
+#pragma once
+#include <memory>
+#include <vector>
+
+#include "common/backend.h"
+
+namespace mcpt {
+
+// Every Vulkan physical device; an empty list if there is no loader, ICD or device.
+std::vector<DeviceInfo> list_vulkan_devices();
+
+// Opens the device chosen by options.device ("" = first discrete or integrated GPU, else the
+// first device; an index into list_vulkan_devices(); or a case-insensitive substring of the
+// device or driver name). Throws mcpt::Error if none matches. options.fast_math and
+// options.extra_defines are refused: the shader is SPIR-V compiled at build time.
+std::unique_ptr<Backend> make_vulkan_backend(const BackendOptions& options);
+
+// The concrete backend, for what the Backend interface does not carry (tests, benchmarks):
+// dynamic_cast a make_vulkan_backend() result to it.
+class VulkanBackend final : public Backend {
+  public:
+    struct Impl;
+    explicit VulkanBackend(std::unique_ptr<Impl> impl);
+    ~VulkanBackend() override;
+
+    std::string description() const override;
+    const DeviceInfo& device() const override;
+    void load(const GpuScene& scene, int width, int height) override;
+    void dispatch(const gpu::GpuParams& params) override;
+    void read_accum(std::vector<float>& out) override;
+    // Seconds spent creating the compute pipeline in load().
+    double compile_seconds() const override;
+
+    // Whether the queue has timestamps (timestampValidBits > 0); gpu_seconds() is 0 if not.
+    bool has_gpu_timer() const;
+    // Device time of all dispatches so far, from timestamp queries around each one.
+    double gpu_seconds() const;
+    // Validation-layer warnings and errors so far (0 unless MCPT_VULKAN_VALIDATION=1).
+    size_t validation_messages() const;
+    // Workgroup size along x that the pipeline was specialized with.
+    uint32_t local_size() const;
+
+  private:
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mcpt

@@ -1,0 +1,155 @@
+// Vulkan plumbing shared by the backend and the device list (private to vulkan/): the loader
+// opened at run time, function tables, result checks, the instance with its optional
+// validation messenger, and physical-device discovery.
+#pragma once
+#ifndef VK_NO_PROTOTYPES
+#define VK_NO_PROTOTYPES
+#endif
+#include <vulkan/vulkan.h>
+
+#include <atomic>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "common/backend.h"
+
+namespace mcpt::vk {
+
+// Functions reached through vkGetInstanceProcAddr(instance, ...).
+#define MCPT_VK_INSTANCE_FUNCTIONS(X)           \
+    X(vkDestroyInstance)                        \
+    X(vkEnumeratePhysicalDevices)               \
+    X(vkGetPhysicalDeviceProperties)            \
+    X(vkGetPhysicalDeviceProperties2)           \
+    X(vkGetPhysicalDeviceQueueFamilyProperties) \
+    X(vkGetPhysicalDeviceMemoryProperties)      \
+    X(vkEnumerateDeviceExtensionProperties)     \
+    X(vkCreateDevice)                           \
+    X(vkGetDeviceProcAddr)
+
+// Functions reached through vkGetDeviceProcAddr(device, ...).
+#define MCPT_VK_DEVICE_FUNCTIONS(X)  \
+    X(vkDestroyDevice)               \
+    X(vkGetDeviceQueue)              \
+    X(vkDeviceWaitIdle)              \
+    X(vkCreateBuffer)                \
+    X(vkDestroyBuffer)               \
+    X(vkGetBufferMemoryRequirements) \
+    X(vkAllocateMemory)              \
+    X(vkFreeMemory)                  \
+    X(vkBindBufferMemory)            \
+    X(vkMapMemory)                   \
+    X(vkUnmapMemory)                 \
+    X(vkCreateShaderModule)          \
+    X(vkDestroyShaderModule)         \
+    X(vkCreatePipelineCache)         \
+    X(vkDestroyPipelineCache)        \
+    X(vkGetPipelineCacheData)        \
+    X(vkCreateComputePipelines)      \
+    X(vkDestroyPipeline)             \
+    X(vkCreateDescriptorSetLayout)   \
+    X(vkDestroyDescriptorSetLayout)  \
+    X(vkCreatePipelineLayout)        \
+    X(vkDestroyPipelineLayout)       \
+    X(vkCreateDescriptorPool)        \
+    X(vkDestroyDescriptorPool)       \
+    X(vkAllocateDescriptorSets)      \
+    X(vkUpdateDescriptorSets)        \
+    X(vkCreateCommandPool)           \
+    X(vkDestroyCommandPool)          \
+    X(vkResetCommandPool)            \
+    X(vkAllocateCommandBuffers)      \
+    X(vkBeginCommandBuffer)          \
+    X(vkEndCommandBuffer)            \
+    X(vkCmdBindPipeline)             \
+    X(vkCmdBindDescriptorSets)       \
+    X(vkCmdDispatch)                 \
+    X(vkCmdDispatchBase)             \
+    X(vkCmdPipelineBarrier)          \
+    X(vkCmdCopyBuffer)               \
+    X(vkCmdFillBuffer)               \
+    X(vkCmdResetQueryPool)           \
+    X(vkCmdWriteTimestamp)           \
+    X(vkCreateQueryPool)             \
+    X(vkDestroyQueryPool)            \
+    X(vkGetQueryPoolResults)         \
+    X(vkCreateFence)                 \
+    X(vkDestroyFence)                \
+    X(vkResetFences)                 \
+    X(vkWaitForFences)               \
+    X(vkQueueSubmit)
+
+#define MCPT_VK_DECLARE(name) PFN_##name name = nullptr;
+struct InstanceFns {
+    MCPT_VK_INSTANCE_FUNCTIONS(MCPT_VK_DECLARE)
+    // VK_EXT_debug_utils, only with validation.
+    PFN_vkCreateDebugUtilsMessengerEXT vkCreateDebugUtilsMessengerEXT = nullptr;
+    PFN_vkDestroyDebugUtilsMessengerEXT vkDestroyDebugUtilsMessengerEXT = nullptr;
+};
+struct DeviceFns {
+    MCPT_VK_DEVICE_FUNCTIONS(MCPT_VK_DECLARE)
+};
+#undef MCPT_VK_DECLARE
+
+// The message of every "no Vulkan" failure.
+inline constexpr const char* kNoDeviceMessage =
+    "no Vulkan device found (install mesa-vulkan-drivers for lavapipe)";
+
+// "VK_ERROR_OUT_OF_DEVICE_MEMORY".
+const char* result_name(VkResult r);
+// Throws mcpt::Error("<call> failed: <result>") unless r is VK_SUCCESS (or VK_INCOMPLETE).
+void check(VkResult r, const char* call);
+// check() with the call's name taken from the expression: VK_CHECK(f.vkCreateBuffer, ...).
+#define VK_CHECK(fn, ...) ::mcpt::vk::check(fn(__VA_ARGS__), ::mcpt::vk::call_name(#fn))
+const char* call_name(const char* expr);  // "f.vkCreateBuffer" -> "vkCreateBuffer"
+
+std::string human_bytes(uint64_t b);
+std::string lower(std::string s);
+std::string version_string(uint32_t v);  // "1.3.230"
+
+// A physical device with what the backend needs to choose and size it.
+struct PhysicalDevice {
+    VkPhysicalDevice handle = VK_NULL_HANDLE;
+    DeviceInfo info;
+    VkPhysicalDeviceProperties props{};
+    VkPhysicalDeviceMemoryProperties memory{};
+    uint64_t max_allocation = 0;         // maxMemoryAllocationSize (maintenance3, core 1.1)
+    uint32_t queue_family = UINT32_MAX;  // first family with compute, UINT32_MAX if none
+    uint32_t timestamp_valid_bits = 0;   // of that family
+};
+
+// A Vulkan 1.1 instance; with validation, VK_LAYER_KHRONOS_validation and a debug-utils
+// messenger counting warnings and errors.
+class Instance {
+  public:
+    // Throws mcpt::Error(kNoDeviceMessage) without a loader or ICD; with validation, throws
+    // if the layer or VK_EXT_debug_utils is missing.
+    explicit Instance(bool validation);
+    ~Instance();
+    Instance(const Instance&) = delete;
+    Instance& operator=(const Instance&) = delete;
+
+    VkInstance handle() const { return instance_; }
+    const InstanceFns& fn() const { return fn_; }
+    size_t messages() const { return messages_.load(); }
+    // Every physical device, in enumeration order (DeviceInfo::index).
+    std::vector<PhysicalDevice> devices() const;
+
+  private:
+    static VKAPI_ATTR VkBool32 VKAPI_CALL on_message(
+        VkDebugUtilsMessageSeverityFlagBitsEXT severity, VkDebugUtilsMessageTypeFlagsEXT types,
+        const VkDebugUtilsMessengerCallbackDataEXT* data, void* user);
+
+    VkInstance instance_ = VK_NULL_HANDLE;
+    VkDebugUtilsMessengerEXT messenger_ = VK_NULL_HANDLE;
+    InstanceFns fn_;
+    std::atomic<size_t> messages_{0};
+};
+
+// Whether MCPT_VULKAN_VALIDATION=1.
+bool validation_requested();
+// An unsigned environment override (e.g. MCPT_VULKAN_MAX_BUFFER_BYTES), or `fallback`.
+uint64_t env_limit(const char* name, uint64_t fallback);
+
+}  // namespace mcpt::vk
