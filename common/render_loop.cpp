@@ -112,9 +112,10 @@ RenderResult render_loaded(Backend& backend, const GpuScene& scene, const Camera
         const double rate = double(spp) * npix / std::max(pass_s, 1e-6);
         work = std::clamp(rate * opt.dispatch_ms * 1e-3, 64.0, 64.0 * npix);
 
-        const bool done = opt.spp > 0 ? r.spp >= opt.spp : elapsed() >= opt.seconds;
-        if (done || unflushed >= opt.flush_spp) flush();
+        bool done = opt.spp > 0 ? r.spp >= opt.spp : elapsed() >= opt.seconds;
+        if (done || unflushed >= opt.flush_spp || opt.stop_when) flush();
         r.seconds = elapsed();
+        if (opt.stop_when && opt.stop_when(r)) done = true;
         if (progress) {
             const double frac = opt.spp > 0 ? double(r.spp) / double(opt.spp)
                                             : std::min(1.0, r.seconds / opt.seconds);

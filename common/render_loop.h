@@ -9,6 +9,8 @@
 
 namespace mcpt {
 
+struct RenderResult;
+
 struct RenderOptions {
     int width = 256, height = 256;
     uint64_t spp = 0;          // samples per pixel; 0: run for `seconds`
@@ -19,6 +21,8 @@ struct RenderOptions {
     float light_scale = 1.f;   // negative controls only
     double dispatch_ms = 30;   // target duration of one dispatch
     uint32_t flush_spp = 128;  // device float sums hold at most this many samples per pixel
+    // Optional early stop, asked after every flush; when set, every pass is flushed.
+    std::function<bool(const RenderResult&)> stop_when;
 };
 
 struct RenderResult {
