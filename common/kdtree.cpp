@@ -302,9 +302,12 @@ class Engine {
     void build(Job& job, Scratch& s) {
         Subtree& out = *job.out;
         std::vector<Ref>& v = s.arena;
-        v.clear();
-        v.reserve(job.refs.size() * 2);
-        v.insert(v.end(), job.refs.begin(), job.refs.end());
+        // Take over the job's array (reserved for growth) unless this worker's is larger.
+        if (job.refs.capacity() > v.capacity()) {
+            v.swap(job.refs);
+        } else {
+            v.assign(job.refs.begin(), job.refs.end());
+        }
         std::vector<Ref>().swap(job.refs);
         struct Entry {
             size_t begin, end;
@@ -346,12 +349,9 @@ class Engine {
             const size_t mid = partition(v, e.begin, sp, below, above, u_below, u_above);
             if (threads_ > 1 && mid - e.begin >= kHandOffMin) {
                 // Hand the above child to another worker.
-                Job child{{v.begin() + ptrdiff_t(e.begin), v.begin() + ptrdiff_t(mid)},
-                          above,
-                          u_above,
-                          depth,
-                          sp.bad_refines,
-                          nullptr};
+                Job child{{}, above, u_above, depth, sp.bad_refines, nullptr};
+                child.refs.reserve(2 * (mid - e.begin));
+                child.refs.assign(v.begin() + ptrdiff_t(e.begin), v.begin() + ptrdiff_t(mid));
                 v.erase(v.begin() + ptrdiff_t(e.begin), v.begin() + ptrdiff_t(mid));
                 const uint32_t id = enqueue(std::move(child));
                 stack.push_back({e.begin, e.begin, above, u_above, depth, 0, self, int64_t(id)});
@@ -701,7 +701,9 @@ KdTree build_kdtree(const std::vector<Triangle>& triangles, const TreeOptions& o
         tree.nodes.push_back({0u, uint32_t(n << 2) | KD_LEAF});
     } else {
         // References with the triangles' bounds, then the tree of the chosen kind.
-        std::vector<Ref> refs(n);
+        std::vector<Ref> refs;
+        refs.reserve(2 * n);  // room for the duplicated references of the first branch
+        refs.resize(n);
         for (size_t i = 0; i < n; ++i) {
             const Triangle& t = triangles[i];
             const glm::vec3 lo = glm::min(t.v0, glm::min(t.v1, t.v2));
