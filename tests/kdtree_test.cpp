@@ -656,8 +656,9 @@ TEST(KdTreeTraversal, MatchesBruteForce) {
 
 // The shared device traversal (gpu::trace_ray on the CPU) on the same trees. Rays lying in a
 // split plane (stairs faces, the blob's vertex rows) make the traversal defer the far child
-// with the near child's tmin, so deferred nodes are not sorted by distance there: stopping at
-// the first one that starts beyond the hit misses triangles touching the plane from that side.
+// with the near child's tmin, so deferred nodes are not sorted by distance there: a traversal
+// that stops at the first one starting beyond the hit misses triangles touching the plane
+// from that side (it did, on stairs/sah).
 TEST(KdTreeTraversal, DeviceTraversalMatchesBruteForce) {
     for (const NamedMesh& m : test_meshes()) {
         std::vector<gpu::GpuTriangle> g;

@@ -62,43 +62,44 @@ MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
     uint sp = 0u;
     uint node = 0u;
     while (true) {
-        // Stop once the nearest hit lies before this node's interval.
-        if (hit.t < tmin) break;
+        // Visit the node unless it starts beyond the nearest hit.
+        if (hit.t >= tmin) {
 #ifdef MCPT_COUNTERS
-        hit.node_visits += 1u;
+            hit.node_visits += 1u;
 #endif
-        KdNode n = nodes[node];
-        uint axis = n.flags & 3u;
-        if (axis != KD_LEAF) {
-            // Interior: order the children along the ray.
-            float split = uint_as_float(n.split_or_offset);
-            float o_a = vec3_at(ray.o, axis);
-            float d_a = vec3_at(ray.d, axis);
-            float t_plane = (split - o_a) * vec3_at(inv_d, axis);
-            bool below_first = (o_a < split) || (o_a == split && d_a <= 0.0f);
-            uint above = n.flags >> 2u;
-            uint first = below_first ? node + 1u : above;
-            uint second = below_first ? above : node + 1u;
-            bool in_plane = t_plane != t_plane;  // NaN: ray lies in the split plane
-            if (!in_plane && (t_plane > tmax * (1.0f + KD_SLACK) || t_plane <= 0.0f)) {
-                node = first;
-            } else if (!in_plane && t_plane < tmin * (1.0f - KD_SLACK)) {
-                node = second;
-            } else {
-                // Both: defer the far child.
-                if (sp >= KD_STACK_SIZE) {
-                    hit.status = TRACE_STACK_OVERFLOW;
-                    return hit;
+            KdNode n = nodes[node];
+            uint axis = n.flags & 3u;
+            if (axis != KD_LEAF) {
+                // Interior: order the children along the ray.
+                float split = uint_as_float(n.split_or_offset);
+                float o_a = vec3_at(ray.o, axis);
+                float d_a = vec3_at(ray.d, axis);
+                float t_plane = (split - o_a) * vec3_at(inv_d, axis);
+                bool below_first = (o_a < split) || (o_a == split && d_a <= 0.0f);
+                uint above = n.flags >> 2u;
+                uint first = below_first ? node + 1u : above;
+                uint second = below_first ? above : node + 1u;
+                bool in_plane = t_plane != t_plane;  // NaN: ray lies in the split plane
+                if (!in_plane && (t_plane > tmax * (1.0f + KD_SLACK) || t_plane <= 0.0f)) {
+                    node = first;
+                } else if (!in_plane && t_plane < tmin * (1.0f - KD_SLACK)) {
+                    node = second;
+                } else {
+                    // Both: defer the far child.
+                    if (sp >= KD_STACK_SIZE) {
+                        hit.status = TRACE_STACK_OVERFLOW;
+                        return hit;
+                    }
+                    float t_split = in_plane ? tmin : t_plane;
+                    stack_node[sp] = second;
+                    stack_tmin[sp] = t_split * (1.0f - KD_SLACK);
+                    stack_tmax[sp] = tmax;
+                    sp += 1u;
+                    node = first;
+                    tmax = in_plane ? tmax : t_plane * (1.0f + KD_SLACK);
                 }
-                float t_split = in_plane ? tmin : t_plane;
-                stack_node[sp] = second;
-                stack_tmin[sp] = t_split * (1.0f - KD_SLACK);
-                stack_tmax[sp] = tmax;
-                sp += 1u;
-                node = first;
-                tmax = in_plane ? tmax : t_plane * (1.0f + KD_SLACK);
+                continue;
             }
-        } else {
             // Leaf: test its triangles.
             uint count = n.flags >> 2u;
             uint first_index = n.split_or_offset;
@@ -118,13 +119,15 @@ MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
                     if (any_hit) return hit;
                 }
             }
-            // Next deferred node.
-            if (sp == 0u) break;
-            sp -= 1u;
-            node = stack_node[sp];
-            tmin = stack_tmin[sp];
-            tmax = stack_tmax[sp];
         }
+        // Next deferred node. Pop on past nodes that start beyond the hit rather than stop
+        // at the first: a ray lying in a split plane defers the far child with the near
+        // child's tmin, so the stack is not sorted by distance there.
+        if (sp == 0u) break;
+        sp -= 1u;
+        node = stack_node[sp];
+        tmin = stack_tmin[sp];
+        tmax = stack_tmax[sp];
     }
     return hit;
 }
