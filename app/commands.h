@@ -20,6 +20,8 @@ void add_render_command(CLI::App& app);
 void add_devices_command(CLI::App& app);
 void add_tree_command(CLI::App& app);
 void add_compare_command(CLI::App& app);
+void add_converge_command(CLI::App& app);
+void add_bench_command(CLI::App& app);
 
 // A built-in scene name or a .gltf/.glb path, loaded and validated; warnings go to stderr.
 Scene load_scene_argument(const std::string& arg);

@@ -11,6 +11,8 @@ int main(int argc, char** argv) {
     mcpt::add_devices_command(app);
     mcpt::add_tree_command(app);
     mcpt::add_compare_command(app);
+    mcpt::add_converge_command(app);
+    mcpt::add_bench_command(app);
     try {
         app.parse(argc, argv);
         // No subcommand: render the default scene on the best device.

@@ -1,0 +1,423 @@
+// mcpt bench: the thesis' tables as a benchmark. For each model, tree (none, the thesis'
+// median tree at depth 3, SAH) and backend/device: tree build time and bytes, time per frame
+// at a fixed resolution and sample count, samples/s and rays/s, and the work per ray
+// (triangle tests, node visits) counted by the shared traversal on the CPU in a separate,
+// untimed pass. Writes prefix.md, prefix.csv and prefix.svg; prints the table.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+
+#include "app/commands.h"
+#include "common/builtin_scenes.h"
+#include "common/cpu_trace.h"
+#include "common/error.h"
+#include "common/render_loop.h"
+#include "common/svg_plot.h"
+#include "opencl/cl_backend.h"
+#if MCPT_WITH_VULKAN
+#include "vulkan/vk_backend.h"
+#endif
+
+namespace mcpt {
+
+namespace {
+
+struct BenchArgs {
+    bool quick = false;
+    std::vector<std::string> backends;  // empty: every device found
+    std::string models = "models";
+    std::string output = "bench";
+    int width = 0, height = 0;  // 0: 256 (quick: 64)
+    uint64_t spp = 0;           // 0: 4 (quick: 2)
+    int frames = 3;
+    double max_frame_seconds = 10;
+};
+
+struct TreeConfig {
+    const char* label;
+    const char* kind;
+    int depth;
+};
+const TreeConfig kTrees[] = {{"none", "none", -1}, {"median-3", "median", 3}, {"sah", "sah", -1}};
+
+// Work per ray, summed over the rays counted.
+struct Work {
+    double tri_tests = 0, node_visits = 0, rays = 0;
+    void add(const gpu::Hit& h) { tri_tests += h.tri_tests, node_visits += h.node_visits, ++rays; }
+    double tests() const { return rays > 0 ? tri_tests / rays : 0; }
+    double visits() const { return rays > 0 ? node_visits / rays : 0; }
+};
+
+struct Counts {
+    Work camera, paths;
+    double rays_per_path = 0;
+};
+
+struct Row {
+    std::string model, tree, backend, device;
+    size_t triangles = 0;
+    double build_ms = 0, ms_per_frame = 0, msamples = 0, mrays = 0;
+    size_t tree_bytes = 0;
+    Counts counts;
+    std::string note;  // non-empty: skipped, with the reason
+};
+
+// The Cornell box with its spheres replaced by a bumpy tessellated sphere (2 * segments^2
+// triangles): the stand-in mesh when no models are at hand.
+Scene generated_mesh_scene(int segments) {
+    Scene scene = make_builtin_scene("cornell");
+    scene.name = "generated-sphere";
+    scene.spheres.clear();
+    Material m;
+    m.name = "bumpy";
+    m.color = glm::vec3(0.7f, 0.6f, 0.5f);
+    const uint32_t mat = scene.add_material(m);
+    auto point = [&](int i, int j) {
+        const float theta = float(M_PI) * float(i) / float(segments);
+        const float phi = 2.f * float(M_PI) * float(j) / float(segments);
+        const float r = 0.45f * (1.f + 0.08f * std::sin(7.f * theta) * std::sin(9.f * phi));
+        return glm::vec3(r * std::sin(theta) * std::cos(phi), 0.5f + r * std::cos(theta),
+                         r * std::sin(theta) * std::sin(phi));
+    };
+    for (int i = 0; i < segments; ++i) {
+        for (int j = 0; j < segments; ++j) {
+            // Two triangles per quad, counter-clockwise seen from outside.
+            const glm::vec3 a = point(i, j), b = point(i + 1, j), c = point(i + 1, j + 1),
+                            d = point(i, j + 1);
+            scene.triangles.push_back({a, d, c, mat});
+            scene.triangles.push_back({a, c, b, mat});
+        }
+    }
+    validate_scene(scene);
+    return scene;
+}
+
+// The scenes: cornell always, then the models present (quick: the small ones only).
+std::vector<std::pair<std::string, Scene>> bench_scenes(const BenchArgs& a) {
+    std::vector<std::pair<std::string, Scene>> out;
+    out.emplace_back("cornell", load_scene_argument("cornell"));
+    const std::vector<std::string> names =
+        a.quick ? std::vector<std::string>{"cube", "teapot"}
+                : std::vector<std::string>{"cube",       "teapot",      "bunny",      "dragon-11k",
+                                           "dragon-48k", "dragon-202k", "dragon-871k"};
+    for (const std::string& n : names) {
+        const std::string path = a.models + "/" + n + ".glb";
+        if (std::filesystem::exists(path)) out.emplace_back(n, load_scene_argument(path));
+    }
+    if (out.size() == 1) {
+        std::printf("note: no models in '%s' (scripts/fetch-models); using a generated mesh\n",
+                    a.models.c_str());
+        std::fflush(stdout);
+        out.emplace_back("generated-sphere", generated_mesh_scene(24));
+    }
+    return out;
+}
+
+// The rays of one path as trace_path() makes them (camera, bounces, shadow rays), traced
+// with the counting CPU build of the traversal.
+void count_path(const GpuScene& g, const gpu::GpuParams& p, uint32_t pixel, uint32_t sample,
+                Work& work) {
+    using namespace gpu;
+    const GpuParams* params = &p;
+    const KdNode* nodes = g.nodes.data();
+    const uint* leaf_indices = g.leaf_indices.data();
+    const GpuTriangle* triangles = g.triangles.data();
+    const GpuSphere* spheres = g.spheres.data();
+    const GpuMaterial* materials = g.materials.data();
+    const GpuLight* lights = g.lights.data();
+    // Camera ray through a jittered point of the pixel.
+    const vec4 u_cam = rng4(pixel, sample, 0u, p.seed);
+    const float fx = (float(pixel % p.width) + u_cam.x) / float(p.width) * 2.f - 1.f;
+    const float fy = 1.f - (float(pixel / p.width) + u_cam.y) / float(p.height) * 2.f;
+    Ray ray;
+    ray.o = V3(p.cam_px, p.cam_py, p.cam_pz);
+    ray.d = normalize(V3(p.cam_wx, p.cam_wy, p.cam_wz) + V3(p.cam_ux, p.cam_uy, p.cam_uz) * fx +
+                      V3(p.cam_vx, p.cam_vy, p.cam_vz) * fy);
+    ray.tmax = MCPT_FLT_MAX;
+    vec3 beta = V3S(1.f);
+    float eta_scale = 1.f;
+    for (uint depth = 0;; ++depth) {
+        // Next vertex.
+        const Hit hit = cpu_trace(g, ray, false);
+        work.add(hit);
+        if (hit.status != 0u || hit.prim == NO_HIT || depth >= p.max_depth) break;
+        const SurfacePoint s = surface_at(SCENE_ARGS_ ray, hit);
+        const GpuMaterial m = materials[s.material];
+        const vec3 wo = -ray.d;
+        const bool front = dot(s.ng, wo) > 0.f;
+        const vec3 n = front ? s.ng : -s.ng;
+        const vec4 ua = rng4(pixel, sample, 2u * depth + 1u, p.seed);
+        const vec4 ub = rng4(pixel, sample, 2u * depth + 2u, p.seed);
+        // Shadow ray of next-event estimation.
+        if (m.type == MAT_DIFFUSE && p.num_lights > 0u) {
+            const LightSample ls = sample_light(SCENE_ARGS_ s.p, V3(ua.x, ua.y, ua.z));
+            if (ls.valid && dot(n, ls.wi) > 0.f) {
+                Ray shadow;
+                shadow.o = offset_ray_origin(s.p, s.p_error, s.ng, ls.wi);
+                shadow.d = offset_ray_origin(ls.p, ls.p_error, ls.n, -ls.wi) - shadow.o;
+                shadow.tmax = 1.f - SHADOW_EPSILON;
+                work.add(cpu_trace(g, shadow, true));
+            }
+        }
+        // Bounce, then Russian roulette as the kernel does it.
+        const BsdfSample bs = sample_bsdf(m, n, wo, front, V3(ub.x, ub.y, ub.z));
+        if (!bs.valid) break;
+        beta = beta * bs.weight;
+        eta_scale *= bs.eta2;
+        ray.o = offset_ray_origin(s.p, s.p_error, s.ng, bs.wi);
+        ray.d = bs.wi;
+        ray.tmax = MCPT_FLT_MAX;
+        if (depth + 1u >= p.rr_depth) {
+            const float survive = std::min(1.f, max_component(beta * eta_scale));
+            if (ua.w >= survive) break;
+            beta = beta / survive;
+        }
+    }
+}
+
+// Camera rays through a grid and a few hundred full paths, fewer when a ray is expensive.
+Counts count_work(const GpuScene& g, const Scene& scene, const RenderOptions& ro,
+                  const TreeConfig& tc) {
+    gpu::GpuParams p = g.params;
+    set_camera(p, scene.camera, ro.width, ro.height);
+    p.max_depth = ro.max_depth, p.rr_depth = ro.rr_depth, p.seed = 12345;
+    const double n_tris = double(std::max<size_t>(1, g.triangles.size()));
+    const double per_ray = tc.kind == std::string("none")     ? n_tris
+                           : tc.kind == std::string("median") ? n_tris / 4
+                                                              : 64;
+    const int side = std::clamp(int(std::sqrt(2e8 / per_ray)), 8, 64);
+    const int paths = std::clamp(side * side / 16, 16, 256);
+    Counts c;
+    for (int y = 0; y < side; ++y) {
+        for (int x = 0; x < side; ++x) {
+            gpu::Ray r;
+            const float fx = (x + 0.5f) / side * 2 - 1, fy = 1 - (y + 0.5f) / side * 2;
+            r.o = {p.cam_px, p.cam_py, p.cam_pz};
+            r.d = glm::normalize(glm::vec3(p.cam_wx, p.cam_wy, p.cam_wz) +
+                                 fx * glm::vec3(p.cam_ux, p.cam_uy, p.cam_uz) +
+                                 fy * glm::vec3(p.cam_vx, p.cam_vy, p.cam_vz));
+            r.tmax = 3.4e38f;
+            c.camera.add(cpu_trace(g, r, false));
+        }
+    }
+    const uint32_t npix = uint32_t(ro.width) * uint32_t(ro.height);
+    for (int i = 0; i < paths; ++i) {
+        // Pixels spread over the image by a multiplicative hash.
+        const uint32_t pixel = uint32_t((uint64_t(i) * 2654435761u) % npix);
+        count_path(g, p, pixel, uint32_t(i), c.paths);
+    }
+    c.rays_per_path = c.paths.rays / paths;
+    return c;
+}
+
+struct OpenBackend {
+    std::string spec;
+    std::unique_ptr<Backend> backend;
+};
+
+// Every OpenCL and Vulkan device, or the specs given; a device that fails to open is noted.
+std::vector<OpenBackend> open_backends(const BenchArgs& a) {
+    std::vector<std::string> specs = a.backends;
+    if (specs.empty()) {
+        for (const DeviceInfo& d : list_opencl_devices())
+            specs.push_back("opencl:" + std::to_string(d.index));
+#if MCPT_WITH_VULKAN
+        for (const DeviceInfo& d : list_vulkan_devices())
+            specs.push_back("vulkan:" + std::to_string(d.index));
+#endif
+    }
+    std::vector<OpenBackend> out;
+    for (const std::string& s : specs) {
+        try {
+            out.push_back({s, open_backend(s, BackendOptions{})});
+        } catch (const std::exception& e) {
+            std::printf("note: backend %s skipped: %s\n", s.c_str(), e.what());
+            std::fflush(stdout);
+        }
+    }
+    if (out.empty()) throw Error("no backend to benchmark");
+    return out;
+}
+
+// Times frames on one backend: a warm-up, then the median of `frames` timed frames.
+void time_frames(Backend& backend, const GpuScene& g, const Scene& scene, RenderOptions ro,
+                 int frames, Row& row) {
+    backend.load(g, ro.width, ro.height);
+    const uint64_t spp = ro.spp;
+    ro.spp = 1, ro.seed = 99;
+    render_loaded(backend, g, scene.camera, ro);
+    ro.spp = spp;
+    std::vector<std::pair<double, double>> t;  // seconds, rays
+    for (int f = 0; f < frames; ++f) {
+        ro.seed = uint32_t(f);
+        const RenderResult r = render_loaded(backend, g, scene.camera, ro);
+        t.push_back({r.seconds, r.rays});
+    }
+    std::sort(t.begin(), t.end());
+    const auto [sec, rays] = t[t.size() / 2];
+    row.ms_per_frame = 1e3 * sec;
+    row.msamples = double(ro.width) * ro.height * double(spp) / sec * 1e-6;
+    row.mrays = rays / sec * 1e-6;
+}
+
+std::string fmt(const char* f, double v) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, f, v);
+    return buf;
+}
+
+std::string markdown_table(const std::vector<Row>& rows) {
+    std::string t =
+        "| model | triangles | tree | backend/device | build ms | tree bytes | ms/frame | "
+        "M samples/s | Mrays/s | tri tests/ray | node visits/ray |\n"
+        "|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|\n";
+    for (const Row& r : rows) {
+        t += "| " + r.model + " | " + std::to_string(r.triangles) + " | " + r.tree + " | " +
+             r.backend + ": " + r.device + " | " + fmt("%.2f", r.build_ms) + " | " +
+             std::to_string(r.tree_bytes) + " | ";
+        if (!r.note.empty()) {
+            t += r.note + " | | | | |\n";
+            continue;
+        }
+        t += fmt("%.2f", r.ms_per_frame) + " | " + fmt("%.3f", r.msamples) + " | " +
+             fmt("%.2f", r.mrays) + " | " + fmt("%.1f", r.counts.paths.tests()) + " | " +
+             fmt("%.1f", r.counts.paths.visits()) + " |\n";
+    }
+    return t;
+}
+
+void write_csv(const std::string& path, const std::vector<Row>& rows, const RenderOptions& ro) {
+    std::ofstream f(path);
+    if (!f) throw Error("cannot write '" + path + "'");
+    f << "model,triangles,tree,backend,device,build_ms,tree_bytes,ms_per_frame,msamples_per_s,"
+         "mrays_per_s,tri_tests_per_ray,node_visits_per_ray,camera_tri_tests_per_ray,"
+         "camera_node_visits_per_ray,rays_per_sample,width,height,spp,note\n";
+    for (const Row& r : rows) {
+        f << r.model << ',' << r.triangles << ',' << r.tree << ',' << r.backend << ",\"" << r.device
+          << "\"," << r.build_ms << ',' << r.tree_bytes << ',' << r.ms_per_frame << ','
+          << r.msamples << ',' << r.mrays << ',' << r.counts.paths.tests() << ','
+          << r.counts.paths.visits() << ',' << r.counts.camera.tests() << ','
+          << r.counts.camera.visits() << ',' << r.counts.rays_per_path << ',' << ro.width << ','
+          << ro.height << ',' << ro.spp << ",\"" << r.note << "\"\n";
+    }
+}
+
+void write_plot(const std::string& path, const std::vector<Row>& rows, const RenderOptions& ro) {
+    // One curve per backend x tree, points sorted by triangle count.
+    SvgPlot plot;
+    plot.title = "Time per frame against triangles (" + std::to_string(ro.width) + "x" +
+                 std::to_string(ro.height) + ", " + std::to_string(ro.spp) + " spp)";
+    plot.x_label = "triangles";
+    plot.y_label = "ms per frame";
+    std::vector<std::string> keys;
+    for (const Row& r : rows) {
+        const std::string key = r.tree + " @ " + r.backend + ": " + r.device;
+        if (std::find(keys.begin(), keys.end(), key) == keys.end()) keys.push_back(key);
+    }
+    for (const std::string& key : keys) {
+        std::vector<std::pair<double, double>> pts;
+        for (const Row& r : rows)
+            if (r.note.empty() && r.tree + " @ " + r.backend + ": " + r.device == key)
+                pts.push_back({double(r.triangles), r.ms_per_frame});
+        std::sort(pts.begin(), pts.end());
+        SvgSeries s;
+        s.label = key.substr(0, 60);
+        s.dashed = key.rfind("none", 0) == 0;
+        for (const auto& [x, y] : pts) s.x.push_back(x), s.y.push_back(y);
+        plot.series.push_back(s);
+    }
+    write_svg(path, plot);
+}
+
+void run_bench(const BenchArgs& a) {
+    RenderOptions ro;
+    ro.width = a.width > 0 ? a.width : (a.quick ? 64 : 256);
+    ro.height = a.height > 0 ? a.height : (a.quick ? 64 : 256);
+    ro.spp = a.spp > 0 ? a.spp : (a.quick ? 2 : 4);
+    const double max_frame_s = a.quick ? std::min(a.max_frame_seconds, 5.0) : a.max_frame_seconds;
+    std::vector<OpenBackend> backends = open_backends(a);
+    const auto scenes = bench_scenes(a);
+    std::printf("bench: %dx%d, %llu spp, %d timed frames (median), %zu scene(s), %zu backend(s)\n",
+                ro.width, ro.height, (unsigned long long)ro.spp, a.frames, scenes.size(),
+                backends.size());
+    std::fflush(stdout);
+    std::vector<Row> rows;
+    for (const auto& [name, scene] : scenes) {
+        RenderOptions sro = ro;
+        sro.max_depth = uint32_t(scene.max_depth_hint > 0 ? scene.max_depth_hint : 8);
+        for (const TreeConfig& tc : kTrees) {
+            // Tree, then the untimed counting pass (work per ray, rays per sample).
+            const KdTree tree = build_kdtree(scene.triangles, tree_options(tc.kind, tc.depth));
+            const GpuScene g = pack_scene(scene, tree);
+            const Counts counts = count_work(g, scene, sro, tc);
+            const double tests_per_frame = counts.paths.tests() * counts.rays_per_path *
+                                           double(sro.width) * sro.height * double(sro.spp);
+            for (OpenBackend& ob : backends) {
+                Row row;
+                row.model = name, row.tree = tc.label, row.triangles = scene.triangles.size();
+                row.backend = ob.backend->device().backend, row.device = ob.backend->device().name;
+                row.build_ms = tree.stats.build_seconds * 1e3, row.tree_bytes = tree.stats.bytes;
+                row.counts = counts;
+                // Skip what would take absurdly long (triangle tests per second measured with
+                // tree none: PoCL on 2 cores ~3e7, an H100 ~1.3e9).
+                const bool cpu = ob.backend->device().type == "cpu";
+                const double est_s = tests_per_frame / (cpu ? 3e7 : 1e9);
+                if (cpu && tc.kind == std::string("none") && row.triangles > 100000) {
+                    row.note = "skipped: tree none with > 100k triangles on a CPU device";
+                } else if (est_s > max_frame_s) {
+                    row.note = "skipped: estimated " + fmt("%.0f", est_s) + " s/frame";
+                } else {
+                    time_frames(*ob.backend, g, scene, sro, a.frames, row);
+                }
+                std::fprintf(stderr, "  %s %s %s: %s\n", name.c_str(), tc.label, ob.spec.c_str(),
+                             row.note.empty() ? fmt("%.2f ms/frame", row.ms_per_frame).c_str()
+                                              : row.note.c_str());
+                rows.push_back(row);
+            }
+        }
+    }
+    const std::string table = markdown_table(rows);
+    std::printf("\n%s", table.c_str());
+    std::printf(
+        "\ntri tests/ray and node visits/ray: all rays of full paths (camera, bounce, "
+        "shadow), counted on the CPU; ms/frame: median of %d frames\n",
+        a.frames);
+    std::ofstream(a.output + ".md") << table;
+    write_csv(a.output + ".csv", rows, ro);
+    write_plot(a.output + ".svg", rows, ro);
+    std::printf("wrote %s.md, %s.csv, %s.svg\n", a.output.c_str(), a.output.c_str(),
+                a.output.c_str());
+}
+
+}  // namespace
+
+void add_bench_command(CLI::App& app) {
+    auto a = std::make_shared<BenchArgs>();
+    CLI::App* sub = app.add_subcommand("bench", "The thesis' tables: models x trees x devices");
+    sub->add_flag("--quick", a->quick, "64x64, 2 spp, small scenes only");
+    sub->add_option("--backend", a->backends,
+                    "opencl|vulkan[:device], repeatable (default: every device found)");
+    sub->add_option("--models", a->models, "Directory of models (scripts/fetch-models)")
+        ->capture_default_str();
+    sub->add_option("-o,--output", a->output, "Output prefix: prefix.md, .csv, .svg")
+        ->capture_default_str();
+    sub->add_option("--width", a->width, "Image width (default 256, quick 64)")
+        ->check(CLI::Range(1, 16384));
+    sub->add_option("--height", a->height, "Image height (default 256, quick 64)")
+        ->check(CLI::Range(1, 16384));
+    sub->add_option("--spp", a->spp, "Samples per pixel per frame (default 4, quick 2)")
+        ->check(CLI::Range(1, 1000000));
+    sub->add_option("--frames", a->frames, "Timed frames per configuration (median)")
+        ->check(CLI::Range(1, 1000))
+        ->capture_default_str();
+    sub->add_option("--max-frame-seconds", a->max_frame_seconds,
+                    "Skip configurations estimated slower than this (quick: at most 5)")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
+    sub->callback([a] { run_bench(*a); });
+}
+
+}  // namespace mcpt

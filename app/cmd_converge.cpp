@@ -1,0 +1,285 @@
+// mcpt converge: error against run time. Renders progressively on each backend as independent
+// batches, measures RMSE, relative MSE and mean signed error against a reference at
+// geometrically spaced checkpoints, fits the log-log convergence rate, flags bias, and reports
+// the time each backend needs to reach a relative RMSE. Writes prefix.csv and prefix.svg.
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+
+#include "app/commands.h"
+#include "common/convergence.h"
+#include "common/error.h"
+#include "common/svg_plot.h"
+#include "opencl/cl_backend.h"
+
+namespace mcpt {
+
+namespace {
+
+struct ConvergeArgs {
+    std::string scene = "cornell";
+    std::vector<std::string> backends{"opencl"};
+    int width = 256, height = 256;
+    double seconds = 10;
+    uint64_t max_spp = 0;
+    std::string checkpoints = "geometric";
+    std::string reference = "auto";
+    uint64_t reference_spp = 1024;
+    std::vector<double> targets{0.10, 0.05};
+    int max_depth = -1;
+    std::string tree = "sah";
+    std::string output = "converge";
+    uint32_t seed = 1;
+};
+
+struct Run {
+    std::string backend, device;
+    std::vector<Checkpoint> checkpoints;
+    ConvergenceReport report;
+};
+
+std::string scene_label(const Scene& scene, const std::string& arg) {
+    if (!scene.name.empty()) return scene.name;
+    return std::filesystem::path(arg).stem().string();
+}
+
+// The exact solution, or a high-sample render cached per scene content, size and bounces.
+Reference make_reference(const ConvergeArgs& a, const Scene& scene, const GpuScene& g,
+                         const RenderOptions& ro) {
+    double exact = 0;
+    const bool has_exact = exact_furnace_radiance(scene, exact);
+    if (a.reference == "exact" && !has_exact)
+        throw Error("no exact solution is known for '" + a.scene + "' (use --reference cached)");
+    if (a.reference != "cached" && has_exact) {
+        char src[96];
+        std::snprintf(src, sizeof src, "exact: Le/(1-rho) = %g everywhere", exact);
+        return constant_reference(a.width, a.height, exact, src);
+    }
+    // Cached: the key covers the rendered content and the kernel source, never the tree.
+    const uint64_t key = reference_key(g, scene.camera, a.width, a.height, ro.max_depth,
+                                       ro.rr_depth, opencl_kernel_source());
+    char name[160];
+    std::snprintf(name, sizeof name, "%s-%dx%d-d%u-%016llx.ref",
+                  scene_label(scene, a.scene).c_str(), a.width, a.height, ro.max_depth,
+                  (unsigned long long)key);
+    const std::string path = reference_cache_dir() + "/" + name;
+    Reference ref;
+    if (load_reference(path, a.width, a.height, ref)) return ref;
+    // Not cached yet: render it once on the first backend, with seeds no checkpoint uses.
+    std::printf("rendering the reference (%llu spp on %s) into %s ...\n",
+                (unsigned long long)a.reference_spp, a.backends[0].c_str(), path.c_str());
+    std::fflush(stdout);
+    std::unique_ptr<Backend> backend = open_backend(a.backends[0], BackendOptions{});
+    RenderOptions r = ro;
+    r.spp = a.reference_spp;
+    r.seed = 0x7e000000u;
+    const bool bar = isatty(2);
+    const RenderResult rr =
+        render(*backend, g, scene.camera, r,
+               bar ? ProgressFn([](double f, const RenderResult& s) {
+                   std::fprintf(stderr, "\r  reference %3d%%  %.0f s ", int(100 * f), s.seconds);
+               })
+                   : ProgressFn());
+    if (bar) std::fprintf(stderr, "\n");
+    ref = reference_from_render(rr, "rendered " + path + " (" + std::to_string(rr.spp) + " spp)");
+    save_reference(path, ref);
+    return ref;
+}
+
+void print_checkpoint(const Run& run, const Checkpoint& c) {
+    std::printf("%-8s %-28.28s %9.3f %8llu %11.4g %8.2f%% %11.4g %+12.4g\n", run.backend.c_str(),
+                run.device.c_str(), c.seconds, (unsigned long long)c.spp, c.error.rmse,
+                100 * c.error.rel_rmse, c.error.rel_mse, c.error.mean_signed_error);
+    std::fflush(stdout);
+}
+
+void write_csv(const std::string& path, const std::vector<Run>& runs) {
+    std::ofstream f(path);
+    if (!f) throw Error("cannot write '" + path + "'");
+    f << "backend,device,checkpoint,seconds,spp,rmse,rel_mse,mean_signed_error,reference_noise,"
+         "rel_rmse\n";
+    for (const Run& r : runs) {
+        for (size_t k = 0; k < r.checkpoints.size(); ++k) {
+            const Checkpoint& c = r.checkpoints[k];
+            char line[512];
+            std::snprintf(line, sizeof line, "%s,\"%s\",%zu,%.6f,%llu,%.8g,%.8g,%.8g,%.8g,%.8g\n",
+                          r.backend.c_str(), r.device.c_str(), k, c.seconds,
+                          (unsigned long long)c.spp, c.error.rmse, c.error.rel_mse,
+                          c.error.mean_signed_error, c.error.reference_noise, c.error.rel_rmse);
+            f << line;
+        }
+    }
+}
+
+void write_plot(const std::string& path, const std::string& scene, const std::vector<Run>& runs) {
+    SvgPlot plot;
+    plot.title = "RMSE against render time: " + scene;
+    plot.x_label = "seconds";
+    plot.y_label = "RMSE";
+    double t_min = HUGE_VAL, t_max = 0;
+    for (const Run& r : runs) {
+        // One curve per backend, its fitted slope in the legend.
+        SvgSeries s;
+        char label[160];
+        std::snprintf(label, sizeof label, "%s: %.40s (slope %.3f)", r.backend.c_str(),
+                      r.device.c_str(), r.report.time_fit.slope);
+        s.label = label;
+        for (const Checkpoint& c : r.checkpoints) {
+            s.x.push_back(c.seconds), s.y.push_back(c.error.rmse);
+            if (c.seconds > 0)
+                t_min = std::min(t_min, c.seconds), t_max = std::max(t_max, c.seconds);
+        }
+        plot.series.push_back(s);
+    }
+    if (!runs.empty() && !runs[0].checkpoints.empty() && t_max > t_min) {
+        // The ideal -1/2 line through the first backend's last checkpoint; the reference noise.
+        const Checkpoint& last = runs[0].checkpoints.back();
+        SvgSeries ideal;
+        ideal.label = "ideal slope -1/2";
+        ideal.color = "#888888", ideal.dashed = true, ideal.markers = false;
+        for (double t : {t_min, t_max})
+            ideal.x.push_back(t), ideal.y.push_back(last.error.rmse * std::sqrt(last.seconds / t));
+        plot.series.push_back(ideal);
+        if (last.error.reference_noise > 0) {
+            SvgSeries floor;
+            floor.label = "reference noise (subtracted)";
+            floor.color = "#bbbbbb", floor.dashed = true, floor.markers = false;
+            floor.x = {t_min, t_max};
+            floor.y = {last.error.reference_noise, last.error.reference_noise};
+            plot.series.push_back(floor);
+        }
+    }
+    write_svg(path, plot);
+}
+
+void run_converge(const ConvergeArgs& a) {
+    // Scene, tree, render settings.
+    Scene scene = load_scene_argument(a.scene);
+    const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, tree_options(a.tree, -1)));
+    RenderOptions ro;
+    ro.width = a.width, ro.height = a.height;
+    ro.max_depth = uint32_t(
+        a.max_depth >= 0 ? a.max_depth : (scene.max_depth_hint > 0 ? scene.max_depth_hint : 8));
+    const std::string label = scene_label(scene, a.scene);
+
+    // Reference.
+    const Reference ref = make_reference(a, scene, g, ro);
+    std::printf("scene %s, %dx%d, max depth %u, %s checkpoints, budget %g s%s per backend\n",
+                label.c_str(), a.width, a.height, ro.max_depth, a.checkpoints.c_str(), a.seconds,
+                a.max_spp ? (" or " + std::to_string(a.max_spp) + " spp").c_str() : "");
+    std::printf("reference: %s; mean radiance %.4g\n", ref.source.c_str(), ref.mean_value());
+    if (!ref.exact()) {
+        std::printf(
+            "reference noise: RMS standard error %.4g (%.2f%% of the mean); its variance "
+            "is subtracted from every MSE below\n",
+            std::sqrt(ref.noise_variance()),
+            100 * std::sqrt(ref.noise_variance()) / ref.mean_value());
+    }
+
+    // Progressive renders, one backend after the other.
+    std::vector<Run> runs;
+    std::printf("\n%-8s %-28s %9s %8s %11s %9s %11s %12s\n", "backend", "device", "seconds", "spp",
+                "rmse", "rel rmse", "rel mse", "mean signed");
+    for (size_t b = 0; b < a.backends.size(); ++b) {
+        std::unique_ptr<Backend> backend = open_backend(a.backends[b], BackendOptions{});
+        backend->load(g, a.width, a.height);
+        Run run;
+        run.backend = backend->device().backend, run.device = backend->device().name;
+        ProgressiveOptions po;
+        po.render = ro;
+        po.schedule = a.checkpoints == "time" ? Schedule::TimeDoubling : Schedule::SppDoubling;
+        po.seconds = a.seconds, po.max_spp = a.max_spp;
+        po.seed_base = a.seed + 100000u * uint32_t(b);
+        RenderResult total;
+        run.checkpoints =
+            render_progressive(*backend, g, scene.camera, po, ref, &total,
+                               [&](const Checkpoint& c) { print_checkpoint(run, c); });
+        run.report =
+            analyze_convergence(run.checkpoints, ref.mean_value(), effective_pixels(total));
+        runs.push_back(std::move(run));
+    }
+
+    // Fits and bias.
+    std::printf("\n");
+    for (const Run& r : runs) {
+        std::printf("%s %s: RMSE ~ time^%.3f, ~ spp^%.3f; %s\n", r.backend.c_str(),
+                    r.device.c_str(), r.report.time_fit.slope, r.report.spp_fit.slope,
+                    r.report.verdict().c_str());
+    }
+
+    // Time to a relative RMSE (RMSE / mean reference radiance), and the ratio to the first.
+    std::printf("\n%-14s", "rel. RMSE");
+    for (const Run& r : runs) std::printf(" %-34.34s", (r.backend + ": " + r.device).c_str());
+    std::printf("\n");
+    for (double target : a.targets) {
+        char head[32];
+        std::snprintf(head, sizeof head, "%.3g%%", 100 * target);
+        std::printf("%-14s", head);
+        double first = 0;
+        for (size_t i = 0; i < runs.size(); ++i) {
+            const TimeToError t = time_to_error(runs[i].checkpoints, target, runs[i].report);
+            std::string cell = t.text();
+            if (i == 0)
+                first = t.seconds;
+            else if (first > 0 && t.seconds > 0) {
+                char ratio[48];
+                std::snprintf(ratio, sizeof ratio, " (x%.2f)", t.seconds / first);
+                cell += ratio;
+            }
+            std::printf(" %-34s", cell.c_str());
+        }
+        std::printf("\n");
+    }
+    if (runs.size() > 1) std::printf("(xN: time relative to %s)\n", runs[0].backend.c_str());
+
+    // Files.
+    write_csv(a.output + ".csv", runs);
+    write_plot(a.output + ".svg", label, runs);
+    std::printf("\nwrote %s.csv, %s.svg\n", a.output.c_str(), a.output.c_str());
+}
+
+}  // namespace
+
+void add_converge_command(CLI::App& app) {
+    auto a = std::make_shared<ConvergeArgs>();
+    CLI::App* sub = app.add_subcommand("converge", "Error against run time, per backend");
+    sub->add_option("scene", a->scene, "Built-in scene or .gltf/.glb file")->capture_default_str();
+    sub->add_option("--backend", a->backends, "opencl|vulkan[:device], repeatable")
+        ->capture_default_str();
+    sub->add_option("--width", a->width)->check(CLI::Range(1, 16384))->capture_default_str();
+    sub->add_option("--height", a->height)->check(CLI::Range(1, 16384))->capture_default_str();
+    sub->add_option("--time", a->seconds, "Render time per backend (s)")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
+    sub->add_option("--spp", a->max_spp, "Also stop at this many samples per pixel");
+    sub->add_option("--checkpoints", a->checkpoints,
+                    "geometric (1, 2, 4, ... spp) or time (time budget / 2^k)")
+        ->check(CLI::IsMember({"geometric", "time"}))
+        ->capture_default_str();
+    sub->add_option("--reference", a->reference,
+                    "auto (exact when known, else cached), exact, or cached")
+        ->check(CLI::IsMember({"auto", "exact", "cached"}))
+        ->capture_default_str();
+    sub->add_option("--reference-spp", a->reference_spp, "Samples per pixel of a new reference")
+        ->check(CLI::Range(16, 100000000))
+        ->capture_default_str();
+    sub->add_option("--target-rmse", a->targets, "Relative RMSE targets for time-to-error")
+        ->check(CLI::Range(1e-9, 10.0))
+        ->capture_default_str();
+    sub->add_option("--max-depth", a->max_depth, "Bounces (default 8, or the scene's)")
+        ->check(CLI::Range(0, 1000000));
+    sub->add_option("--tree", a->tree, "sah, median or none")
+        ->check(CLI::IsMember({"sah", "median", "none"}))
+        ->capture_default_str();
+    sub->add_option("--seed", a->seed, "Seed of the first batch (batches count up from it)")
+        ->capture_default_str();
+    sub->add_option("-o,--output", a->output, "Output prefix: prefix.csv, prefix.svg")
+        ->capture_default_str();
+    sub->callback([a] { run_converge(*a); });
+}
+
+}  // namespace mcpt

@@ -1,0 +1,99 @@
+// mcpt bench: `mcpt bench --quick` through the binary prints a Markdown table with a row for
+// every scene x tree x backend and writes the table, a CSV and a log-log SVG plot.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "common/svg_plot.h"
+#include "test_util.h"
+
+namespace mcpt {
+namespace {
+
+struct CliRun {
+    int status = -1;
+    std::string output;
+};
+
+CliRun run_mcpt(const std::string& args) {
+    const std::string cmd = std::string(MCPT_BINARY) + " " + args + " 2>&1";
+    CliRun r;
+    FILE* pipe = popen(cmd.c_str(), "r");
+    if (!pipe) return r;
+    std::array<char, 4096> buf{};
+    while (fgets(buf.data(), int(buf.size()), pipe)) r.output += buf.data();
+    const int st = pclose(pipe);
+    r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    return r;
+}
+
+std::string read_file(const std::filesystem::path& p) {
+    std::ifstream f(p);
+    std::stringstream s;
+    s << f.rdbuf();
+    return s.str();
+}
+
+TEST(BenchCli, QuickTableHasEveryRow) {
+    // No models: the built-in Cornell box and the generated mesh, on the test device.
+    const auto dir = std::filesystem::temp_directory_path() / "mcpt_bench_test";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir / "no-models");
+    const std::string prefix = (dir / "quick").string();
+    const CliRun r = run_mcpt("bench --quick --frames 1 --models " + (dir / "no-models").string() +
+                              " --backend opencl:" + test::test_opencl_device() + " -o " + prefix);
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(
+        r.output.find("| model | triangles | tree | backend/device | build ms | tree bytes "
+                      "| ms/frame | M samples/s | Mrays/s | tri tests/ray | node visits/ray |"),
+        std::string::npos)
+        << r.output;
+    for (const char* model : {"cornell", "generated-sphere"}) {
+        for (const char* tree : {"none", "median-3", "sah"}) {
+            const std::string head = std::string("| ") + model + " | ";
+            const std::string tree_cell = std::string(" | ") + tree + " | opencl: ";
+            size_t rows = 0;
+            std::istringstream lines(r.output);
+            for (std::string line; std::getline(lines, line);) {
+                if (line.rfind(head, 0) != 0 || line.find(tree_cell) == std::string::npos) continue;
+                ++rows;
+                EXPECT_EQ(line.find("skipped"), std::string::npos) << line;
+                // 11 cells: 12 bars.
+                EXPECT_EQ(std::count(line.begin(), line.end(), '|'), 12) << line;
+            }
+            EXPECT_EQ(rows, 1u) << model << " " << tree << "\n" << r.output;
+        }
+    }
+    // The files: the same table, one CSV line per row, an SVG with a curve per tree.
+    EXPECT_NE(read_file(prefix + ".md").find("| cornell | 12 | sah |"), std::string::npos);
+    const std::string csv = read_file(prefix + ".csv");
+    EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 7) << csv;
+    const std::string svg = read_file(prefix + ".svg");
+    EXPECT_EQ(svg.rfind("<svg", 0), 0u);
+    EXPECT_EQ(std::count(svg.begin(), svg.end(), '\n') > 10, true);
+    for (const char* tree : {"none @ opencl", "median-3 @ opencl", "sah @ opencl"})
+        EXPECT_NE(svg.find(tree), std::string::npos) << tree;
+}
+
+TEST(BenchSvg, LogLogPlotHasSeriesLegendAndEscapes) {
+    SvgPlot plot;
+    plot.title = "a <b> & c";
+    plot.series.push_back({"first", {1, 10, 100}, {5, 2, 0.5}, "", false, true});
+    plot.series.push_back({"skips <= 0", {0, 10, 1000}, {1, -1, 3}, "#123456", true, false});
+    const std::string svg = render_svg(plot);
+    EXPECT_NE(svg.find("a &lt;b&gt; &amp; c"), std::string::npos);
+    EXPECT_NE(svg.find(">first</text>"), std::string::npos);
+    EXPECT_NE(svg.find("stroke=\"#123456\""), std::string::npos);
+    EXPECT_EQ(std::count(svg.begin(), svg.end(), '<') - std::count(svg.begin(), svg.end(), '>'), 0);
+    EXPECT_EQ(svg.find("nan"), std::string::npos);
+    EXPECT_EQ(svg.find("inf"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace mcpt
