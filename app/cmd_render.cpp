@@ -11,6 +11,7 @@
 #include "common/error.h"
 #include "common/image_io.h"
 #include "common/render_loop.h"
+#include "common/scene_features.h"
 #include "opencl/cl_backend.h"
 #if MCPT_WITH_VULKAN
 #include "vulkan/vk_backend.h"
@@ -28,12 +29,14 @@ struct RenderArgs {
     double seconds = 0;
     int width = 256, height = 256;
     std::string output = "render.png";
-    std::string tree = "sah";
+    std::string tree = "auto";
     int depth = -1;
     int max_depth = -1;
     uint32_t seed = 0;
     bool fast_math = false;
     bool quiet = false;
+    bool verbose = false;
+    std::string specialize = "on";
     double target_error = 0;  // stop once the mean relative standard error is below this
 };
 
@@ -41,6 +44,7 @@ std::unique_ptr<Backend> open_backend(const RenderArgs& a) {
     BackendOptions o;
     o.device = a.device;
     o.fast_math = a.fast_math;
+    o.features = a.specialize == "on" ? 0u : FEATURE_ALL;
     if (a.backend == "opencl") return make_opencl_backend(o);
 #if MCPT_WITH_VULKAN
     if (a.backend == "vulkan") return make_vulkan_backend(o);
@@ -62,20 +66,25 @@ void print_progress(double frac, const RenderResult& r) {
 }
 
 void run_render(const RenderArgs& a) {
-    // Scene, tree, device layout.
+    // Scene, device, tree (auto: with the device's cost model), device layout.
     Scene scene = load_scene_argument(a.scene);
-    const KdTree tree = build_kdtree(scene.triangles, tree_options(a.tree, a.depth));
+    std::unique_ptr<Backend> backend = open_backend(a);
+    TreeOptions to = tree_options(a.tree, a.depth);
+    to.auto_model = tree_cost_model(backend->device());
+    const KdTree tree = build_kdtree(scene.triangles, to);
     const GpuScene gpu_scene = pack_scene(scene, tree);
     std::printf("scene: %s: %zu triangles, %zu spheres, %zu materials, %u lights\n",
                 scene.name.empty() ? a.scene.c_str() : scene.name.c_str(),
                 scene.triangles.size(), scene.spheres.size(), scene.materials.size(),
                 gpu_scene.params.num_lights);
+    if (a.verbose && !tree.auto_choice.empty()) std::printf("%s\n", tree.auto_choice.c_str());
     std::printf("tree: %s: %zu nodes, %zu leaves, depth %d, %.1f refs/leaf, %.2f ms, %zu bytes\n",
-                a.tree.c_str(), tree.stats.nodes, tree.stats.leaves, tree.stats.max_depth,
+                a.tree == "auto" ? (tree.stats.nodes > 1 ? "auto (sah)" : "auto (none)")
+                                 : a.tree.c_str(),
+                tree.stats.nodes, tree.stats.leaves, tree.stats.max_depth,
                 tree.stats.mean_leaf_size, tree.stats.build_seconds * 1e3, tree.stats.bytes);
 
     // Render.
-    std::unique_ptr<Backend> backend = open_backend(a);
     RenderOptions ro;
     ro.width = a.width, ro.height = a.height;
     ro.spp = a.spp;
@@ -113,6 +122,12 @@ void run_render(const RenderArgs& a) {
     const double paths = double(r.spp) * pixels;
     std::printf("device: %s (kernel build %.2f s)\n", backend->description().c_str(),
                 backend->compile_seconds());
+    if (a.verbose) {
+        std::printf("features used: %s\n", feature_names(gpu_scene.features).c_str());
+        std::printf("compiled for: %s; left out: %s\n",
+                    feature_names(backend->compiled_features()).c_str(),
+                    features_left_out(backend->compiled_features()).c_str());
+    }
     std::printf("rendered %dx%d, %llu spp, max depth %u in %.3f s: %.3f M samples/s, %.2f M rays/s\n",
                 r.width, r.height, (unsigned long long)r.spp, ro.max_depth, r.seconds,
                 paths / r.seconds * 1e-6, r.rays / r.seconds * 1e-6);
@@ -161,15 +176,21 @@ void add_render_command(CLI::App& app) {
         ->capture_default_str();
     sub->add_option("-o,--output", args->output, "Output image (.exr linear, .png sRGB)")
         ->capture_default_str();
-    sub->add_option("--tree", args->tree, "k-d tree: sah, median or none")
-        ->check(CLI::IsMember({"sah", "median", "none"}))
+    sub->add_option("--tree", args->tree,
+                    "k-d tree: auto (SAH, or none where the cost model prefers), sah, median, none")
+        ->check(CLI::IsMember({"auto", "sah", "median", "none"}))
         ->capture_default_str();
     sub->add_option("--depth", args->depth, "Tree depth limit (median: default 3)");
     sub->add_option("--max-depth", args->max_depth, "Bounces per path (default 8, or the scene's)")
         ->check(CLI::Range(0, 1000000));
     sub->add_option("--seed", args->seed, "Random seed")->capture_default_str();
     sub->add_flag("--fast-math", args->fast_math, "Compile with -cl-fast-relaxed-math");
+    sub->add_option("--specialize", args->specialize,
+                    "on: compile only the features the scene uses; off: the full kernel")
+        ->check(CLI::IsMember({"on", "off"}))
+        ->capture_default_str();
     sub->add_flag("-q,--quiet", args->quiet, "No progress bar");
+    sub->add_flag("-v,--verbose", args->verbose, "Say what the build left out and why");
     sub->callback([args] { run_render(*args); });
 }
 

@@ -1,6 +1,7 @@
 // What the render loop needs from a GPU API: compile for a scene, upload it, run one
 // dispatch, read the accumulation buffer back. opencl/ and vulkan/ implement it.
 #pragma once
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -21,7 +22,16 @@ struct BackendOptions {
     std::string device;          // "" (best), an index, or a name substring
     bool fast_math = false;      // -cl-fast-relaxed-math / equivalent
     std::string extra_defines;   // extra -D options for test variants (e.g. "-DMCPT_COUNTERS")
+    // Device features to compile for (FEATURE_* bits): 0 = the scene's own (the default),
+    // FEATURE_ALL = the full kernel; another mask only in tests' negative controls.
+    uint32_t features = 0;
+    // Non-zero: a build no driver or pipeline cache has seen (cold compile timings).
+    uint32_t compile_nonce = 0;
 };
+
+// The MCPT_FEATURES value a backend compiles `scene` with: the feature bits, and the compile
+// nonce above them (ignored by the device code, but part of every cache key).
+uint32_t compile_features(const BackendOptions& options, const GpuScene& scene);
 
 class Backend {
 public:
@@ -38,6 +48,8 @@ public:
     virtual void read_accum(std::vector<float>& out) = 0;
     // Seconds spent compiling in load().
     virtual double compile_seconds() const = 0;
+    // The FEATURE_* bits the loaded program was compiled with.
+    virtual uint32_t compiled_features() const = 0;
 };
 
 }  // namespace mcpt

@@ -4,6 +4,7 @@
 #include <numeric>
 
 #include "error.h"
+#include "scene_features.h"
 
 namespace mcpt {
 
@@ -115,6 +116,7 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
     p.light_scale = 1.f;
     p.rr_depth = 3;
     p.max_depth = 8;
+    g.features = scene_features(g);
     return g;
 }
 

@@ -19,6 +19,7 @@ struct GpuScene {
     std::vector<gpu::GpuLight> lights;  // alias table over emitters, by power
     gpu::GpuParams params{};            // scene fields set; per-dispatch fields zero
     uint32_t stack_size = 1;            // k-d traversal stack entries (tree depth + 1)
+    uint32_t features = FEATURE_ALL;    // FEATURE_* bits the scene uses (scene_features.h)
     TreeStats tree_stats;
     size_t device_bytes() const;        // total of all arrays
 };

@@ -665,7 +665,8 @@ TreeKind parse_tree_kind(const std::string& name) {
     if (name == "sah") return TreeKind::Sah;
     if (name == "median") return TreeKind::Median;
     if (name == "none") return TreeKind::None;
-    throw Error("unknown tree kind '" + name + "' (valid: sah, median, none)");
+    if (name == "auto") return TreeKind::Auto;
+    throw Error("unknown tree kind '" + name + "' (valid: auto, sah, median, none)");
 }
 
 const char* tree_kind_name(TreeKind kind) {
@@ -676,11 +677,29 @@ const char* tree_kind_name(TreeKind kind) {
             return "median";
         case TreeKind::None:
             return "none";
+        case TreeKind::Auto:
+            return "auto";
     }
     return "unknown";
 }
 
 KdTree build_kdtree(const std::vector<Triangle>& triangles, const TreeOptions& options) {
+    if (options.kind == TreeKind::Auto) {
+        // The SAH tree, kept unless the cost model prefers none.
+        TreeOptions o = options;
+        o.kind = TreeKind::Sah;
+        KdTree sah = build_kdtree(triangles, o);
+        const TreeChoice choice = choose_tree(sah, triangles.size(), options.auto_model);
+        if (choice.kind == TreeKind::Sah) {
+            sah.auto_choice = choice.reason;
+            return sah;
+        }
+        o.kind = TreeKind::None;
+        KdTree none = build_kdtree(triangles, o);
+        none.stats.build_seconds += sah.stats.build_seconds;
+        none.auto_choice = choice.reason;
+        return none;
+    }
     const auto start = std::chrono::steady_clock::now();
     if (options.max_depth < -1 || options.max_depth > kMaxTreeDepth) {
         throw Error("k-d tree depth must be between 0 and " + std::to_string(kMaxTreeDepth) +

@@ -89,9 +89,10 @@ public:
     }
     const DeviceInfo& device() const override { return dev_.info; }
     double compile_seconds() const override { return compile_seconds_; }
+    uint32_t compiled_features() const override { return built_features_; }
 
     void load(const GpuScene& scene, int width, int height) override {
-        build(scene.stack_size);
+        build(scene.stack_size, compile_features(options_, scene));
         // Check every buffer against the device limits before allocating.
         const uint64_t accum_bytes = uint64_t(width) * uint64_t(height) * ACCUM_VEC4_PER_PIXEL * 16;
         const std::pair<const char*, uint64_t> sizes[] = {
@@ -139,8 +140,9 @@ public:
     }
 
 private:
-    void build(uint32_t stack_size) {
-        std::string opts = "-cl-std=CL1.2 -DKD_STACK_SIZE=" + std::to_string(stack_size) + "u";
+    void build(uint32_t stack_size, uint32_t features) {
+        std::string opts = "-cl-std=CL1.2 -DKD_STACK_SIZE=" + std::to_string(stack_size) +
+                           "u -DMCPT_FEATURES=" + std::to_string(features) + "u";
         if (options_.fast_math) opts += " -cl-fast-relaxed-math";
         if (!options_.extra_defines.empty()) opts += " " + options_.extra_defines;
         if (program_() != nullptr && opts == built_options_) return;
@@ -157,6 +159,7 @@ private:
         compile_seconds_ =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         built_options_ = opts;
+        built_features_ = features & FEATURE_ALL;
         // Work-group size within the kernel's and device's limits.
         const size_t kmax = kernel_.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(dev_.device);
         local_ = std::max<size_t>(1, std::min<size_t>(WORKGROUP_SIZE, kmax));
@@ -186,6 +189,7 @@ private:
     size_t local_ = WORKGROUP_SIZE;
     uint64_t max_alloc_ = 0, global_mem_ = 0;
     double compile_seconds_ = 0;
+    uint32_t built_features_ = 0;
 };
 
 }  // namespace

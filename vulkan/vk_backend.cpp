@@ -37,8 +37,9 @@ struct VulkanBackend::Impl {
     // Pipeline specialization, dispatch limit, timings.
     uint32_t local = WORKGROUP_SIZE;
     uint32_t max_groups = 1;
-    uint32_t built_stack = 0;
+    uint32_t built_stack = 0, built_features = 0;
     bool built_dispatch_base = false;
+    BackendOptions options;
     double compile_seconds = 0;
     double gpu_seconds = 0;
 
@@ -158,17 +159,19 @@ struct VulkanBackend::Impl {
         pixels = 0;
     }
 
-    void build(uint32_t stack_size, bool dispatch_base) {
-        if (pipeline && stack_size == built_stack && dispatch_base == built_dispatch_base) return;
+    void build(uint32_t stack_size, uint32_t features, bool dispatch_base) {
+        if (pipeline && stack_size == built_stack && features == built_features &&
+            dispatch_base == built_dispatch_base)
+            return;
         const vk::DeviceFns& f = dev->fn();
         if (pipeline) f.vkDestroyPipeline(dev->handle(), pipeline, nullptr);
         pipeline = VK_NULL_HANDLE;
         const auto t0 = std::chrono::steady_clock::now();
-        // Specialization: id 0 = KD_STACK_SIZE, id 1 = local_size_x.
-        const uint32_t values[2] = {stack_size, local};
-        const VkSpecializationMapEntry entries[2] = {{0, 0, 4}, {1, 4, 4}};
+        // Specialization: id 0 = KD_STACK_SIZE, id 1 = local_size_x, id 2 = MCPT_FEATURES.
+        const uint32_t values[3] = {stack_size, local, features};
+        const VkSpecializationMapEntry entries[3] = {{0, 0, 4}, {1, 4, 4}, {2, 8, 4}};
         VkSpecializationInfo spec{};
-        spec.mapEntryCount = 2;
+        spec.mapEntryCount = 3;
         spec.pMapEntries = entries;
         spec.dataSize = sizeof(values);
         spec.pData = values;
@@ -181,13 +184,18 @@ struct VulkanBackend::Impl {
         ci.stage.pName = "main";
         ci.stage.pSpecializationInfo = &spec;
         ci.layout = pipeline_layout;
-        VK_CHECK(f.vkCreateComputePipelines, dev->handle(), cache, 1, &ci, nullptr, &pipeline);
+        // A cold build (compile nonce) bypasses the pipeline cache and leaves it as it is.
+        const bool cold = options.compile_nonce != 0;
+        VK_CHECK(f.vkCreateComputePipelines, dev->handle(), cold ? VK_NULL_HANDLE : cache, 1, &ci,
+                 nullptr, &pipeline);
         compile_seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         built_stack = stack_size;
+        built_features = features;
         built_dispatch_base = dispatch_base;
 
         // Save the cache if the driver's data changed.
+        if (cold) return;
         size_t size = 0;
         if (f.vkGetPipelineCacheData(dev->handle(), cache, &size, nullptr) != VK_SUCCESS) return;
         std::vector<char> data(size);
@@ -255,7 +263,7 @@ struct VulkanBackend::Impl {
         // Pipeline for this scene's stack depth (dispatch base only if one dispatch may need
         // more workgroups than the device allows).
         const uint64_t groups = (npix + local - 1) / local;
-        build(scene.stack_size, groups > max_groups);
+        build(scene.stack_size, compile_features(options, scene), groups > max_groups);
 
         // Upload; the accumulation buffer is device-local, zeroed, read back directly when
         // host-visible and through a readback buffer otherwise.
@@ -401,6 +409,9 @@ void VulkanBackend::read_accum(std::vector<float>& out) {
 double VulkanBackend::compile_seconds() const {
     return impl_->compile_seconds;
 }
+uint32_t VulkanBackend::compiled_features() const {
+    return impl_->built_features & FEATURE_ALL;
+}
 bool VulkanBackend::has_gpu_timer() const {
     return impl_->timer != VK_NULL_HANDLE;
 }
@@ -471,6 +482,7 @@ std::unique_ptr<Backend> make_vulkan_backend(const BackendOptions& options) {
     if (chosen->queue_family == UINT32_MAX)
         throw Error("Vulkan device " + chosen->info.name + " has no compute queue");
     auto impl = std::make_unique<VulkanBackend::Impl>();
+    impl->options = options;
     impl->init(std::move(instance), *chosen);
     return std::make_unique<VulkanBackend>(std::move(impl));
 }

@@ -43,6 +43,7 @@ class VulkanBackend final : public Backend {
     void read_accum(std::vector<float>& out) override;
     // Seconds spent creating the compute pipeline in load().
     double compile_seconds() const override;
+    uint32_t compiled_features() const override;
 
     // Whether the queue has timestamps (timestampValidBits > 0); gpu_seconds() is 0 if not.
     bool has_gpu_timer() const;

@@ -4,7 +4,7 @@
 #define MCPT_GPU_BSDF_H
 
 #include "sampling.h"
-#include "shared_types.h"
+#include "scene_access.h"  // HAS_FEATURE
 
 MCPT_NAMESPACE_BEGIN
 
@@ -48,17 +48,17 @@ MCPT_FN BsdfSample sample_bsdf(GpuMaterial m, vec3 n, vec3 wo, bool entering, ve
     s.eta2 = 1.0f;
     s.specular = true;
     s.valid = true;
-    if (m.type == MAT_DIFFUSE) {
+    if (HAS_FEATURE(FEATURE_DIFFUSE) && m.type == MAT_DIFFUSE) {
         // Cosine-weighted hemisphere: weight = albedo.
         s.wi = frame_to_world(frame_from_normal(n), sample_cosine_hemisphere(u.x, u.y));
         s.pdf = diffuse_pdf(n, s.wi);
         s.weight = material_color(m);
         s.specular = false;
         s.valid = s.pdf > 0.0f;
-    } else if (m.type == MAT_MIRROR) {
+    } else if (HAS_FEATURE(FEATURE_MIRROR) && m.type == MAT_MIRROR) {
         s.wi = reflect_about(wo, n);
         s.weight = material_color(m);
-    } else {
+    } else if (HAS_FEATURE(FEATURE_GLASS) && m.type == MAT_GLASS) {
         // Dielectric: reflect with probability F, else refract (radiance scales by 1/eta^2).
         float eta = entering ? m.ior : 1.0f / m.ior;
         float cos_i = MINF(1.0f, dot(wo, n));
@@ -76,6 +76,8 @@ MCPT_FN BsdfSample sample_bsdf(GpuMaterial m, vec3 n, vec3 wo, bool entering, ve
             s.eta2 = eta * eta;
             s.weight = material_color(m) / s.eta2;
         }
+    } else {
+        s.valid = false;  // a material this build left out: never happens (scene_features.h)
     }
     return s;
 }

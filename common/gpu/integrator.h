@@ -25,7 +25,7 @@ MCPT_STRUCT(SurfacePoint) {
 
 MCPT_FN SurfacePoint surface_at(SCENE_PARAMS_ Ray ray, Hit hit) {
     SurfacePoint s;
-    if ((hit.prim & SPHERE_BIT) != 0u) {
+    if (HAS_FEATURE(FEATURE_SPHERES) && (hit.prim & SPHERE_BIT) != 0u) {
         // Sphere: reproject onto the surface, error bound from pbrt-v4.
         GpuSphere sph = spheres[hit.prim & ~SPHERE_BIT];
         vec3 c = V3(sph.cx, sph.cy, sph.cz);
@@ -91,7 +91,7 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
     uint slot = min(U32(scaled), count - 1u);
     GpuLight light = lights[slot];
     uint prim = (scaled - F32(slot)) < light.prob ? light.prim : lights[light.alias].prim;
-    if ((prim & LIGHT_SPHERE_BIT) != 0u) {
+    if (HAS_FEATURE(FEATURE_SPHERE_LIGHTS) && (prim & LIGHT_SPHERE_BIT) != 0u) {
         // Sphere: uniform direction in the cone it subtends.
         GpuSphere sph = spheres[prim & ~LIGHT_SPHERE_BIT];
         vec3 c = V3(sph.cx, sph.cy, sph.cz);
@@ -114,7 +114,7 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
         ls.le = material_emission(m);
         ls.pdf = sphere_light_pdf(SCENE_ARGS_ sph, x);
         ls.valid = ls.pdf > 0.0f;
-    } else {
+    } else if (HAS_FEATURE(FEATURE_TRIANGLE_LIGHTS) && (prim & LIGHT_SPHERE_BIT) == 0u) {
         // Triangle: uniform point, one-sided emission.
         GpuTriangle tri = triangles[prim];
         vec3 v0 = tri_v0(tri), v1 = tri_v1(tri), v2 = tri_v2(tri);
@@ -140,7 +140,7 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
 // Solid-angle pdf with which next-event estimation would have produced the emitter hit
 // `hit` from x, for the MIS weight of a BSDF-sampled ray.
 MCPT_FN float emitter_hit_pdf(SCENE_PARAMS_ vec3 x, Ray ray, Hit hit, SurfacePoint s) {
-    if ((hit.prim & SPHERE_BIT) != 0u) {
+    if (HAS_FEATURE(FEATURE_SPHERE_LIGHTS) && (hit.prim & SPHERE_BIT) != 0u) {
         return sphere_light_pdf(SCENE_ARGS_ spheres[hit.prim & ~SPHERE_BIT], x);
     }
     float cos_l = -dot(s.ng, ray.d);
@@ -210,7 +210,7 @@ MCPT_FN PathResult trace_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
         vec4 ub = rng4(pixel, sample_index, 2u * depth + 2u, seed);
 
         // Next-event estimation at diffuse vertices.
-        if (m.type == MAT_DIFFUSE && PARAM(num_lights) > 0u) {
+        if (HAS_FEATURE(FEATURE_DIFFUSE) && m.type == MAT_DIFFUSE && PARAM(num_lights) > 0u) {
             LightSample ls = sample_light(SCENE_ARGS_ s.p, V3(ua.x, ua.y, ua.z));
             float cos_x = dot(n, ls.wi);
             if (ls.valid && cos_x > 0.0f) {

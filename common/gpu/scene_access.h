@@ -14,8 +14,10 @@ layout(std430, binding = BINDING_TRIANGLES) readonly buffer TriBlock { GpuTriang
 layout(std430, binding = BINDING_SPHERES) readonly buffer SphereBlock { GpuSphere spheres[]; };
 layout(std430, binding = BINDING_MATERIALS) readonly buffer MatBlock { GpuMaterial materials[]; };
 layout(std430, binding = BINDING_LIGHTS) readonly buffer LightBlock { GpuLight lights[]; };
-// Traversal stack entries, from the tree depth (a specialization constant).
+// Traversal stack entries, from the tree depth, and the scene's features (specialization
+// constants; id 1 is the workgroup size).
 layout(constant_id = 0) const uint KD_STACK_SIZE = 64u;
+layout(constant_id = 2) const uint MCPT_FEATURES = FEATURE_ALL;
 #define SCENE_PARAMS_
 #define SCENE_ARGS_
 #define PARAM(x) params.x
@@ -37,6 +39,13 @@ layout(constant_id = 0) const uint KD_STACK_SIZE = 64u;
 #ifndef KD_STACK_SIZE
 #define KD_STACK_SIZE 64u  // OpenCL builds pass -DKD_STACK_SIZE from the tree depth
 #endif
+#ifndef MCPT_FEATURES
+#define MCPT_FEATURES FEATURE_ALL  // OpenCL builds pass -DMCPT_FEATURES from the scene
 #endif
+#endif
+
+// Whether this build keeps the code of feature f (a compile-time or specialization constant,
+// so the compiler drops the branches of features left out).
+#define HAS_FEATURE(f) ((MCPT_FEATURES & (f)) != 0u)
 
 #endif  // MCPT_GPU_SCENE_ACCESS_H

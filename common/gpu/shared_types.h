@@ -16,6 +16,19 @@ MCPT_NAMESPACE_BEGIN
 // Light kinds (GpuLight.prim high bit).
 #define LIGHT_SPHERE_BIT 0x80000000u
 
+// Scene features (bits of MCPT_FEATURES): code a scene does not need is compiled out,
+// through -D in OpenCL and a specialization constant in Vulkan (common/scene_features.h).
+#define FEATURE_TRIANGLES 1u        // triangle meshes
+#define FEATURE_SPHERES 2u          // analytic spheres
+#define FEATURE_DIFFUSE 4u          // Lambertian surfaces (and next-event estimation)
+#define FEATURE_MIRROR 8u           // perfect mirrors
+#define FEATURE_GLASS 16u           // dielectrics (Fresnel, refraction, total internal reflection)
+#define FEATURE_TRIANGLE_LIGHTS 32u // emissive triangles
+#define FEATURE_SPHERE_LIGHTS 64u   // emissive spheres
+#define FEATURE_KDTREE 128u         // k-d traversal with its stack (else: test every triangle)
+#define FEATURE_ALL 255u
+#define FEATURE_COUNT 8
+
 // k-d node layout (pbrt): axis in the low 2 bits of `flags`, 3 = leaf; below child implicit.
 #define KD_LEAF 3u
 

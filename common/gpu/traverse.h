@@ -24,6 +24,23 @@ MCPT_STRUCT(Hit) {
 // one the ray reaches after rounding is not.
 #define KD_SLACK 1.0e-6f
 
+// Triangle tri_index against the ray, up to the nearest hit so far: the updated hit.
+MCPT_FN Hit closer_triangle_hit(SCENE_PARAMS_ Ray ray, WoopRay wr, uint tri_index, Hit hit) {
+#ifdef MCPT_COUNTERS
+    hit.tri_tests += 1u;
+#endif
+    Ray r = ray;
+    r.tmax = hit.t;
+    TriHit th = intersect_triangle(r, wr, triangles[tri_index]);
+    if (th.hit) {
+        hit.t = th.t;
+        hit.b1 = th.b1;
+        hit.b2 = th.b2;
+        hit.prim = tri_index;
+    }
+    return hit;
+}
+
 // Nearest hit with t < ray.tmax; with any_hit, the first hit found.
 MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
     Hit hit;
@@ -36,7 +53,8 @@ MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
     hit.node_visits = 0u;
 
     // Spheres: few, tested one by one.
-    for (uint i = 0u; i < PARAM(num_spheres); ++i) {
+    uint num_spheres = HAS_FEATURE(FEATURE_SPHERES) ? PARAM(num_spheres) : 0u;
+    for (uint i = 0u; i < num_spheres; ++i) {
         Ray r = ray;
         r.tmax = hit.t;
         float t = intersect_sphere(r, spheres[i]);
@@ -46,7 +64,18 @@ MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
             if (any_hit) return hit;
         }
     }
-    if (PARAM(num_triangles) == 0u) return hit;
+    if (!HAS_FEATURE(FEATURE_TRIANGLES) || PARAM(num_triangles) == 0u) return hit;
+    WoopRay wr = woop_setup(ray.d);
+
+    // Without a tree: every triangle, no stack.
+    if (!HAS_FEATURE(FEATURE_KDTREE)) {
+        for (uint i = 0u; i < PARAM(num_triangles); ++i) {
+            float nearest = hit.t;
+            hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, i, hit);
+            if (any_hit && hit.t < nearest) return hit;
+        }
+        return hit;
+    }
 
     // Clip the ray to the scene bounds.
     vec3 inv_d = V3(1.0f / ray.d.x, 1.0f / ray.d.y, 1.0f / ray.d.z);
@@ -54,7 +83,6 @@ MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
                                   V3(PARAM(scene_max_x), PARAM(scene_max_y), PARAM(scene_max_z)), inv_d);
     if (range.x > range.y) return hit;
     float tmin = range.x, tmax = range.y;
-    WoopRay wr = woop_setup(ray.d);
 
     uint stack_node[KD_STACK_SIZE];
     float stack_tmin[KD_STACK_SIZE];
@@ -104,20 +132,9 @@ MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
             uint count = n.flags >> 2u;
             uint first_index = n.split_or_offset;
             for (uint i = 0u; i < count; ++i) {
-                uint tri_index = leaf_indices[first_index + i];
-#ifdef MCPT_COUNTERS
-                hit.tri_tests += 1u;
-#endif
-                Ray r = ray;
-                r.tmax = hit.t;
-                TriHit th = intersect_triangle(r, wr, triangles[tri_index]);
-                if (th.hit) {
-                    hit.t = th.t;
-                    hit.b1 = th.b1;
-                    hit.b2 = th.b2;
-                    hit.prim = tri_index;
-                    if (any_hit) return hit;
-                }
+                float nearest = hit.t;
+                hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, leaf_indices[first_index + i], hit);
+                if (any_hit && hit.t < nearest) return hit;
             }
         }
         // Next deferred node. Pop on past nodes that start beyond the hit rather than stop
