@@ -102,15 +102,53 @@ Scene make_cornell() {
     return s;
 }
 
+// Spheres only, lit by a spherical light: a ground sphere, glass, mirror and diffuse
+// spheres on it (no triangles, so no tree and no triangle code).
+Scene make_spheres() {
+    Scene s;
+    s.name = "spheres";
+    const uint32_t ground = s.add_material(diffuse("ground", glm::vec3(0.6f, 0.6f, 0.55f)));
+    const uint32_t blue = s.add_material(diffuse("blue", {0.15f, 0.25f, 0.65f}));
+    Material light_m = diffuse("light", glm::vec3(0.f));
+    light_m.emission = glm::vec3(40.f, 36.f, 30.f);
+    const uint32_t light = s.add_material(light_m);
+    Material glass_m;
+    glass_m.name = "glass";
+    glass_m.type = MaterialType::Glass;
+    glass_m.color = glm::vec3(1.f);
+    const uint32_t glass = s.add_material(glass_m);
+    Material mirror_m;
+    mirror_m.name = "mirror";
+    mirror_m.type = MaterialType::Mirror;
+    mirror_m.color = glm::vec3(0.9f);
+    const uint32_t mirror = s.add_material(mirror_m);
+
+    // The ground: a sphere of radius 1000 whose top is y = 0.
+    s.spheres.push_back({{0.f, -1000.f, 0.f}, 1000.f, ground});
+    s.spheres.push_back({{-0.9f, 0.4f, 0.f}, 0.4f, glass});
+    s.spheres.push_back({{0.f, 0.4f, -0.6f}, 0.4f, mirror});
+    s.spheres.push_back({{0.9f, 0.4f, 0.f}, 0.4f, blue});
+    s.spheres.push_back({{0.5f, 2.2f, 1.0f}, 0.3f, light});
+
+    s.camera.position = {0.f, 1.0f, 3.5f};
+    s.camera.forward = glm::normalize(glm::vec3(0.f, -0.2f, -1.f));
+    s.camera.up = glm::normalize(glm::cross(glm::cross(s.camera.forward, glm::vec3(0, 1, 0)),
+                                            s.camera.forward));
+    s.camera.yfov = 0.6911f;
+    s.has_camera = true;
+    return s;
+}
+
 }  // namespace
 
 std::vector<std::string> builtin_scene_names() {
-    return {"cornell", "furnace"};
+    return {"cornell", "furnace", "spheres"};
 }
 
 Scene make_builtin_scene(const std::string& name) {
     if (name == "cornell") return make_cornell();
     if (name == "furnace") return make_furnace_scene(0.5f, 1.f);
+    if (name == "spheres") return make_spheres();
     // Unknown: list the valid names.
     std::string valid;
     for (const std::string& n : builtin_scene_names()) valid += (valid.empty() ? "" : ", ") + n;

@@ -1,5 +1,5 @@
-// Scenes built in code: the Cornell box (the default) and a closed white furnace whose exact
-// radiance is known, for testing the integrators.
+// Scenes built in code: the Cornell box (the default), a closed white furnace whose exact
+// radiance is known, for testing the integrators, and a spheres-only scene.
 #pragma once
 #include <string>
 #include <vector>
@@ -11,7 +11,7 @@ namespace mcpt {
 // The valid names for make_builtin_scene(), the default ("cornell") first.
 std::vector<std::string> builtin_scene_names();
 
-// "cornell" | "furnace"; throws mcpt::Error listing the valid names otherwise.
+// "cornell" | "furnace" | "spheres"; throws mcpt::Error listing the valid names otherwise.
 Scene make_builtin_scene(const std::string& name);
 
 // A closed furnace in which every surface is diffuse with the same grey albedo and emission, so
