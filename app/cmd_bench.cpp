@@ -10,6 +10,8 @@
 #include <fstream>
 #include <memory>
 
+#include "app/bench_common.h"
+#include "app/bench_specialize.h"
 #include "app/commands.h"
 #include "common/builtin_scenes.h"
 #include "common/cpu_trace.h"
@@ -27,6 +29,7 @@ namespace {
 
 struct BenchArgs {
     bool quick = false;
+    bool specialize = false;
     std::vector<std::string> backends;  // empty: every device found
     std::string models = "models";
     std::string output = "bench";
@@ -213,62 +216,6 @@ Counts count_work(const GpuScene& g, const Scene& scene, const RenderOptions& ro
     return c;
 }
 
-struct OpenBackend {
-    std::string spec;
-    std::unique_ptr<Backend> backend;
-};
-
-// Every OpenCL and Vulkan device, or the specs given; a device that fails to open is noted.
-std::vector<OpenBackend> open_backends(const BenchArgs& a) {
-    std::vector<std::string> specs = a.backends;
-    if (specs.empty()) {
-        for (const DeviceInfo& d : list_opencl_devices())
-            specs.push_back("opencl:" + std::to_string(d.index));
-#if MCPT_WITH_VULKAN
-        for (const DeviceInfo& d : list_vulkan_devices())
-            specs.push_back("vulkan:" + std::to_string(d.index));
-#endif
-    }
-    std::vector<OpenBackend> out;
-    for (const std::string& s : specs) {
-        try {
-            out.push_back({s, open_backend(s, BackendOptions{})});
-        } catch (const std::exception& e) {
-            std::printf("note: backend %s skipped: %s\n", s.c_str(), e.what());
-            std::fflush(stdout);
-        }
-    }
-    if (out.empty()) throw Error("no backend to benchmark");
-    return out;
-}
-
-// Times frames on one backend: a warm-up, then the median of `frames` timed frames.
-void time_frames(Backend& backend, const GpuScene& g, const Scene& scene, RenderOptions ro,
-                 int frames, Row& row) {
-    backend.load(g, ro.width, ro.height);
-    const uint64_t spp = ro.spp;
-    ro.spp = 1, ro.seed = 99;
-    render_loaded(backend, g, scene.camera, ro);
-    ro.spp = spp;
-    std::vector<std::pair<double, double>> t;  // seconds, rays
-    for (int f = 0; f < frames; ++f) {
-        ro.seed = uint32_t(f);
-        const RenderResult r = render_loaded(backend, g, scene.camera, ro);
-        t.push_back({r.seconds, r.rays});
-    }
-    std::sort(t.begin(), t.end());
-    const auto [sec, rays] = t[t.size() / 2];
-    row.ms_per_frame = 1e3 * sec;
-    row.msamples = double(ro.width) * ro.height * double(spp) / sec * 1e-6;
-    row.mrays = rays / sec * 1e-6;
-}
-
-std::string fmt(const char* f, double v) {
-    char buf[64];
-    std::snprintf(buf, sizeof buf, f, v);
-    return buf;
-}
-
 std::string markdown_table(const std::vector<Row>& rows) {
     std::string t =
         "| model | triangles | tree | backend/device | build ms | tree bytes | ms/frame | "
@@ -333,12 +280,23 @@ void write_plot(const std::string& path, const std::vector<Row>& rows, const Ren
 }
 
 void run_bench(const BenchArgs& a) {
+    if (a.specialize) {
+        SpecializeBenchArgs s;
+        s.backends = a.backends, s.models = a.models;
+        s.output = a.output == "bench" ? "bench-specialize" : a.output;
+        s.width = a.width > 0 ? a.width : (a.quick ? 64 : 256);
+        s.height = a.height > 0 ? a.height : (a.quick ? 64 : 256);
+        s.spp = a.spp > 0 ? a.spp : (a.quick ? 2 : 4);
+        s.frames = a.frames;
+        run_specialize_bench(s);
+        return;
+    }
     RenderOptions ro;
     ro.width = a.width > 0 ? a.width : (a.quick ? 64 : 256);
     ro.height = a.height > 0 ? a.height : (a.quick ? 64 : 256);
     ro.spp = a.spp > 0 ? a.spp : (a.quick ? 2 : 4);
     const double max_frame_s = a.quick ? std::min(a.max_frame_seconds, 5.0) : a.max_frame_seconds;
-    std::vector<OpenBackend> backends = open_backends(a);
+    std::vector<OpenBackend> backends = open_backends(a.backends);
     const auto scenes = bench_scenes(a);
     std::printf("bench: %dx%d, %llu spp, %d timed frames (median), %zu scene(s), %zu backend(s)\n",
                 ro.width, ro.height, (unsigned long long)ro.spp, a.frames, scenes.size(),
@@ -370,7 +328,10 @@ void run_bench(const BenchArgs& a) {
                 } else if (est_s > max_frame_s) {
                     row.note = "skipped: estimated " + fmt("%.0f", est_s) + " s/frame";
                 } else {
-                    time_frames(*ob.backend, g, scene, sro, a.frames, row);
+                    const FrameTiming ft = time_frames(*ob.backend, g, scene.camera, sro, a.frames);
+                    row.ms_per_frame = ft.ms_per_frame;
+                    row.msamples = ft.msamples;
+                    row.mrays = ft.mrays;
                 }
                 std::fprintf(stderr, "  %s %s %s: %s\n", name.c_str(), tc.label, ob.spec.c_str(),
                              row.note.empty() ? fmt("%.2f ms/frame", row.ms_per_frame).c_str()
@@ -398,6 +359,9 @@ void add_bench_command(CLI::App& app) {
     auto a = std::make_shared<BenchArgs>();
     CLI::App* sub = app.add_subcommand("bench", "The thesis' tables: models x trees x devices");
     sub->add_flag("--quick", a->quick, "64x64, 2 spp, small scenes only");
+    sub->add_flag("--specialize", a->specialize,
+                  "Full kernel vs builds for each scene's features (and --tree auto), with "
+                  "cold and cached compile times");
     sub->add_option("--backend", a->backends,
                     "opencl|vulkan[:device], repeatable (default: every device found)");
     sub->add_option("--models", a->models, "Directory of models (scripts/fetch-models)")

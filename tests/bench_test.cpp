@@ -81,6 +81,32 @@ TEST(BenchCli, QuickTableHasEveryRow) {
         EXPECT_NE(svg.find(tree), std::string::npos) << tree;
 }
 
+TEST(BenchCli, SpecializeTableHasEveryScene) {
+    const auto dir = std::filesystem::temp_directory_path() / "mcpt_bench_specialize_test";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir / "no-models");
+    const std::string prefix = (dir / "spec").string();
+    const CliRun r = run_mcpt("bench --specialize --quick --frames 1 --models " +
+                              (dir / "no-models").string() + " --backend opencl:" +
+                              test::test_opencl_device() + " -o " + prefix);
+    ASSERT_EQ(r.status, 0) << r.output;
+    const char* expected[][2] = {{"walls only (diffuse mesh)", "spheres, mirror, glass, sphere lights"},
+                                 {"cornell", "sphere lights"},
+                                 {"spheres", "triangles, triangle lights, k-d tree"}};
+    for (const auto& [scene, left_out] : expected) {
+        const std::string head = std::string("| ") + scene + " | opencl: ";
+        const size_t at = r.output.find(head);
+        ASSERT_NE(at, std::string::npos) << scene << "\n" << r.output;
+        const std::string line = r.output.substr(at, r.output.find('\n', at) - at);
+        EXPECT_NE(line.find(std::string(" | ") + left_out + " | "), std::string::npos) << line;
+        // 10 cells: 11 bars; every time and speed-up filled in.
+        EXPECT_EQ(std::count(line.begin(), line.end(), '|'), 11) << line;
+        EXPECT_EQ(line.find("| - |"), std::string::npos) << line;
+    }
+    const std::string csv = read_file(prefix + ".csv");
+    EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 4) << csv;
+}
+
 TEST(BenchSvg, LogLogPlotHasSeriesLegendAndEscapes) {
     SvgPlot plot;
     plot.title = "a <b> & c";
