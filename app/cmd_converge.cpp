@@ -13,6 +13,7 @@
 #include "app/commands.h"
 #include "common/convergence.h"
 #include "common/error.h"
+#include "common/scene_features.h"
 #include "common/svg_plot.h"
 #include "opencl/cl_backend.h"
 
@@ -31,7 +32,7 @@ struct ConvergeArgs {
     uint64_t reference_spp = 1024;
     std::vector<double> targets{0.10, 0.05};
     int max_depth = -1;
-    std::string tree = "sah";
+    std::string tree = "auto";
     std::string output = "converge";
     uint32_t seed = 1;
 };
@@ -159,7 +160,8 @@ void write_plot(const std::string& path, const std::string& scene, const std::ve
 void run_converge(const ConvergeArgs& a) {
     // Scene, tree, render settings.
     Scene scene = load_scene_argument(a.scene);
-    const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, tree_options(a.tree, -1)));
+    const TreeOptions tree_opts = tree_options(a.tree, -1);
+    const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, tree_opts));
     RenderOptions ro;
     ro.width = a.width, ro.height = a.height;
     ro.max_depth = uint32_t(
@@ -186,7 +188,14 @@ void run_converge(const ConvergeArgs& a) {
                 "rmse", "rel rmse", "rel mse", "mean signed");
     for (size_t b = 0; b < a.backends.size(); ++b) {
         std::unique_ptr<Backend> backend = open_backend(a.backends[b], BackendOptions{});
-        backend->load(g, a.width, a.height);
+        // --tree auto: the tree this device's cost model picks.
+        GpuScene gb = g;
+        if (tree_opts.kind == TreeKind::Auto) {
+            TreeOptions to = tree_opts;
+            to.auto_model = tree_cost_model(backend->device());
+            gb = pack_scene(scene, build_kdtree(scene.triangles, to));
+        }
+        backend->load(gb, a.width, a.height);
         Run run;
         run.backend = backend->device().backend, run.device = backend->device().name;
         ProgressiveOptions po;
@@ -196,7 +205,7 @@ void run_converge(const ConvergeArgs& a) {
         po.seed_base = a.seed + 100000u * uint32_t(b);
         RenderResult total;
         run.checkpoints =
-            render_progressive(*backend, g, scene.camera, po, ref, &total,
+            render_progressive(*backend, gb, scene.camera, po, ref, &total,
                                [&](const Checkpoint& c) { print_checkpoint(run, c); });
         run.report =
             analyze_convergence(run.checkpoints, ref.mean_value(), effective_pixels(total));
@@ -272,8 +281,8 @@ void add_converge_command(CLI::App& app) {
         ->capture_default_str();
     sub->add_option("--max-depth", a->max_depth, "Bounces (default 8, or the scene's)")
         ->check(CLI::Range(0, 1000000));
-    sub->add_option("--tree", a->tree, "sah, median or none")
-        ->check(CLI::IsMember({"sah", "median", "none"}))
+    sub->add_option("--tree", a->tree, "auto (per device: SAH or none), sah, median or none")
+        ->check(CLI::IsMember({"auto", "sah", "median", "none"}))
         ->capture_default_str();
     sub->add_option("--seed", a->seed, "Seed of the first batch (batches count up from it)")
         ->capture_default_str();
