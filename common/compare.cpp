@@ -53,6 +53,11 @@ std::string Agreement::verdict() const {
 }
 
 Agreement test_agreement(const BatchSet& a, const BatchSet& b, double alpha) {
+    // Float rounding: two compilers evaluating the same path differ by a few ulps, which a
+    // pixel without sampling noise (a light or its mirror image seen directly) would turn
+    // into an infinite z. Each pixel's difference gets this much relative rounding
+    // uncertainty on top of its sampling variance.
+    constexpr double kRoundingRel = kFloatRoundingTolerance;
     if (a.width != b.width || a.height != b.height) throw Error("images differ in size");
     const size_t npix = a.mean.size();
     Agreement g;
@@ -64,15 +69,21 @@ Agreement test_agreement(const BatchSet& a, const BatchSet& b, double alpha) {
     for (size_t i = 0; i < npix; ++i) {
         sum_a += a.mean[i], sum_b += b.mean[i];
         if (a.var[i] == 0 && b.var[i] == 0 && a.mean[i] == b.mean[i]) continue;  // no information
-        const stats::Welch w =
-            stats::welch_test(b.mean[i], b.var[i], b.batches, a.mean[i], a.var[i], a.batches);
+        // Rounding variance split over the two sides: adds (tol * mean)^2 to the error^2.
+        const double tol = kRoundingRel * std::max(std::abs(a.mean[i]), std::abs(b.mean[i]));
+        const double sampling_se2 = a.var[i] / a.batches + b.var[i] / b.batches;
+        const stats::Welch w = stats::welch_test(
+            b.mean[i], b.var[i] + 0.5 * tol * tol * b.batches, b.batches, a.mean[i],
+            a.var[i] + 0.5 * tol * tol * a.batches, a.batches);
         g.p_image[i] = float(w.p);
         g.z_image[i] = float(std::clamp(w.z, -1e30, 1e30));
         p_tested.push_back(w.p);
         g.min_p = std::min(g.min_p, w.p);
         sum_z += w.z, sum_z2 += w.z * w.z;
-        // How strongly a relative bias delta would shift this pixel's z: mean / std error.
-        if (w.std_error > 0) signal += 0.5 * (a.mean[i] + b.mean[i]) / w.std_error;
+        // How strongly a relative bias delta would shift this pixel's z: mean / std error
+        // (pixels whose error is mostly rounding, not sampling noise, say nothing of that).
+        if (w.std_error > 0 && sampling_se2 > tol * tol)
+            signal += 0.5 * (a.mean[i] + b.mean[i]) / w.std_error;
     }
     const size_t m = p_tested.size();
     g.pixels_tested = m;

@@ -4,6 +4,7 @@
 
 #include <random>
 
+#include "common/compare.h"
 #include "common/stats.h"
 
 namespace mcpt::stats {
@@ -56,3 +57,29 @@ TEST(Stats, WelchFalseAlarmRateAndPower) {
 
 }  // namespace
 }  // namespace mcpt::stats
+
+namespace mcpt {
+namespace {
+
+// Noise-free pixels (a light seen directly) that differ by float rounding agree; the same
+// pixels differing by 0.1% do not, and neither count toward the detectable bias.
+TEST(Agreement, RoundingInNoiseFreePixelsIsNotBias) {
+    BatchSet a, b;
+    a.width = b.width = 16, a.height = b.height = 1, a.batches = b.batches = 32;
+    a.mean.assign(16, 0.5), b.mean.assign(16, 0.5);
+    a.var.assign(16, 0.01), b.var.assign(16, 0.01);
+    for (int i = 0; i < 4; ++i) {
+        a.mean[i] = 17.0, a.var[i] = 0;
+        b.mean[i] = 17.0 * (1 + 3e-6), b.var[i] = 0;  // a few float ulps
+    }
+    const Agreement same = test_agreement(a, b);
+    EXPECT_TRUE(same.agree) << same.verdict();
+    EXPECT_GT(same.detectable_bias, 0.01) << "noise-free pixels must not claim tiny limits";
+    for (int i = 0; i < 4; ++i) b.mean[i] = 17.0 * 1.001;
+    const Agreement biased = test_agreement(a, b);
+    EXPECT_FALSE(biased.agree) << biased.verdict();
+    EXPECT_EQ(biased.sidak_rejections, 4u);
+}
+
+}  // namespace
+}  // namespace mcpt
