@@ -31,6 +31,7 @@ struct Side {
     std::unique_ptr<Backend> backend;
     BatchSet batches;
     RenderResult same_seed;
+    double device_seconds = 0;  // of the batches, 0 if the device cannot time itself
 };
 
 void run_compare(const CompareArgs& args) {
@@ -53,7 +54,9 @@ void run_compare(const CompareArgs& args) {
         if (s == 1) opt.extra_defines = args.b_defines, side_ro.light_scale = args.b_light_scale;
         sides[s].backend = open_backend(specs[s], opt);
         bo.seed_base = 1000u + 100000u * uint32_t(s);
+        const double device_before = sides[s].backend->device_seconds();
         sides[s].batches = render_batches(*sides[s].backend, g, scene.camera, side_ro, bo);
+        sides[s].device_seconds = sides[s].backend->device_seconds() - device_before;
         side_ro.spp = args.same_seed_spp;
         side_ro.seed = 7;
         sides[s].same_seed = render_loaded(*sides[s].backend, g, scene.camera, side_ro);
@@ -82,7 +85,21 @@ void run_compare(const CompareArgs& args) {
     row("M samples/s", rate[0] * 1e-6, rate[1] * 1e-6, "");
     row("M rays/s", sides[0].batches.rays / sides[0].batches.seconds * 1e-6,
         sides[1].batches.rays / sides[1].batches.seconds * 1e-6, "");
-    std::printf("speed ratio B/A: %.3f\n", rate[1] / rate[0]);
+    // Where the time goes: in the kernel (device timers) or around it (submission, waits,
+    // read-back): a slower side with the same device time pays in host overhead.
+    double device_ns[2], overhead[2];
+    for (int s = 0; s < 2; ++s) {
+        const BatchSet& bs = sides[s].batches;
+        const double samples = double(bs.batches) * double(bs.spp_per_batch) * pixels;
+        device_ns[s] = sides[s].device_seconds > 0 ? 1e9 * sides[s].device_seconds / samples : 0;
+        overhead[s] = sides[s].device_seconds > 0 ? 100 * (1 - sides[s].device_seconds / bs.seconds) : 0;
+    }
+    row("device time/sample (ns)", device_ns[0], device_ns[1], "");
+    row("host overhead (%)", overhead[0], overhead[1], "");
+    std::printf("speed ratio B/A: %.3f", rate[1] / rate[0]);
+    if (device_ns[0] > 0 && device_ns[1] > 0)
+        std::printf(" (device time alone: %.3f)", device_ns[0] / device_ns[1]);
+    std::printf("\n");
 
     // Statistical agreement.
     const Agreement agreement = test_agreement(sides[0].batches, sides[1].batches, args.alpha);

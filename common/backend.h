@@ -48,6 +48,9 @@ public:
     virtual void read_accum(std::vector<float>& out) = 0;
     // Seconds spent compiling in load().
     virtual double compile_seconds() const = 0;
+    // Device time spent in dispatches so far (OpenCL profiling events, Vulkan timestamps);
+    // 0 where the device cannot time itself.
+    virtual double device_seconds() const = 0;
     // The FEATURE_* bits the loaded program was compiled with.
     virtual uint32_t compiled_features() const = 0;
 };

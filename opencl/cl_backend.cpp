@@ -79,7 +79,7 @@ public:
     OpenClBackend(ClDevice dev, BackendOptions options)
         : dev_(std::move(dev)), options_(std::move(options)) {
         context_ = cl::Context(dev_.device);
-        queue_ = cl::CommandQueue(context_, dev_.device);
+        queue_ = cl::CommandQueue(context_, dev_.device, CL_QUEUE_PROFILING_ENABLE);
         max_alloc_ = dev_.device.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>();
         global_mem_ = dev_.device.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
     }
@@ -90,6 +90,7 @@ public:
     const DeviceInfo& device() const override { return dev_.info; }
     double compile_seconds() const override { return compile_seconds_; }
     uint32_t compiled_features() const override { return built_features_; }
+    double device_seconds() const override { return device_seconds_; }
 
     void load(const GpuScene& scene, int width, int height) override {
         build(scene.stack_size, compile_features(options_, scene));
@@ -130,8 +131,14 @@ public:
     void dispatch(const gpu::GpuParams& p) override {
         queue_.enqueueWriteBuffer(params_, CL_FALSE, 0, sizeof(p), &p);
         const size_t global = (p.pixel_count + local_ - 1) / local_ * local_;
-        queue_.enqueueNDRangeKernel(kernel_, cl::NullRange, cl::NDRange(global), cl::NDRange(local_));
+        cl::Event done;
+        queue_.enqueueNDRangeKernel(kernel_, cl::NullRange, cl::NDRange(global), cl::NDRange(local_),
+                                    nullptr, &done);
         queue_.finish();
+        // Kernel time from the profiling event (nanoseconds).
+        const cl_ulong t0 = done.getProfilingInfo<CL_PROFILING_COMMAND_START>();
+        const cl_ulong t1 = done.getProfilingInfo<CL_PROFILING_COMMAND_END>();
+        if (t1 > t0) device_seconds_ += double(t1 - t0) * 1e-9;
     }
 
     void read_accum(std::vector<float>& out) override {
@@ -190,6 +197,7 @@ private:
     uint64_t max_alloc_ = 0, global_mem_ = 0;
     double compile_seconds_ = 0;
     uint32_t built_features_ = 0;
+    double device_seconds_ = 0;
 };
 
 }  // namespace

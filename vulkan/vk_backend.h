@@ -44,6 +44,7 @@ class VulkanBackend final : public Backend {
     // Seconds spent creating the compute pipeline in load().
     double compile_seconds() const override;
     uint32_t compiled_features() const override;
+    double device_seconds() const override { return gpu_seconds(); }
 
     // Whether the queue has timestamps (timestampValidBits > 0); gpu_seconds() is 0 if not.
     bool has_gpu_timer() const;
