@@ -145,7 +145,8 @@ void run_render(const RenderArgs& a) {
                     reached ? "reached" : "not reached (stopped by --time or --spp)");
     }
     if (r.nonfinite_total > 0) {
-        std::printf("WARNING: %llu non-finite samples (NaN/Inf) were counted and left out\n",
+        std::printf("WARNING: %llu invalid samples (NaN/Inf, or paths a device loop limit cut "
+                    "short) were counted and left out\n",
                     (unsigned long long)r.nonfinite_total);
     } else {
         std::printf("non-finite samples: 0\n");

@@ -51,6 +51,9 @@ public:
     // Device time spent in dispatches so far (OpenCL profiling events, Vulkan timestamps);
     // 0 where the device cannot time itself.
     virtual double device_seconds() const = 0;
+    // Most samples per pixel one dispatch may take: CPU Vulkan drivers cap the loop
+    // iterations of an invocation (llvmpipe: 65,535 over all loops), so they get 1.
+    virtual uint32_t max_samples_per_dispatch() const = 0;
     // The FEATURE_* bits the loaded program was compiled with.
     virtual uint32_t compiled_features() const = 0;
 };

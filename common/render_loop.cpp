@@ -93,7 +93,7 @@ RenderResult render_loaded(Backend& backend, const GpuScene& scene, const Camera
     while (true) {
         // One pass: every pixel gets `spp` more samples, in tiles of at most `work` pixels.
         uint32_t spp = uint32_t(std::max(1.0, std::floor(work / npix)));
-        spp = std::min(spp, opt.flush_spp - unflushed);
+        spp = std::min({spp, opt.flush_spp - unflushed, backend.max_samples_per_dispatch()});
         if (opt.spp > 0) spp = uint32_t(std::min<uint64_t>(spp, opt.spp - r.spp));
         const uint32_t tile = uint32_t(std::clamp(work / spp, 64.0, double(npix)));
         p.sample_offset = uint32_t(r.spp);

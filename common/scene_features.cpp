@@ -9,7 +9,7 @@ namespace {
 
 const char* const kFeatureNames[FEATURE_COUNT] = {
     "triangles", "spheres", "diffuse", "mirror", "glass", "triangle lights", "sphere lights",
-    "k-d tree"};
+    "k-d tree", "test NaN injection"};
 
 uint32_t material_feature(uint32_t type) {
     switch (type) {
@@ -58,7 +58,7 @@ std::string features_left_out(uint32_t features) {
 
 uint32_t compile_features(const BackendOptions& options, const GpuScene& scene) {
     const uint32_t f = options.features != 0 ? options.features : scene.features;
-    return (f & FEATURE_ALL) | (options.compile_nonce << FEATURE_COUNT);
+    return (f & FEATURE_BITS) | (options.compile_nonce << FEATURE_COUNT);
 }
 
 }  // namespace mcpt

@@ -91,6 +91,7 @@ public:
     double compile_seconds() const override { return compile_seconds_; }
     uint32_t compiled_features() const override { return built_features_; }
     double device_seconds() const override { return device_seconds_; }
+    uint32_t max_samples_per_dispatch() const override { return 1u << 30; }
 
     void load(const GpuScene& scene, int width, int height) override {
         build(scene.stack_size, compile_features(options_, scene));
@@ -166,7 +167,7 @@ private:
         compile_seconds_ =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         built_options_ = opts;
-        built_features_ = features & FEATURE_ALL;
+        built_features_ = features & FEATURE_BITS;
         // Work-group size within the kernel's and device's limits.
         const size_t kmax = kernel_.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(dev_.device);
         local_ = std::max<size_t>(1, std::min<size_t>(WORKGROUP_SIZE, kmax));

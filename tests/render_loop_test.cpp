@@ -20,7 +20,7 @@ public:
     void load(const GpuScene&, int w, int h) override { accum_.assign(size_t(w) * h * 8, 0.f); }
     void dispatch(const gpu::GpuParams& p) override {
         ++dispatches;
-        max_samples_per_dispatch = std::max(max_samples_per_dispatch, p.samples_per_dispatch);
+        most_samples_per_dispatch = std::max(most_samples_per_dispatch, p.samples_per_dispatch);
         for (uint32_t k = 0; k < p.pixel_count; ++k) {
             float* a = &accum_[8 * size_t(p.pixel_offset + k)];
             if (!p.accumulate) std::fill(a, a + 8, 0.f);
@@ -35,8 +35,10 @@ public:
     double compile_seconds() const override { return 0; }
     uint32_t compiled_features() const override { return FEATURE_ALL; }
     double device_seconds() const override { return 0; }
+    uint32_t max_samples_per_dispatch() const override { return cap; }
     size_t dispatches = 0;
-    uint32_t max_samples_per_dispatch = 0;
+    uint32_t most_samples_per_dispatch = 0;
+    uint32_t cap = 1u << 30;
 
 private:
     DeviceInfo info_;
@@ -60,7 +62,7 @@ TEST(RenderLoop, TenMillionSamplesDoNotDrift) {
     EXPECT_NEAR(mean / exact, 1.0, 1e-6);
     EXPECT_GT(std::abs(double(naive) / double(o.spp) / exact - 1.0), 5e-5)
         << "negative control: a float running sum should drift";
-    EXPECT_LE(backend.max_samples_per_dispatch, o.flush_spp);
+    EXPECT_LE(backend.most_samples_per_dispatch, o.flush_spp);
     EXPECT_DOUBLE_EQ(r.rays, double(o.spp));
 }
 
@@ -76,6 +78,21 @@ TEST(RenderLoop, EveryPixelGetsEverySample) {
         for (uint64_t s = 0; s < o.spp; ++s) exact += value(s);
         ASSERT_NEAR(r.sum[3 * i], exact, 1e-4 * exact) << "pixel " << i;
     }
+    EXPECT_DOUBLE_EQ(r.rays, double(o.spp) * o.width * o.height);
+}
+
+// A backend that takes one sample per dispatch (CPU Vulkan drivers) gets exactly that,
+// and every sample still arrives.
+TEST(RenderLoop, KeepsTheBackendsSamplesPerDispatchCap) {
+    FakeBackend backend;
+    backend.cap = 1;
+    GpuScene scene;
+    RenderOptions o;
+    o.width = 7, o.height = 5;
+    o.spp = 40;
+    const RenderResult r = render(backend, scene, Camera{}, o);
+    EXPECT_EQ(backend.most_samples_per_dispatch, 1u);
+    EXPECT_EQ(r.spp, o.spp);
     EXPECT_DOUBLE_EQ(r.rays, double(o.spp) * o.width * o.height);
 }
 

@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "common/render_loop.h"
 #include "opencl/cl_backend.h"
@@ -26,6 +27,19 @@ inline std::unique_ptr<Backend> test_opencl_backend(const std::string& defines =
     o.extra_defines = defines;
     o.fast_math = fast_math;
     return make_opencl_backend(o);
+}
+
+// The device under test of a backend API: OpenCL as above, Vulkan from
+// $MCPT_TEST_VULKAN_DEVICE (index or name), else the best (lavapipe in CI).
+std::unique_ptr<Backend> test_backend(const std::string& api, BackendOptions options = {});
+
+// The backends the stability tests run on: both APIs where Vulkan is built.
+inline std::vector<std::string> test_apis() {
+#if MCPT_WITH_VULKAN
+    return {"opencl", "vulkan"};
+#else
+    return {"opencl"};
+#endif
 }
 
 // Mean radiance over all pixels, channels and samples, with its standard error (samples are

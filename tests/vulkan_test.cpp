@@ -214,6 +214,30 @@ TEST(VulkanVsOpenCl, SameSeedImagesAgree) {
 }
 
 // Device list and options the port cannot honour.
+// Paths of about a thousand bounces (furnace, albedo 0.999) exceed llvmpipe's 65,535 loop
+// iterations per invocation: the cut paths are counted as invalid samples, never added.
+// A GPU runs them whole.
+TEST(VulkanLoopLimit, PathsCutShortAreCountedNotSilent) {
+    SKIP_WITHOUT_VULKAN();
+    auto vk = open_vulkan();
+    ASSERT_TRUE(vk);
+    const Packed p = pack(make_furnace_scene(0.999f, 1.f));
+    RenderOptions o;
+    o.width = o.height = 4;
+    o.spp = 8;
+    o.seed = 3;
+    o.max_depth = 100000;
+    const RenderResult r = render(*vk, p.gpu, p.scene.camera, o);
+    for (float v : r.mean_image()) EXPECT_TRUE(std::isfinite(v));
+    const bool cpu_driver = vk->device().type == "cpu";
+    if (cpu_driver) {
+        EXPECT_GT(r.nonfinite_total, 0u) << "llvmpipe cuts ~1000-bounce paths: they must be counted";
+        EXPECT_EQ(vk->max_samples_per_dispatch(), 1u);
+    } else {
+        EXPECT_EQ(r.nonfinite_total, 0u);
+    }
+}
+
 TEST(VulkanDevices, ListedWithLimitsAndOpenClOnlyOptionsRefused) {
     SKIP_WITHOUT_VULKAN();
     for (const DeviceInfo& d : list_vulkan_devices()) {

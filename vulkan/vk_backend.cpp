@@ -409,8 +409,14 @@ void VulkanBackend::read_accum(std::vector<float>& out) {
 double VulkanBackend::compile_seconds() const {
     return impl_->compile_seconds;
 }
+uint32_t VulkanBackend::max_samples_per_dispatch() const {
+    // llvmpipe (lavapipe) ends every loop of an invocation once 65,535 iterations have run
+    // in all of them together (gallivm's LP_MAX_TGSI_LOOP_ITERATIONS): one sample per
+    // dispatch keeps ordinary paths far below it; longer ones are detected and counted.
+    return impl_->pd.props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? 1u : (1u << 30);
+}
 uint32_t VulkanBackend::compiled_features() const {
-    return impl_->built_features & FEATURE_ALL;
+    return impl_->built_features & FEATURE_BITS;
 }
 bool VulkanBackend::has_gpu_timer() const {
     return impl_->timer != VK_NULL_HANDLE;

@@ -45,6 +45,7 @@ class VulkanBackend final : public Backend {
     double compile_seconds() const override;
     uint32_t compiled_features() const override;
     double device_seconds() const override { return gpu_seconds(); }
+    uint32_t max_samples_per_dispatch() const override;
 
     // Whether the queue has timestamps (timestampValidBits > 0); gpu_seconds() is 0 if not.
     bool has_gpu_timer() const;

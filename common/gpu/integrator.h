@@ -183,12 +183,16 @@ MCPT_FN PathResult trace_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
     float prev_pdf = 0.0f;
     vec3 prev_p = ray.o;
     uint rays = 0u;
+    bool ended = false;  // set at every real exit of the loop (see TRACE_INCOMPLETE)
     for (uint depth = 0u;; ++depth) {
         // Find the next vertex.
         Hit hit = trace_ray(SCENE_ARGS_ ray, false);
         rays += 1u;
         if (hit.status != 0u) return path_result(V3S(quiet_nan()), rays);
-        if (hit.prim == NO_HIT) break;
+        if (hit.prim == NO_HIT) {
+            ended = true;
+            break;
+        }
         SurfacePoint s = surface_at(SCENE_ARGS_ ray, hit);
         GpuMaterial m = materials[s.material];
         vec3 wo = -ray.d;
@@ -204,7 +208,10 @@ MCPT_FN PathResult trace_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
             }
             radiance += beta * le * w;
         }
-        if (depth >= PARAM(max_depth)) break;
+        if (depth >= PARAM(max_depth)) {
+            ended = true;
+            break;
+        }
 
         vec4 ua = rng4(pixel, sample_index, 2u * depth + 1u, seed);
         vec4 ub = rng4(pixel, sample_index, 2u * depth + 2u, seed);
@@ -231,7 +238,10 @@ MCPT_FN PathResult trace_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
 
         // Sample the BSDF for the next direction.
         BsdfSample bs = sample_bsdf(m, n, wo, front, V3(ub.x, ub.y, ub.z));
-        if (!bs.valid) break;
+        if (!bs.valid) {
+            ended = true;
+            break;
+        }
         beta = beta * bs.weight;
         eta_scale *= bs.eta2;
         specular = bs.specular;
@@ -245,12 +255,17 @@ MCPT_FN PathResult trace_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
         // variant that forgets to reweight survivors (MCPT_NEGATIVE_CONTROL_RR).
         if (depth + 1u >= PARAM(rr_depth)) {
             float survive = MINF(1.0f, max_component(beta * eta_scale));
-            if (ua.w >= survive) break;
+            if (ua.w >= survive) {
+                ended = true;
+                break;
+            }
 #ifndef MCPT_NEGATIVE_CONTROL_RR
             beta = beta / survive;
 #endif
         }
     }
+    // A loop the device cut short: an invalid sample, counted and left out like a NaN.
+    if (!ended) return path_result(V3S(quiet_nan()), rays);
     return path_result(radiance, rays);
 }
 
@@ -264,14 +279,13 @@ MCPT_FN PixelSums render_pixel(SCENE_PARAMS_ uint pixel) {
     PixelSums acc;
     acc.sum = V4S(0.0f);
     acc.sum_sq = V4S(0.0f);
-    for (uint i = 0u; i < PARAM(samples_per_dispatch); ++i) {
+    uint i = 0u;
+    for (; i < PARAM(samples_per_dispatch); ++i) {
         PathResult r = trace_path(SCENE_ARGS_ pixel, PARAM(sample_offset) + i);
         vec3 l = r.radiance;
-#ifdef MCPT_TEST_INJECT_NAN
         // Tests: poison every 4th sample of pixel 0 (NaN) and of pixel 1 (+Inf).
-        if (pixel <= 1u && ((PARAM(sample_offset) + i) & 3u) == 0u)
+        if (HAS_FEATURE(FEATURE_TEST_NAN) && pixel <= 1u && ((PARAM(sample_offset) + i) & 3u) == 0u)
             l.x = pixel == 0u ? quiet_nan() : uint_as_float(0x7f800000u);
-#endif
         acc.sum_sq.w += F32(r.rays);
         // Non-finite samples are counted, never added.
         if (is_nonfinite3(l)) {
@@ -281,6 +295,8 @@ MCPT_FN PixelSums render_pixel(SCENE_PARAMS_ uint pixel) {
             acc.sum_sq = acc.sum_sq + V4(l.x * l.x, l.y * l.y, l.z * l.z, 0.0f);
         }
     }
+    // Samples a device loop limit never ran count as invalid too.
+    if (i < PARAM(samples_per_dispatch)) acc.sum.w += F32(PARAM(samples_per_dispatch) - i);
     return acc;
 }
 

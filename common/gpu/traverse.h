@@ -11,12 +11,15 @@ MCPT_NAMESPACE_BEGIN
 
 #define SPHERE_BIT 0x80000000u
 #define TRACE_STACK_OVERFLOW 1u
+// A loop ended early without reaching its exit: some drivers cut loops after a fixed number of
+// iterations per invocation (llvmpipe/lavapipe: 65,535, shared by every loop of the shader).
+#define TRACE_INCOMPLETE 2u
 
 MCPT_STRUCT(Hit) {
     float t;
     float b1, b2;  // barycentrics of v1, v2 on a triangle hit
     uint prim;     // triangle index, sphere index | SPHERE_BIT, or NO_HIT
-    uint status;   // 0, or TRACE_STACK_OVERFLOW (the query is unreliable)
+    uint status;   // 0, TRACE_STACK_OVERFLOW or TRACE_INCOMPLETE (the query is unreliable)
     uint tri_tests, node_visits;  // counted when MCPT_COUNTERS is defined
 };
 
@@ -54,26 +57,30 @@ MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
 
     // Spheres: few, tested one by one.
     uint num_spheres = HAS_FEATURE(FEATURE_SPHERES) ? PARAM(num_spheres) : 0u;
-    for (uint i = 0u; i < num_spheres; ++i) {
+    uint s = 0u;
+    for (; s < num_spheres; ++s) {
         Ray r = ray;
         r.tmax = hit.t;
-        float t = intersect_sphere(r, spheres[i]);
+        float t = intersect_sphere(r, spheres[s]);
         if (t > 0.0f) {
             hit.t = t;
-            hit.prim = i | SPHERE_BIT;
+            hit.prim = s | SPHERE_BIT;
             if (any_hit) return hit;
         }
     }
+    if (s < num_spheres) hit.status = TRACE_INCOMPLETE;
     if (!HAS_FEATURE(FEATURE_TRIANGLES) || PARAM(num_triangles) == 0u) return hit;
     WoopRay wr = woop_setup(ray.d);
 
     // Without a tree: every triangle, no stack.
     if (!HAS_FEATURE(FEATURE_KDTREE)) {
-        for (uint i = 0u; i < PARAM(num_triangles); ++i) {
+        uint i = 0u;
+        for (; i < PARAM(num_triangles); ++i) {
             float nearest = hit.t;
             hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, i, hit);
             if (any_hit && hit.t < nearest) return hit;
         }
+        if (i < PARAM(num_triangles)) hit.status = TRACE_INCOMPLETE;
         return hit;
     }
 
@@ -89,6 +96,7 @@ MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
     float stack_tmax[KD_STACK_SIZE];
     uint sp = 0u;
     uint node = 0u;
+    bool finished = false;  // set at the one real exit (see TRACE_INCOMPLETE)
     while (true) {
         // Visit the node unless it starts beyond the nearest hit.
         if (hit.t >= tmin) {
@@ -131,21 +139,27 @@ MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
             // Leaf: test its triangles.
             uint count = n.flags >> 2u;
             uint first_index = n.split_or_offset;
-            for (uint i = 0u; i < count; ++i) {
+            uint i = 0u;
+            for (; i < count; ++i) {
                 float nearest = hit.t;
                 hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, leaf_indices[first_index + i], hit);
                 if (any_hit && hit.t < nearest) return hit;
             }
+            if (i < count) hit.status = TRACE_INCOMPLETE;
         }
         // Next deferred node. Pop on past nodes that start beyond the hit rather than stop
         // at the first: a ray lying in a split plane defers the far child with the near
         // child's tmin, so the stack is not sorted by distance there.
-        if (sp == 0u) break;
+        if (sp == 0u) {
+            finished = true;
+            break;
+        }
         sp -= 1u;
         node = stack_node[sp];
         tmin = stack_tmin[sp];
         tmax = stack_tmax[sp];
     }
+    if (!finished) hit.status = TRACE_INCOMPLETE;
     return hit;
 }
 
