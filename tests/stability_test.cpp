@@ -2,6 +2,7 @@
 // range, on every backend (PoCL and lavapipe in CI).
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <map>
 
 #include "common/compare.h"
@@ -61,6 +62,53 @@ INSTANTIATE_TEST_SUITE_P(
             if (!isalnum(static_cast<unsigned char>(c))) c = '_';
         return s;
     });
+
+class AwkwardCamera : public ::testing::TestWithParam<std::string> {};
+
+// The camera exactly on the root split plane of the tree renders what a camera a hair off
+// it renders (every camera ray starts in the plane, its direction often crossing it).
+TEST_P(AwkwardCamera, OnTheRootSplitPlane) {
+    Scene scene = make_builtin_scene("cornell");
+    const KdTree tree = build_kdtree(scene.triangles, TreeOptions{});
+    const uint32_t axis = tree.nodes[0].flags & 3u;
+    ASSERT_NE(axis, KD_LEAF);
+    float split;
+    std::memcpy(&split, &tree.nodes[0].split_or_offset, 4);
+    // Inside the box, on the plane.
+    scene.camera.position = glm::vec3(0.f, 1.f, 0.9f);
+    scene.camera.position[axis] = split;
+    Scene off = scene;
+    off.camera.position[axis] = split + 1e-4f;
+    const BatchSet on_plane = render_scene(GetParam(), scene, 11);
+    const BatchSet near_plane = render_scene(GetParam(), off, 9000);
+    EXPECT_EQ(on_plane.nonfinite, 0u);
+    const Agreement g = test_agreement(near_plane, on_plane, 0.01);
+    EXPECT_TRUE(g.agree) << GetParam() << ": " << g.verdict();
+}
+
+// The camera inside the glass sphere and inside the mirror sphere: every path starts inside
+// closed geometry; no invalid samples, and a finite image: lit through the glass, exactly
+// black in the closed mirror (no light leaks in through rounding).
+TEST_P(AwkwardCamera, InsideGeometry) {
+    for (int s = 0; s < 2; ++s) {
+        Scene scene = make_builtin_scene("cornell");
+        scene.camera.position = scene.spheres[size_t(s)].center;
+        const BatchSet b = render_scene(GetParam(), scene, 21);
+        EXPECT_EQ(b.nonfinite, 0u) << GetParam() << " sphere " << s;
+        double sum = 0;
+        for (double m : b.mean) {
+            EXPECT_TRUE(std::isfinite(m));
+            sum += m;
+        }
+        if (s == 0)
+            EXPECT_GT(sum, 0.0) << GetParam() << ": the glass sphere lets light in";
+        else
+            EXPECT_EQ(sum, 0.0) << GetParam() << ": light leaked into the closed mirror";
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, AwkwardCamera, ::testing::ValuesIn(test::test_apis()),
+                         [](const auto& info) { return info.param; });
 
 }  // namespace
 }  // namespace mcpt
