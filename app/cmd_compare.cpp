@@ -7,6 +7,7 @@
 #include "common/compare.h"
 #include "common/error.h"
 #include "common/image_io.h"
+#include "common/scene_features.h"
 
 namespace mcpt {
 
@@ -20,7 +21,7 @@ struct CompareArgs {
     uint64_t spp = 4;
     uint64_t same_seed_spp = 4;
     int max_depth = -1;
-    std::string tree = "sah";
+    std::string tree = "auto";
     double alpha = 0.01;
     std::string output;
     float b_light_scale = 1.f;
@@ -32,11 +33,12 @@ struct Side {
     BatchSet batches;
     RenderResult same_seed;
     double device_seconds = 0;  // of the batches, 0 if the device cannot time itself
+    std::string tree;           // the k-d tree it rendered with
 };
 
 void run_compare(const CompareArgs& args) {
     Scene scene = load_scene_argument(args.scene);
-    const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, tree_options(args.tree, -1)));
+    const TreeOptions tree_opts = tree_options(args.tree, -1);
     RenderOptions ro;
     ro.width = args.width, ro.height = args.height;
     ro.max_depth = uint32_t(args.max_depth >= 0 ? args.max_depth
@@ -53,6 +55,12 @@ void run_compare(const CompareArgs& args) {
         RenderOptions side_ro = ro;
         if (s == 1) opt.extra_defines = args.b_defines, side_ro.light_scale = args.b_light_scale;
         sides[s].backend = open_backend(specs[s], opt);
+        // The tree: as asked, or (auto) the one this side's device cost model picks.
+        TreeOptions to = tree_opts;
+        to.auto_model = tree_cost_model(sides[s].backend->device());
+        const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, to));
+        sides[s].tree = g.tree_stats.nodes > 1 ? "sah" : "none";
+        if (tree_opts.kind != TreeKind::Auto) sides[s].tree = args.tree;
         bo.seed_base = 1000u + 100000u * uint32_t(s);
         const double device_before = sides[s].backend->device_seconds();
         sides[s].batches = render_batches(*sides[s].backend, g, scene.camera, side_ro, bo);
@@ -79,6 +87,7 @@ void run_compare(const CompareArgs& args) {
         std::printf("%-26s %-40s %-40s\n", name, (std::to_string(x) + unit).c_str(),
                     (std::to_string(y) + unit).c_str());
     };
+    std::printf("%-26s %-40s %-40s\n", "k-d tree", sides[0].tree.c_str(), sides[1].tree.c_str());
     row("compile/pipeline (s)", sides[0].backend->compile_seconds(),
         sides[1].backend->compile_seconds(), "");
     row("time per sample (ns)", 1e9 / rate[0], 1e9 / rate[1], "");
@@ -151,8 +160,9 @@ void add_compare_command(CLI::App& app) {
         ->check(CLI::Range(1, 1000000))
         ->capture_default_str();
     sub->add_option("--max-depth", a->max_depth, "Bounces (default 8, or the scene's)");
-    sub->add_option("--tree", a->tree, "sah, median or none")
-        ->check(CLI::IsMember({"sah", "median", "none"}))
+    sub->add_option("--tree", a->tree,
+                    "auto (each side: the tree its device's cost model picks), sah, median, none")
+        ->check(CLI::IsMember({"auto", "sah", "median", "none"}))
         ->capture_default_str();
     sub->add_option("--alpha", a->alpha, "Family-wise false alarm rate")
         ->check(CLI::Range(1e-12, 0.5))
