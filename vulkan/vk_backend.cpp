@@ -16,7 +16,8 @@ using vk::Buffer;
 using vk::human_bytes;
 
 struct VulkanBackend::Impl {
-    std::unique_ptr<vk::Instance> instance;
+    std::shared_ptr<vk::Instance> instance;
+    size_t messages_before = 0;  // the shared instance's count when this backend began
     vk::PhysicalDevice pd;
     std::unique_ptr<vk::Device> dev;
     VkQueryPool timer = VK_NULL_HANDLE;  // two timestamps per dispatch, if the queue has them
@@ -38,7 +39,6 @@ struct VulkanBackend::Impl {
     uint32_t local = WORKGROUP_SIZE;
     uint32_t max_groups = 1;
     uint32_t built_stack = 0, built_features = 0;
-    bool built_dispatch_base = false;
     BackendOptions options;
     double compile_seconds = 0;
     double gpu_seconds = 0;
@@ -49,8 +49,9 @@ struct VulkanBackend::Impl {
         return "vulkan: " + pd.info.name + " (" + pd.info.platform + ")";
     }
 
-    void init(std::unique_ptr<vk::Instance> inst, vk::PhysicalDevice chosen) {
+    void init(std::shared_ptr<vk::Instance> inst, vk::PhysicalDevice chosen) {
         instance = std::move(inst);
+        messages_before = instance->messages();
         pd = std::move(chosen);
         const VkPhysicalDeviceLimits& l = pd.props.limits;
         dev = std::make_unique<vk::Device>(*instance, pd, description());
@@ -159,10 +160,8 @@ struct VulkanBackend::Impl {
         pixels = 0;
     }
 
-    void build(uint32_t stack_size, uint32_t features, bool dispatch_base) {
-        if (pipeline && stack_size == built_stack && features == built_features &&
-            dispatch_base == built_dispatch_base)
-            return;
+    void build(uint32_t stack_size, uint32_t features) {
+        if (pipeline && stack_size == built_stack && features == built_features) return;
         const vk::DeviceFns& f = dev->fn();
         if (pipeline) f.vkDestroyPipeline(dev->handle(), pipeline, nullptr);
         pipeline = VK_NULL_HANDLE;
@@ -177,7 +176,6 @@ struct VulkanBackend::Impl {
         spec.pData = values;
         VkComputePipelineCreateInfo ci{};
         ci.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
-        ci.flags = dispatch_base ? VK_PIPELINE_CREATE_DISPATCH_BASE_BIT : 0;
         ci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
         ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
         ci.stage.module = module;
@@ -192,7 +190,6 @@ struct VulkanBackend::Impl {
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         built_stack = stack_size;
         built_features = features;
-        built_dispatch_base = dispatch_base;
 
         // Save the cache if the driver's data changed.
         if (cold) return;
@@ -260,10 +257,8 @@ struct VulkanBackend::Impl {
         dev->wait_idle();
         release_scene();
 
-        // Pipeline for this scene's stack depth (dispatch base only if one dispatch may need
-        // more workgroups than the device allows).
-        const uint64_t groups = (npix + local - 1) / local;
-        build(scene.stack_size, compile_features(options, scene), groups > max_groups);
+        // Pipeline for this scene's stack depth and features.
+        build(scene.stack_size, compile_features(options, scene));
 
         // Upload; the accumulation buffer is device-local, zeroed, read back directly when
         // host-visible and through a readback buffer otherwise.
@@ -327,10 +322,22 @@ struct VulkanBackend::Impl {
                         ") outside the " + std::to_string(pixels) + " loaded");
         }
         if (p.pixel_count == 0) return;
+        // More workgroups than the device allows in one dispatch: consecutive dispatches
+        // over pixel ranges (vkCmdDispatchBase gave wrong pixels on NVIDIA's driver).
+        const uint64_t max_pixels = uint64_t(max_groups) * local;
+        if (p.pixel_count > max_pixels) {
+            for (uint64_t done = 0; done < p.pixel_count; done += max_pixels) {
+                gpu::GpuParams part = p;
+                part.pixel_offset = uint32_t(p.pixel_offset + done);
+                part.pixel_count = uint32_t(std::min<uint64_t>(max_pixels, p.pixel_count - done));
+                dispatch(part);
+            }
+            return;
+        }
         // Parameters: the previous dispatch has finished, so the mapped UBO is free.
         std::memcpy(params.mapped, &p, sizeof(p));
 
-        // Record: order after the previous dispatch, time, dispatch (split if too large).
+        // Record: order after the previous dispatch, time, dispatch.
         const vk::DeviceFns& f = dev->fn();
         const VkCommandBuffer cmd = dev->cmd();
         dev->begin_commands();
@@ -344,13 +351,7 @@ struct VulkanBackend::Impl {
         f.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
         f.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_layout, 0, 1, &set,
                                   0, nullptr);
-        const uint32_t groups = (p.pixel_count + local - 1) / local;
-        if (groups <= max_groups) {
-            f.vkCmdDispatch(cmd, groups, 1, 1);
-        } else {
-            for (uint32_t base = 0; base < groups; base += max_groups)
-                f.vkCmdDispatchBase(cmd, base, 0, 0, std::min(max_groups, groups - base), 1, 1);
-        }
+        f.vkCmdDispatch(cmd, (p.pixel_count + local - 1) / local, 1, 1);
         if (timer) f.vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timer, 1);
         dev->barrier(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
                      VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
@@ -425,7 +426,7 @@ double VulkanBackend::gpu_seconds() const {
     return impl_->gpu_seconds;
 }
 size_t VulkanBackend::validation_messages() const {
-    return impl_->instance->messages();
+    return impl_->instance->messages() - impl_->messages_before;
 }
 uint32_t VulkanBackend::local_size() const {
     return impl_->local;
@@ -434,8 +435,8 @@ uint32_t VulkanBackend::local_size() const {
 std::vector<DeviceInfo> list_vulkan_devices() {
     std::vector<DeviceInfo> out;
     try {
-        vk::Instance instance(false);
-        for (const vk::PhysicalDevice& d : instance.devices()) out.push_back(d.info);
+        for (const vk::PhysicalDevice& d : vk::shared_instance(false)->devices())
+            out.push_back(d.info);
     } catch (const Error&) {
         // No loader, no ICD or no device: an empty list.
     }
@@ -452,7 +453,7 @@ std::unique_ptr<Backend> make_vulkan_backend(const BackendOptions& options) {
         throw Error("extra defines (" + options.extra_defines +
                     ") are OpenCL only: the Vulkan shader is SPIR-V compiled at build time");
     }
-    auto instance = std::make_unique<vk::Instance>(vk::validation_requested());
+    std::shared_ptr<vk::Instance> instance = vk::shared_instance(vk::validation_requested());
     std::vector<vk::PhysicalDevice> devices = instance->devices();
     if (devices.empty()) throw Error(vk::kNoDeviceMessage);
     const vk::PhysicalDevice* chosen = nullptr;

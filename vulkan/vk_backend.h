@@ -8,7 +8,7 @@
 //   MCPT_VULKAN_MAX_BUFFER_BYTES=N    lower the effective maxStorageBufferRange to N bytes
 //                                     (tests of the "scene too large" path)
 //   MCPT_VULKAN_MAX_GROUP_COUNT=N     lower the effective maxComputeWorkGroupCount[0] to N
-//                                     (tests of dispatches split with vkCmdDispatchBase)
+//                                     (tests of dispatches split into pixel ranges)
 //   XDG_CACHE_HOME / HOME             the pipeline cache lives in $XDG_CACHE_HOME/mcpt or
 //                                     ~/.cache/mcpt
 #pragma once

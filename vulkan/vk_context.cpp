@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <mutex>
 #include <sstream>
 
 #include "common/error.h"
@@ -248,6 +249,16 @@ Instance::Instance(bool validation) {
             check(mr, "vkCreateDebugUtilsMessengerEXT");
         }
     }
+}
+
+std::shared_ptr<Instance> shared_instance(bool validation) {
+    // Never destroyed: the driver may be unloaded before static destructors run.
+    static std::mutex mutex;
+    static auto* kept = new std::shared_ptr<Instance>[2];
+    std::lock_guard<std::mutex> lock(mutex);
+    std::shared_ptr<Instance>& slot = kept[validation ? 1 : 0];
+    if (!slot) slot = std::make_shared<Instance>(validation);
+    return slot;
 }
 
 Instance::~Instance() {

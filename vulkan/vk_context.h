@@ -9,6 +9,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -65,7 +66,6 @@ namespace mcpt::vk {
     X(vkCmdBindPipeline)             \
     X(vkCmdBindDescriptorSets)       \
     X(vkCmdDispatch)                 \
-    X(vkCmdDispatchBase)             \
     X(vkCmdPipelineBarrier)          \
     X(vkCmdCopyBuffer)               \
     X(vkCmdFillBuffer)               \
@@ -146,6 +146,11 @@ class Instance {
     InstanceFns fn_;
     std::atomic<size_t> messages_{0};
 };
+
+// The process's instance for this validation setting, created on first use and kept: drivers
+// cap how many instances a process may create (NVIDIA 580 fails after about 30), and
+// creating one takes a tenth of a second. Thread-safe.
+std::shared_ptr<Instance> shared_instance(bool validation);
 
 // Whether MCPT_VULKAN_VALIDATION=1.
 bool validation_requested();
