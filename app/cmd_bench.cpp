@@ -68,36 +68,6 @@ struct Row {
     std::string note;  // non-empty: skipped, with the reason
 };
 
-// The Cornell box with its spheres replaced by a bumpy tessellated sphere (2 * segments^2
-// triangles): the stand-in mesh when no models are at hand.
-Scene generated_mesh_scene(int segments) {
-    Scene scene = make_builtin_scene("cornell");
-    scene.name = "generated-sphere";
-    scene.spheres.clear();
-    Material m;
-    m.name = "bumpy";
-    m.color = glm::vec3(0.7f, 0.6f, 0.5f);
-    const uint32_t mat = scene.add_material(m);
-    auto point = [&](int i, int j) {
-        const float theta = float(M_PI) * float(i) / float(segments);
-        const float phi = 2.f * float(M_PI) * float(j) / float(segments);
-        const float r = 0.45f * (1.f + 0.08f * std::sin(7.f * theta) * std::sin(9.f * phi));
-        return glm::vec3(r * std::sin(theta) * std::cos(phi), 0.5f + r * std::cos(theta),
-                         r * std::sin(theta) * std::sin(phi));
-    };
-    for (int i = 0; i < segments; ++i) {
-        for (int j = 0; j < segments; ++j) {
-            // Two triangles per quad, counter-clockwise seen from outside.
-            const glm::vec3 a = point(i, j), b = point(i + 1, j), c = point(i + 1, j + 1),
-                            d = point(i, j + 1);
-            scene.triangles.push_back({a, d, c, mat});
-            scene.triangles.push_back({a, c, b, mat});
-        }
-    }
-    validate_scene(scene);
-    return scene;
-}
-
 // The scenes: cornell always, then the models present (quick: the small ones only).
 std::vector<std::pair<std::string, Scene>> bench_scenes(const BenchArgs& a) {
     std::vector<std::pair<std::string, Scene>> out;
@@ -114,7 +84,9 @@ std::vector<std::pair<std::string, Scene>> bench_scenes(const BenchArgs& a) {
         std::printf("note: no models in '%s' (scripts/fetch-models); using a generated mesh\n",
                     a.models.c_str());
         std::fflush(stdout);
-        out.emplace_back("generated-sphere", generated_mesh_scene(24));
+        Scene mesh = make_bumpy_sphere_scene(24);
+        validate_scene(mesh);
+        out.emplace_back("generated-sphere", mesh);
     }
     return out;
 }

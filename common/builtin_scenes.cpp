@@ -55,6 +55,23 @@ Material diffuse(const std::string& name, const glm::vec3& color) {
     return m;
 }
 
+// Clear glass of IOR 1.5, and a mirror of the given tint.
+Material clear_glass_material() {
+    Material m;
+    m.name = "glass";
+    m.type = MaterialType::Glass;
+    m.color = glm::vec3(1.f);
+    m.ior = 1.5f;
+    return m;
+}
+Material mirror_material(const glm::vec3& tint) {
+    Material m;
+    m.name = "mirror";
+    m.type = MaterialType::Mirror;
+    m.color = tint;
+    return m;
+}
+
 // The Cornell box: x, z in [-1, 1], y in [0, 2], open towards the camera at +z.
 Scene make_cornell() {
     Scene s;
@@ -65,17 +82,8 @@ Scene make_cornell() {
     Material light_m = diffuse("light", glm::vec3(0.f));
     light_m.emission = {17.f, 12.f, 4.f};
     const uint32_t light = s.add_material(light_m);
-    Material glass_m;
-    glass_m.name = "glass";
-    glass_m.type = MaterialType::Glass;
-    glass_m.color = glm::vec3(1.f);
-    glass_m.ior = 1.5f;
-    const uint32_t glass = s.add_material(glass_m);
-    Material mirror_m;
-    mirror_m.name = "mirror";
-    mirror_m.type = MaterialType::Mirror;
-    mirror_m.color = glm::vec3(0.95f);
-    const uint32_t mirror = s.add_material(mirror_m);
+    const uint32_t glass = s.add_material(clear_glass_material());
+    const uint32_t mirror = s.add_material(mirror_material(glm::vec3(0.95f)));
 
     // Walls, each facing into the box.
     add_quad(s, {-1, 0, -1}, {-1, 0, 1}, {1, 0, 1}, {1, 0, -1}, {0, 1, 0}, white);    // floor
@@ -112,16 +120,8 @@ Scene make_spheres() {
     Material light_m = diffuse("light", glm::vec3(0.f));
     light_m.emission = glm::vec3(40.f, 36.f, 30.f);
     const uint32_t light = s.add_material(light_m);
-    Material glass_m;
-    glass_m.name = "glass";
-    glass_m.type = MaterialType::Glass;
-    glass_m.color = glm::vec3(1.f);
-    const uint32_t glass = s.add_material(glass_m);
-    Material mirror_m;
-    mirror_m.name = "mirror";
-    mirror_m.type = MaterialType::Mirror;
-    mirror_m.color = glm::vec3(0.9f);
-    const uint32_t mirror = s.add_material(mirror_m);
+    const uint32_t glass = s.add_material(clear_glass_material());
+    const uint32_t mirror = s.add_material(mirror_material(glm::vec3(0.9f)));
 
     // The ground: a sphere of radius 1000 whose top is y = 0.
     s.spheres.push_back({{0.f, -1000.f, 0.f}, 1000.f, ground});
@@ -154,6 +154,36 @@ Scene make_builtin_scene(const std::string& name) {
     for (const std::string& n : builtin_scene_names()) valid += (valid.empty() ? "" : ", ") + n;
     throw Error("unknown built-in scene '" + name + "' (valid: " + valid + ")");
 }
+
+// The Cornell box with its spheres replaced by a bumpy tessellated sphere of
+// 2 * segments^2 diffuse triangles: a mesh deep enough for a deep SAH tree.
+Scene make_bumpy_sphere_scene(int segments) {
+    Scene scene = make_cornell();
+    scene.name = "generated-sphere";
+    scene.spheres.clear();
+    Material m;
+    m.name = "bumpy";
+    m.color = glm::vec3(0.7f, 0.6f, 0.5f);
+    const uint32_t mat = scene.add_material(m);
+    auto point = [&](int i, int j) {
+        const float theta = float(M_PI) * float(i) / float(segments);
+        const float phi = 2.f * float(M_PI) * float(j) / float(segments);
+        const float r = 0.45f * (1.f + 0.08f * std::sin(7.f * theta) * std::sin(9.f * phi));
+        return glm::vec3(r * std::sin(theta) * std::cos(phi), 0.5f + r * std::cos(theta),
+                         r * std::sin(theta) * std::sin(phi));
+    };
+    for (int i = 0; i < segments; ++i) {
+        for (int j = 0; j < segments; ++j) {
+            // Two triangles per quad, counter-clockwise seen from outside.
+            const glm::vec3 a = point(i, j), b = point(i + 1, j), c = point(i + 1, j + 1),
+                            d = point(i, j + 1);
+            scene.triangles.push_back({a, d, c, mat});
+            scene.triangles.push_back({a, c, b, mat});
+        }
+    }
+    return scene;
+}
+
 
 // Every surface has albedo a and emits Le, and the enclosure is closed, so the radiance L leaving
 // any point in any direction solves L = Le + a * L, i.e. exactly

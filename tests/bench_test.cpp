@@ -1,9 +1,7 @@
 // mcpt bench: `mcpt bench --quick` through the binary prints a Markdown table with a row for
 // every scene x tree x backend and writes the table, a CSV and a log-log SVG plot.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <array>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -16,22 +14,8 @@
 namespace mcpt {
 namespace {
 
-struct CliRun {
-    int status = -1;
-    std::string output;
-};
-
-CliRun run_mcpt(const std::string& args) {
-    const std::string cmd = std::string(MCPT_BINARY) + " " + args + " 2>&1";
-    CliRun r;
-    FILE* pipe = popen(cmd.c_str(), "r");
-    if (!pipe) return r;
-    std::array<char, 4096> buf{};
-    while (fgets(buf.data(), int(buf.size()), pipe)) r.output += buf.data();
-    const int st = pclose(pipe);
-    r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-    return r;
-}
+using test::CliRun;
+using test::run_mcpt;
 
 std::string read_file(const std::filesystem::path& p) {
     std::ifstream f(p);

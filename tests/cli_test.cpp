@@ -1,31 +1,16 @@
 // The mcpt command line on bad input: a clear message and a non-zero exit, never a crash.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <array>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
 
+#include "test_util.h"
+
 namespace {
 
-struct CliRun {
-    int status = -1;  // exit code, or -1 if killed by a signal
-    std::string output;
-};
-
-CliRun run_mcpt(const std::string& args) {
-    const std::string cmd = std::string(MCPT_BINARY) + " " + args + " 2>&1";
-    CliRun r;
-    FILE* pipe = popen(cmd.c_str(), "r");
-    if (!pipe) return r;
-    std::array<char, 4096> buf{};
-    while (fgets(buf.data(), int(buf.size()), pipe)) r.output += buf.data();
-    const int st = pclose(pipe);
-    r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-    return r;
-}
+using mcpt::test::CliRun;
+using mcpt::test::run_mcpt;
 
 std::string temp_file(const std::string& name, const std::string& content) {
     const auto path = std::filesystem::temp_directory_path() / ("mcpt_cli_" + name);

@@ -59,7 +59,7 @@ TEST(CompareBackends, FurnaceAgrees) {
 }
 
 TEST(CompareBackends, DeepMeshTreeAgrees) {
-    const Case c = make_case(test::make_bumpy_mesh_scene(100));
+    const Case c = make_case(make_bumpy_sphere_scene(100));
     EXPECT_GE(c.gpu.tree_stats.max_depth, 18);
     const Agreement g = compare(c);
     EXPECT_TRUE(g.agree) << g.verdict();

@@ -3,9 +3,7 @@
 // fall as spp^-1/2 and a 5% brighter light must be reported as biased; `mcpt converge` and
 // `mcpt render --target-error` through the binary.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -153,17 +151,11 @@ TEST(ConvergeFurnace, BrighterLightIsReportedBiased) {
     EXPECT_NE(f.report.verdict().find("biased: estimated bias"), std::string::npos);
 }
 
+// The mcpt binary's output; its exit status into `status`.
 std::string run_mcpt(const std::string& args, int& status) {
-    const std::string cmd = std::string(MCPT_BINARY) + " " + args + " 2>&1";
-    std::string out;
-    status = -1;
-    FILE* pipe = popen(cmd.c_str(), "r");
-    if (!pipe) return out;
-    std::array<char, 4096> buf{};
-    while (fgets(buf.data(), int(buf.size()), pipe)) out += buf.data();
-    const int st = pclose(pipe);
-    status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-    return out;
+    const test::CliRun r = test::run_mcpt(args);
+    status = r.status;
+    return r.output;
 }
 
 TEST(ConvergeCli, FurnaceTableCsvAndPlot) {

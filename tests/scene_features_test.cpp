@@ -100,7 +100,7 @@ TEST(TreeAuto, FollowsTheDeviceCostModel) {
     o.auto_model = kScalarCostModel;
     EXPECT_GT(build_kdtree(cornell.triangles, o).stats.nodes, 1u);
     // 20,000 triangles: the tree everywhere.
-    const Scene mesh = test::make_bumpy_mesh_scene(100);
+    const Scene mesh = make_bumpy_sphere_scene(100);
     for (const TreeCostModel& m : {kSimtCostModel, kScalarCostModel}) {
         o.auto_model = m;
         const KdTree t = build_kdtree(mesh.triangles, o);
@@ -110,7 +110,7 @@ TEST(TreeAuto, FollowsTheDeviceCostModel) {
 }
 
 TEST(TreeAuto, ExpectedCostOfNoTreeIsEveryTriangle) {
-    const Scene mesh = test::make_bumpy_mesh_scene(20);
+    const Scene mesh = make_bumpy_sphere_scene(20);
     TreeOptions o;
     o.kind = TreeKind::None;
     const TreeCost none = expected_tree_cost(build_kdtree(mesh.triangles, o));

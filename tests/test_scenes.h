@@ -6,38 +6,6 @@
 
 namespace mcpt::test {
 
-// The Cornell box with its spheres replaced by a bumpy tessellated sphere of
-// 2 * segments^2 diffuse triangles: a mesh deep enough for a deep SAH tree.
-inline Scene make_bumpy_mesh_scene(int segments) {
-    Scene scene = make_builtin_scene("cornell");
-    scene.spheres.clear();
-    Material m;
-    m.name = "bumpy";
-    m.color = glm::vec3(0.7f, 0.6f, 0.5f);
-    const uint32_t mat = scene.add_material(m);
-    auto point = [&](int i, int j) {
-        const float theta = float(M_PI) * float(i) / float(segments);
-        const float phi = 2.f * float(M_PI) * float(j) / float(segments);
-        const float r = 0.45f * (1.f + 0.08f * std::sin(7.f * theta) * std::sin(9.f * phi));
-        return glm::vec3(r * std::sin(theta) * std::cos(phi), 0.5f + r * std::cos(theta),
-                         r * std::sin(theta) * std::sin(phi));
-    };
-    for (int i = 0; i < segments; ++i) {
-        for (int j = 0; j < segments; ++j) {
-            // Two triangles per quad, counter-clockwise seen from outside.
-            const glm::vec3 a = point(i, j), b = point(i + 1, j), c = point(i + 1, j + 1),
-                            d = point(i, j + 1);
-            scene.triangles.push_back({a, d, c, mat});
-            scene.triangles.push_back({a, c, b, mat});
-        }
-    }
-    return scene;
-}
-
-}  // namespace mcpt::test
-
-namespace mcpt::test {
-
 // The scene scaled about the origin by `scale`, then moved by `offset`: radiance is
 // invariant, so the image must not change.
 inline Scene transform_scene(Scene scene, double scale, glm::dvec3 offset) {

@@ -1,5 +1,10 @@
 #include "test_util.h"
 
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+
 #include "app/commands.h"
 
 namespace mcpt::test {
@@ -11,6 +16,18 @@ std::unique_ptr<Backend> test_backend(const std::string& api, BackendOptions opt
         if (options.device.empty()) options.device = e;
     }
     return open_backend(api, options);
+}
+
+CliRun run_mcpt(const std::string& args) {
+    const std::string cmd = std::string(MCPT_BINARY) + " " + args + " 2>&1";
+    CliRun r;
+    FILE* pipe = popen(cmd.c_str(), "r");
+    if (!pipe) return r;
+    std::array<char, 4096> buf{};
+    while (fgets(buf.data(), int(buf.size()), pipe)) r.output += buf.data();
+    const int st = pclose(pipe);
+    r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    return r;
 }
 
 }  // namespace mcpt::test

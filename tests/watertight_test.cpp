@@ -11,7 +11,7 @@ namespace {
 
 // Rays from inside and outside through every vertex and edge midpoint; returns the misses.
 size_t misses_through_edges(TreeKind kind, float shrink) {
-    Scene scene = test::make_bumpy_mesh_scene(24);
+    Scene scene = make_bumpy_sphere_scene(24);
     // Keep only the closed bumpy mesh (the last material) and one light triangle.
     std::vector<Triangle> mesh;
     for (const Triangle& t : scene.triangles)
