@@ -36,8 +36,8 @@ std::vector<OpenBackend> open_backends(const std::vector<std::string>& specs_in,
     return out;
 }
 
-FrameTiming time_frames(Backend& backend, const GpuScene& g, const Camera& camera,
-                        RenderOptions ro, int frames) {
+FrameTiming time_frames(Backend& backend, const GpuScene& g, const Camera& camera, RenderOptions ro,
+                        int frames) {
     backend.load(g, ro.width, ro.height);
     // Warm-up.
     const uint64_t spp = ro.spp;

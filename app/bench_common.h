@@ -25,8 +25,8 @@ struct FrameTiming {
 
 // Loads the scene, renders a warm-up frame, then returns the median of `frames` timed
 // frames of ro.spp samples per pixel.
-FrameTiming time_frames(Backend& backend, const GpuScene& g, const Camera& camera,
-                        RenderOptions ro, int frames);
+FrameTiming time_frames(Backend& backend, const GpuScene& g, const Camera& camera, RenderOptions ro,
+                        int frames);
 
 // printf-style formatting of one number.
 std::string fmt(const char* format, double v);

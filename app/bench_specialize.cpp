@@ -4,11 +4,11 @@
 // tree), and of that build with --tree auto; and the compile / pipeline-creation time of
 // the full and the specialized build, cold (a compile nonce defeats every cache) and
 // cached (a new backend building what was just built).
+#include "app/bench_specialize.h"
+
 #include <cstdio>
 #include <fstream>
 #include <random>
-
-#include "app/bench_specialize.h"
 
 #include "app/bench_common.h"
 #include "app/commands.h"
@@ -52,8 +52,8 @@ std::vector<std::pair<std::string, Scene>> specialize_scenes(const std::string& 
 }
 
 // Compile time of `features` on the device of `spec`, cold then cached.
-Compile time_compile(const std::string& spec, const GpuScene& g, uint32_t features, int w,
-                     int h, uint32_t nonce) {
+Compile time_compile(const std::string& spec, const GpuScene& g, uint32_t features, int w, int h,
+                     uint32_t nonce) {
     Compile c;
     BackendOptions o;
     o.features = features;
@@ -84,11 +84,10 @@ std::string table(const std::vector<SpecRow>& rows) {
     for (const SpecRow& r : rows) {
         t += "| " + r.scene + " | " + r.backend + ": " + r.device + " | " + r.left_out + " | " +
              fmt("%.2f", r.full.ms_per_frame) + " | " + fmt("%.2f", r.special.ms_per_frame) +
-             " | " + speedup(r.full, r.special) + " | " +
-             fmt("%.2f", r.special_auto.ms_per_frame) + " (" + r.auto_tree + ") | " +
-             speedup(r.full, r.special_auto) + " | " + fmt("%.3f", r.full_compile.cold_s) +
-             " / " + fmt("%.3f", r.full_compile.cached_s) + " | " +
-             fmt("%.3f", r.special_compile.cold_s) + " / " +
+             " | " + speedup(r.full, r.special) + " | " + fmt("%.2f", r.special_auto.ms_per_frame) +
+             " (" + r.auto_tree + ") | " + speedup(r.full, r.special_auto) + " | " +
+             fmt("%.3f", r.full_compile.cold_s) + " / " + fmt("%.3f", r.full_compile.cached_s) +
+             " | " + fmt("%.3f", r.special_compile.cold_s) + " / " +
              fmt("%.3f", r.special_compile.cached_s) + " |\n";
     }
     return t;
@@ -148,7 +147,8 @@ void run_specialize_bench(const SpecializeBenchArgs& a) {
                                             1 + nonce_rng() % 0x7ffffeu);
             row.special_compile = time_compile(ob.spec, g, g.features, sro.width, sro.height,
                                                1 + nonce_rng() % 0x7ffffeu);
-            std::fprintf(stderr, "  %s %s: full %.2f ms, specialized %.2f ms, + auto tree %.2f ms\n",
+            std::fprintf(stderr,
+                         "  %s %s: full %.2f ms, specialized %.2f ms, + auto tree %.2f ms\n",
                          name.c_str(), ob.spec.c_str(), row.full.ms_per_frame,
                          row.special.ms_per_frame, row.special_auto.ms_per_frame);
             rows.push_back(row);

@@ -11,8 +11,7 @@ namespace mcpt {
 namespace {
 
 double half_area(const float lo[3], const float hi[3]) {
-    const double dx = double(hi[0]) - lo[0], dy = double(hi[1]) - lo[1],
-                 dz = double(hi[2]) - lo[2];
+    const double dx = double(hi[0]) - lo[0], dy = double(hi[1]) - lo[1], dz = double(hi[2]) - lo[2];
     return dx * dy + dy * dz + dz * dx;
 }
 
@@ -25,7 +24,8 @@ TreeCost expected_tree_cost(const KdTree& tree) {
         uint32_t node;
         float lo[3], hi[3];
     };
-    Item root{0, {tree.bounds.min.x, tree.bounds.min.y, tree.bounds.min.z},
+    Item root{0,
+              {tree.bounds.min.x, tree.bounds.min.y, tree.bounds.min.z},
               {tree.bounds.max.x, tree.bounds.max.y, tree.bounds.max.z}};
     const double root_area = half_area(root.lo, root.hi);
     if (!(root_area > 0)) {

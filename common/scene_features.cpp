@@ -8,14 +8,17 @@ namespace mcpt {
 namespace {
 
 const char* const kFeatureNames[FEATURE_COUNT] = {
-    "triangles", "spheres", "diffuse", "mirror", "glass", "triangle lights", "sphere lights",
-    "k-d tree", "test NaN injection"};
+    "triangles",     "spheres",  "diffuse",           "mirror", "glass", "triangle lights",
+    "sphere lights", "k-d tree", "test NaN injection"};
 
 uint32_t material_feature(uint32_t type) {
     switch (type) {
-        case MAT_MIRROR: return FEATURE_MIRROR;
-        case MAT_GLASS: return FEATURE_GLASS;
-        default: return FEATURE_DIFFUSE;
+        case MAT_MIRROR:
+            return FEATURE_MIRROR;
+        case MAT_GLASS:
+            return FEATURE_GLASS;
+        default:
+            return FEATURE_DIFFUSE;
     }
 }
 
@@ -26,7 +29,8 @@ uint32_t scene_features(const GpuScene& g) {
     // Geometry and the materials it references.
     if (!g.triangles.empty()) f |= FEATURE_TRIANGLES;
     if (!g.spheres.empty()) f |= FEATURE_SPHERES;
-    for (const gpu::GpuTriangle& t : g.triangles) f |= material_feature(g.materials[t.material].type);
+    for (const gpu::GpuTriangle& t : g.triangles)
+        f |= material_feature(g.materials[t.material].type);
     for (const gpu::GpuSphere& s : g.spheres) f |= material_feature(g.materials[s.material].type);
     // Emitters.
     for (const gpu::GpuLight& l : g.lights)

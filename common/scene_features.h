@@ -9,7 +9,6 @@
 
 #include "kdtree.h"
 
-
 namespace mcpt {
 
 struct DeviceInfo;

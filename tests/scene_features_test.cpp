@@ -2,12 +2,13 @@
 // (and nothing it does not), --tree auto follows the device's cost model, and kernels built
 // for a scene's features render the same image as the full kernel on OpenCL and Vulkan,
 // while a build that leaves out a feature the scene uses is rejected by the same test.
+#include "common/scene_features.h"
+
 #include <gtest/gtest.h>
 
 #include "app/commands.h"
 #include "common/builtin_scenes.h"
 #include "common/compare.h"
-#include "common/scene_features.h"
 #include "test_scenes.h"
 #include "test_util.h"
 
@@ -54,9 +55,9 @@ TEST(SceneFeatures, BuiltinScenes) {
     EXPECT_EQ(features_of(make_builtin_scene("furnace")),
               FEATURE_TRIANGLES | FEATURE_SPHERES | FEATURE_DIFFUSE | FEATURE_TRIANGLE_LIGHTS |
                   FEATURE_SPHERE_LIGHTS | FEATURE_KDTREE);
-    EXPECT_EQ(features_of(make_builtin_scene("spheres")),
-              FEATURE_SPHERES | FEATURE_DIFFUSE | FEATURE_MIRROR | FEATURE_GLASS |
-                  FEATURE_SPHERE_LIGHTS);
+    EXPECT_EQ(features_of(make_builtin_scene("spheres")), FEATURE_SPHERES | FEATURE_DIFFUSE |
+                                                              FEATURE_MIRROR | FEATURE_GLASS |
+                                                              FEATURE_SPHERE_LIGHTS);
     // No tree: no traversal.
     EXPECT_EQ(features_of(make_builtin_scene("cornell"), TreeKind::None) & FEATURE_KDTREE, 0u);
 }
@@ -166,26 +167,26 @@ Agreement full_vs_specialized(const std::string& backend, const Case& c, uint32_
 class Specialized : public testing::TestWithParam<std::string> {};
 
 TEST_P(Specialized, CornellWithTreeAgrees) {
-    const Agreement g = full_vs_specialized(GetParam(), make_case(make_builtin_scene("cornell"),
-                                                                  TreeKind::Sah));
+    const Agreement g =
+        full_vs_specialized(GetParam(), make_case(make_builtin_scene("cornell"), TreeKind::Sah));
     EXPECT_TRUE(g.agree) << g.verdict();
 }
 
 TEST_P(Specialized, CornellWithoutTreeAgrees) {
-    const Agreement g = full_vs_specialized(GetParam(), make_case(make_builtin_scene("cornell"),
-                                                                  TreeKind::None));
+    const Agreement g =
+        full_vs_specialized(GetParam(), make_case(make_builtin_scene("cornell"), TreeKind::None));
     EXPECT_TRUE(g.agree) << g.verdict();
 }
 
 TEST_P(Specialized, SpheresOnlyAgrees) {
-    const Agreement g = full_vs_specialized(GetParam(), make_case(make_builtin_scene("spheres"),
-                                                                  TreeKind::Sah));
+    const Agreement g =
+        full_vs_specialized(GetParam(), make_case(make_builtin_scene("spheres"), TreeKind::Sah));
     EXPECT_TRUE(g.agree) << g.verdict();
 }
 
 TEST_P(Specialized, FurnaceAgrees) {
-    const Agreement g = full_vs_specialized(GetParam(), make_case(make_furnace_scene(0.8f, 1.f),
-                                                                  TreeKind::Sah));
+    const Agreement g =
+        full_vs_specialized(GetParam(), make_case(make_furnace_scene(0.8f, 1.f), TreeKind::Sah));
     EXPECT_TRUE(g.agree) << g.verdict();
 }
 

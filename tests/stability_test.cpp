@@ -37,8 +37,9 @@ TEST_P(ScaleAndPosition, CornellImageUnchanged) {
     // The unit scene once per backend.
     static std::map<std::string, BatchSet> unit;
     if (!unit.count(api)) unit[api] = render_scene(api, make_builtin_scene("cornell"), 1);
-    const Scene moved = test::transform_scene(make_builtin_scene("cornell"), pl.scale,
-                                              glm::dvec3(pl.offset, -0.5 * pl.offset, 0.25 * pl.offset));
+    const Scene moved =
+        test::transform_scene(make_builtin_scene("cornell"), pl.scale,
+                              glm::dvec3(pl.offset, -0.5 * pl.offset, 0.25 * pl.offset));
     const BatchSet b = render_scene(api, moved, 777);
     const Agreement g = test_agreement(unit[api], b, 0.01);
     EXPECT_TRUE(g.agree) << api << ": scale " << pl.scale << " offset " << pl.offset << ": "
