@@ -37,7 +37,7 @@ MCPT_FN SurfacePoint surface_at(SCENE_PARAMS_ Ray ray, Hit hit) {
         s.material = sph.material;
     } else {
         // Triangle: barycentric interpolation, error bound from pbrt-v4.
-        GpuTriangle tri = triangles[hit.prim];
+        GpuTriangle tri = TRIANGLE(hit.prim);
         vec3 v0 = tri_v0(tri), v1 = tri_v1(tri), v2 = tri_v2(tri);
         float b0 = 1.0f - hit.b1 - hit.b2;
         vec3 p0 = v0 * b0, p1 = v1 * hit.b1, p2 = v2 * hit.b2;
@@ -116,7 +116,7 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
         ls.valid = ls.pdf > 0.0f;
     } else if (HAS_FEATURE(FEATURE_TRIANGLE_LIGHTS) && (prim & LIGHT_SPHERE_BIT) == 0u) {
         // Triangle: uniform point, one-sided emission.
-        GpuTriangle tri = triangles[prim];
+        GpuTriangle tri = TRIANGLE(prim);
         vec3 v0 = tri_v0(tri), v1 = tri_v1(tri), v2 = tri_v2(tri);
         vec2 b = sample_triangle_barycentrics(u.y, u.z);
         float b0 = 1.0f - b.x - b.y;

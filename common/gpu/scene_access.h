@@ -10,7 +10,8 @@
 layout(std140, binding = BINDING_PARAMS) uniform ParamsBlock { GpuParams params; };
 layout(std430, binding = BINDING_NODES) readonly buffer NodesBlock { KdNode nodes[]; };
 layout(std430, binding = BINDING_LEAF_INDICES) readonly buffer LeafBlock { uint leaf_indices[]; };
-layout(std430, binding = BINDING_TRIANGLES) readonly buffer TriBlock { GpuTriangle triangles[]; };
+// Triangles as 8-byte words: a 40-byte triangle is five 64-bit loads, not ten 32-bit ones.
+layout(std430, binding = BINDING_TRIANGLES) readonly buffer TriBlock { uvec2 triangle_words[]; };
 layout(std430, binding = BINDING_SPHERES) readonly buffer SphereBlock { GpuSphere spheres[]; };
 layout(std430, binding = BINDING_MATERIALS) readonly buffer MatBlock { GpuMaterial materials[]; };
 layout(std430, binding = BINDING_LIGHTS) readonly buffer LightBlock { GpuLight lights[]; };
@@ -21,6 +22,24 @@ layout(constant_id = 2) const uint MCPT_FEATURES = FEATURE_ALL;
 #define SCENE_PARAMS_
 #define SCENE_ARGS_
 #define PARAM(x) params.x
+GpuTriangle load_triangle(uint i) {
+    uint w = 5u * i;
+    uvec2 a = triangle_words[w], b = triangle_words[w + 1u], c = triangle_words[w + 2u];
+    uvec2 d = triangle_words[w + 3u], e = triangle_words[w + 4u];
+    GpuTriangle t;
+    t.v0x = uintBitsToFloat(a.x);
+    t.v0y = uintBitsToFloat(a.y);
+    t.v0z = uintBitsToFloat(b.x);
+    t.v1x = uintBitsToFloat(b.y);
+    t.v1y = uintBitsToFloat(c.x);
+    t.v1z = uintBitsToFloat(c.y);
+    t.v2x = uintBitsToFloat(d.x);
+    t.v2y = uintBitsToFloat(d.y);
+    t.v2z = uintBitsToFloat(e.x);
+    t.material = e.y;
+    return t;
+}
+#define TRIANGLE(i) load_triangle(i)
 #else
 #if defined(MCPT_CPP)
 #define MCPT_UNUSED [[maybe_unused]]
@@ -36,6 +55,7 @@ layout(constant_id = 2) const uint MCPT_FEATURES = FEATURE_ALL;
         MCPT_UNUSED MCPT_CONST_BUF GpuLight *lights,
 #define SCENE_ARGS_ params, nodes, leaf_indices, triangles, spheres, materials, lights,
 #define PARAM(x) params->x
+#define TRIANGLE(i) triangles[i]
 #ifndef KD_STACK_SIZE
 #define KD_STACK_SIZE 64u  // OpenCL builds pass -DKD_STACK_SIZE from the tree depth
 #endif

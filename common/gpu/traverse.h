@@ -34,7 +34,7 @@ MCPT_FN Hit closer_triangle_hit(SCENE_PARAMS_ Ray ray, WoopRay wr, uint tri_inde
 #endif
     Ray r = ray;
     r.tmax = hit.t;
-    TriHit th = intersect_triangle(r, wr, triangles[tri_index]);
+    TriHit th = intersect_triangle(r, wr, TRIANGLE(tri_index));
     if (th.hit) {
         hit.t = th.t;
         hit.b1 = th.b1;
