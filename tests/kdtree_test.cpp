@@ -737,3 +737,18 @@ TEST(KdTreeQuality, FewTriangleTestsPerRayOnALargeMesh) {
 
 }  // namespace
 }  // namespace mcpt
+
+namespace mcpt {
+namespace {
+
+// GLSL and OpenCL read each 40-byte triangle as five 8-byte words: the words rebuild it.
+TEST(DeviceLayout, TriangleFromWordsRebuildsTheTriangle) {
+    const gpu::GpuTriangle t{1.5f, -2.f, 3.25f, -0.f, 1e-30f, 7.f, 1e30f, -8.5f, 9.f, 12345u};
+    glm::uvec2 w[5];
+    std::memcpy(w, &t, sizeof t);
+    const gpu::GpuTriangle r = gpu::triangle_from_words(w[0], w[1], w[2], w[3], w[4]);
+    EXPECT_EQ(std::memcmp(&r, &t, sizeof t), 0);
+}
+
+}  // namespace
+}  // namespace mcpt

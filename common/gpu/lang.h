@@ -32,6 +32,7 @@ using uint = uint32_t;
 using glm::vec2;
 using glm::vec3;
 using glm::vec4;
+using glm::uvec2;
 using glm::uvec4;
 using glm::clamp;
 using glm::cross;
@@ -77,6 +78,7 @@ inline float fmax3(float a, float b, float c) { return std::max(a, std::max(b, c
 #define vec2 float2
 #define vec3 float3
 #define vec4 float4
+#define uvec2 uint2
 #define uvec4 uint4
 #define MCPT_FN inline
 #define MCPT_STRUCT(name) \

@@ -6,11 +6,30 @@
 
 #include "shared_types.h"
 
+MCPT_NAMESPACE_BEGIN
+// A triangle from its five 8-byte words: GLSL and OpenCL read triangles as 64-bit words,
+// five loads instead of ten 32-bit ones (NVIDIA: up to 1.2x on triangle-heavy scenes).
+MCPT_FN GpuTriangle triangle_from_words(uvec2 a, uvec2 b, uvec2 c, uvec2 d, uvec2 e) {
+    GpuTriangle t;
+    t.v0x = uint_as_float(a.x);
+    t.v0y = uint_as_float(a.y);
+    t.v0z = uint_as_float(b.x);
+    t.v1x = uint_as_float(b.y);
+    t.v1y = uint_as_float(c.x);
+    t.v1z = uint_as_float(c.y);
+    t.v2x = uint_as_float(d.x);
+    t.v2y = uint_as_float(d.y);
+    t.v2z = uint_as_float(e.x);
+    t.material = e.y;
+    return t;
+}
+MCPT_NAMESPACE_END
+
 #if defined(MCPT_GLSL)
 layout(std140, binding = BINDING_PARAMS) uniform ParamsBlock { GpuParams params; };
 layout(std430, binding = BINDING_NODES) readonly buffer NodesBlock { KdNode nodes[]; };
 layout(std430, binding = BINDING_LEAF_INDICES) readonly buffer LeafBlock { uint leaf_indices[]; };
-// Triangles as 8-byte words: a 40-byte triangle is five 64-bit loads, not ten 32-bit ones.
+// Triangles as 8-byte words (triangle_from_words).
 layout(std430, binding = BINDING_TRIANGLES) readonly buffer TriBlock { uvec2 triangle_words[]; };
 layout(std430, binding = BINDING_SPHERES) readonly buffer SphereBlock { GpuSphere spheres[]; };
 layout(std430, binding = BINDING_MATERIALS) readonly buffer MatBlock { GpuMaterial materials[]; };
@@ -24,20 +43,8 @@ layout(constant_id = 2) const uint MCPT_FEATURES = FEATURE_ALL;
 #define PARAM(x) params.x
 GpuTriangle load_triangle(uint i) {
     uint w = 5u * i;
-    uvec2 a = triangle_words[w], b = triangle_words[w + 1u], c = triangle_words[w + 2u];
-    uvec2 d = triangle_words[w + 3u], e = triangle_words[w + 4u];
-    GpuTriangle t;
-    t.v0x = uintBitsToFloat(a.x);
-    t.v0y = uintBitsToFloat(a.y);
-    t.v0z = uintBitsToFloat(b.x);
-    t.v1x = uintBitsToFloat(b.y);
-    t.v1y = uintBitsToFloat(c.x);
-    t.v1z = uintBitsToFloat(c.y);
-    t.v2x = uintBitsToFloat(d.x);
-    t.v2y = uintBitsToFloat(d.y);
-    t.v2z = uintBitsToFloat(e.x);
-    t.material = e.y;
-    return t;
+    return triangle_from_words(triangle_words[w], triangle_words[w + 1u], triangle_words[w + 2u],
+                               triangle_words[w + 3u], triangle_words[w + 4u]);
 }
 #define TRIANGLE(i) load_triangle(i)
 #else
@@ -55,7 +62,15 @@ GpuTriangle load_triangle(uint i) {
         MCPT_UNUSED MCPT_CONST_BUF GpuLight *lights,
 #define SCENE_ARGS_ params, nodes, leaf_indices, triangles, spheres, materials, lights,
 #define PARAM(x) params->x
+#if defined(MCPT_OPENCL)
+MCPT_FN GpuTriangle load_triangle(__global const GpuTriangle* triangles, uint i) {
+    __global const uint2* w = (__global const uint2*)triangles + 5u * i;
+    return triangle_from_words(w[0], w[1], w[2], w[3], w[4]);
+}
+#define TRIANGLE(i) load_triangle(triangles, i)
+#else
 #define TRIANGLE(i) triangles[i]
+#endif
 #ifndef KD_STACK_SIZE
 #define KD_STACK_SIZE 64u  // OpenCL builds pass -DKD_STACK_SIZE from the tree depth
 #endif
