@@ -152,6 +152,7 @@ private:
         std::string opts = "-cl-std=CL1.2 -DKD_STACK_SIZE=" + std::to_string(stack_size) +
                            "u -DMCPT_FEATURES=" + std::to_string(features) + "u";
         if (options_.fast_math) opts += " -cl-fast-relaxed-math";
+        if (dev_.info.type == "gpu") opts += " -DMCPT_TRIANGLE_WORDS";  // scene_access.h
         if (!options_.extra_defines.empty()) opts += " " + options_.extra_defines;
         if (program_() != nullptr && opts == built_options_) return;
         const auto t0 = std::chrono::steady_clock::now();

@@ -80,3 +80,27 @@ TEST(CompareBackends, RejectsDroppedRefraction) {
 
 }  // namespace
 }  // namespace mcpt
+
+namespace mcpt {
+namespace {
+
+// OpenCL on GPUs reads triangles as 64-bit words (-DMCPT_TRIANGLE_WORDS): on the CPU device
+// in CI that build renders exactly the image of the plain struct read, same seed.
+TEST(OpenClTriangleWords, SameImageAsStructReads) {
+    Scene scene = make_bumpy_sphere_scene(12);
+    validate_scene(scene);
+    const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, TreeOptions{}));
+    RenderOptions o;
+    o.width = o.height = 16;
+    o.spp = 4;
+    o.seed = 7;
+    auto plain = test::test_opencl_backend();
+    auto words = test::test_opencl_backend("-DMCPT_TRIANGLE_WORDS");
+    const SameSeedDiff d =
+        same_seed_diff(render(*plain, g, scene.camera, o), render(*words, g, scene.camera, o));
+    EXPECT_EQ(d.diverged, 0u);
+    EXPECT_EQ(d.max_abs_diff, 0.0);
+}
+
+}  // namespace
+}  // namespace mcpt
