@@ -5,10 +5,6 @@
 
 #include "app/commands.h"
 #include "common/error.h"
-#include "opencl/cl_backend.h"
-#if MCPT_WITH_VULKAN
-#include "vulkan/vk_backend.h"
-#endif
 
 namespace mcpt {
 
@@ -16,17 +12,13 @@ std::vector<OpenBackend> open_backends(const std::vector<std::string>& specs_in,
                                        const BackendOptions& options) {
     std::vector<std::string> specs = specs_in;
     if (specs.empty()) {
-        for (const DeviceInfo& d : list_opencl_devices())
-            specs.push_back("opencl:" + std::to_string(d.index));
-#if MCPT_WITH_VULKAN
-        for (const DeviceInfo& d : list_vulkan_devices())
-            specs.push_back("vulkan:" + std::to_string(d.index));
-#endif
+        for (const DeviceInfo& d : list_devices())
+            specs.push_back(d.backend + ":" + std::to_string(d.index));
     }
     std::vector<OpenBackend> out;
     for (const std::string& s : specs) {
         try {
-            out.push_back({s, open_backend(s, options)});
+            out.push_back({s, open_device(s, options)});
         } catch (const std::exception& e) {
             std::printf("note: backend %s skipped: %s\n", s.c_str(), e.what());
             std::fflush(stdout);

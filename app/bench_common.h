@@ -4,8 +4,8 @@
 #include <string>
 #include <vector>
 
-#include "common/backend.h"
-#include "common/render_loop.h"
+#include "common/render/backend.h"
+#include "common/render/render_loop.h"
 
 namespace mcpt {
 

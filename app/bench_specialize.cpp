@@ -12,9 +12,9 @@
 
 #include "app/bench_common.h"
 #include "app/commands.h"
-#include "common/builtin_scenes.h"
+#include "common/scene/builtin_scenes.h"
 #include "common/error.h"
-#include "common/scene_features.h"
+#include "common/render/scene_features.h"
 
 namespace mcpt {
 
@@ -59,14 +59,14 @@ Compile time_compile(const std::string& spec, const GpuScene& g, uint32_t featur
     o.features = features;
     o.compile_nonce = nonce;
     {
-        auto cold = open_backend(spec, o);
+        auto cold = open_device(spec, o);
         cold->load(g, w, h);
         c.cold_s = cold->compile_seconds();
     }
     o.compile_nonce = 0;
-    auto warm = open_backend(spec, o);
+    auto warm = open_device(spec, o);
     warm->load(g, w, h);  // fills the caches if this build was never made before
-    auto cached = open_backend(spec, o);
+    auto cached = open_device(spec, o);
     cached->load(g, w, h);
     c.cached_s = cached->compile_seconds();
     return c;
@@ -122,7 +122,7 @@ void run_specialize_bench(const SpecializeBenchArgs& a) {
     std::vector<SpecRow> rows;
     for (const auto& [name, scene] : scenes) {
         RenderOptions sro = ro;
-        sro.max_depth = uint32_t(scene.max_depth_hint > 0 ? scene.max_depth_hint : 8);
+        sro.max_depth = uint32_t(default_max_depth(scene));
         const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, TreeOptions{}));
         for (OpenBackend& ob : backends) {
             SpecRow row;
@@ -132,15 +132,12 @@ void run_specialize_bench(const SpecializeBenchArgs& a) {
             // The same SAH tree, full kernel and specialized build.
             BackendOptions full;
             full.features = FEATURE_ALL;
-            row.full = time_frames(*open_backend(ob.spec, full), g, scene.camera, sro, a.frames);
+            row.full = time_frames(*open_device(ob.spec, full), g, scene.camera, sro, a.frames);
             row.special = time_frames(*ob.backend, g, scene.camera, sro, a.frames);
             // The specialized build with the tree --tree auto picks for this device.
-            TreeOptions to;
-            to.kind = TreeKind::Auto;
-            to.auto_model = tree_cost_model(ob.backend->device());
-            const KdTree auto_tree = build_kdtree(scene.triangles, to);
-            row.auto_tree = auto_tree.stats.nodes > 1 ? "sah" : "none";
-            const GpuScene ga = pack_scene(scene, auto_tree);
+            const GpuScene ga = prepare_scene(scene, ob.backend->device(), tree_options("auto"),
+                                              sro.width, sro.height);
+            row.auto_tree = tree_kind_name(ga.tree_kind);
             row.special_auto = time_frames(*ob.backend, ga, scene.camera, sro, a.frames);
             // Compile times, cold and cached (nonces below 2^23, above the feature bits).
             row.full_compile = time_compile(ob.spec, g, FEATURE_ALL, sro.width, sro.height,

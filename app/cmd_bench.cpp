@@ -13,11 +13,11 @@
 #include "app/bench_common.h"
 #include "app/bench_specialize.h"
 #include "app/commands.h"
-#include "common/builtin_scenes.h"
-#include "common/cpu_trace.h"
+#include "common/scene/builtin_scenes.h"
+#include "common/accel/cpu_trace.h"
 #include "common/error.h"
-#include "common/render_loop.h"
-#include "common/svg_plot.h"
+#include "common/render/render_loop.h"
+#include "common/io/svg_plot.h"
 #include "opencl/cl_backend.h"
 #if MCPT_WITH_VULKAN
 #include "vulkan/vk_backend.h"
@@ -107,11 +107,7 @@ void count_path(const GpuScene& g, const gpu::GpuParams& p, uint32_t pixel, uint
     const vec4 u_cam = rng4(pixel, sample, 0u, p.seed);
     const float fx = (float(pixel % p.width) + u_cam.x) / float(p.width) * 2.f - 1.f;
     const float fy = 1.f - (float(pixel / p.width) + u_cam.y) / float(p.height) * 2.f;
-    Ray ray;
-    ray.o = V3(p.cam_px, p.cam_py, p.cam_pz);
-    ray.d = normalize(V3(p.cam_wx, p.cam_wy, p.cam_wz) + V3(p.cam_ux, p.cam_uy, p.cam_uz) * fx +
-                      V3(p.cam_vx, p.cam_vy, p.cam_vz) * fy);
-    ray.tmax = MCPT_FLT_MAX;
+    Ray ray = cpu_camera_ray(g, p, fx, fy);
     vec3 beta = V3S(1.f);
     float eta_scale = 1.f;
     for (uint depth = 0;; ++depth) {
@@ -168,14 +164,8 @@ Counts count_work(const GpuScene& g, const Scene& scene, const RenderOptions& ro
     Counts c;
     for (int y = 0; y < side; ++y) {
         for (int x = 0; x < side; ++x) {
-            gpu::Ray r;
             const float fx = (x + 0.5f) / side * 2 - 1, fy = 1 - (y + 0.5f) / side * 2;
-            r.o = {p.cam_px, p.cam_py, p.cam_pz};
-            r.d = glm::normalize(glm::vec3(p.cam_wx, p.cam_wy, p.cam_wz) +
-                                 fx * glm::vec3(p.cam_ux, p.cam_uy, p.cam_uz) +
-                                 fy * glm::vec3(p.cam_vx, p.cam_vy, p.cam_vz));
-            r.tmax = 3.4e38f;
-            c.camera.add(cpu_trace(g, r, false));
+            c.camera.add(cpu_trace(g, cpu_camera_ray(g, p, fx, fy), false));
         }
     }
     const uint32_t npix = uint32_t(ro.width) * uint32_t(ro.height);
@@ -277,7 +267,7 @@ void run_bench(const BenchArgs& a) {
     std::vector<Row> rows;
     for (const auto& [name, scene] : scenes) {
         RenderOptions sro = ro;
-        sro.max_depth = uint32_t(scene.max_depth_hint > 0 ? scene.max_depth_hint : 8);
+        sro.max_depth = uint32_t(default_max_depth(scene));
         for (const TreeConfig& tc : kTrees) {
             // Tree, then the untimed counting pass (work per ray, rays per sample).
             const KdTree tree = build_kdtree(scene.triangles, tree_options(tc.kind, tc.depth));

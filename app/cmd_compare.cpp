@@ -4,10 +4,10 @@
 #include <cstdio>
 
 #include "app/commands.h"
-#include "common/compare.h"
+#include "common/analysis/compare.h"
 #include "common/error.h"
-#include "common/image_io.h"
-#include "common/scene_features.h"
+#include "common/io/image_io.h"
+#include "common/render/scene_features.h"
 
 namespace mcpt {
 
@@ -38,11 +38,9 @@ struct Side {
 
 void run_compare(const CompareArgs& args) {
     Scene scene = load_scene_argument(args.scene);
-    const TreeOptions tree_opts = tree_options(args.tree, -1);
     RenderOptions ro;
     ro.width = args.width, ro.height = args.height;
-    ro.max_depth = uint32_t(args.max_depth >= 0 ? args.max_depth
-                                                : (scene.max_depth_hint > 0 ? scene.max_depth_hint : 8));
+    ro.max_depth = uint32_t(args.max_depth >= 0 ? args.max_depth : default_max_depth(scene));
     BatchOptions bo;
     bo.batches = args.batches;
     bo.spp_per_batch = args.spp;
@@ -54,13 +52,11 @@ void run_compare(const CompareArgs& args) {
         BackendOptions opt;
         RenderOptions side_ro = ro;
         if (s == 1) opt.extra_defines = args.b_defines, side_ro.light_scale = args.b_light_scale;
-        sides[s].backend = open_backend(specs[s], opt);
+        sides[s].backend = open_device(specs[s], opt);
         // The tree: as asked, or (auto) the one this side's device cost model picks.
-        TreeOptions to = tree_opts;
-        to.auto_model = tree_cost_model(sides[s].backend->device());
-        const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, to));
-        sides[s].tree = g.tree_stats.nodes > 1 ? "sah" : "none";
-        if (tree_opts.kind != TreeKind::Auto) sides[s].tree = args.tree;
+        const GpuScene g = prepare_scene(scene, sides[s].backend->device(),
+                                         tree_options(args.tree), args.width, args.height);
+        sides[s].tree = tree_kind_name(g.tree_kind);
         bo.seed_base = 1000u + 100000u * uint32_t(s);
         const double device_before = sides[s].backend->device_seconds();
         sides[s].batches = render_batches(*sides[s].backend, g, scene.camera, side_ro, bo);

@@ -11,10 +11,10 @@
 #include <memory>
 
 #include "app/commands.h"
-#include "common/convergence.h"
+#include "common/analysis/convergence.h"
 #include "common/error.h"
-#include "common/scene_features.h"
-#include "common/svg_plot.h"
+#include "common/render/scene_features.h"
+#include "common/io/svg_plot.h"
 #include "opencl/cl_backend.h"
 
 namespace mcpt {
@@ -74,7 +74,7 @@ Reference make_reference(const ConvergeArgs& a, const Scene& scene, const GpuSce
     std::printf("rendering the reference (%llu spp on %s) into %s ...\n",
                 (unsigned long long)a.reference_spp, a.backends[0].c_str(), path.c_str());
     std::fflush(stdout);
-    std::unique_ptr<Backend> backend = open_backend(a.backends[0], BackendOptions{});
+    std::unique_ptr<Backend> backend = open_device(a.backends[0]);
     RenderOptions r = ro;
     r.spp = a.reference_spp;
     r.seed = 0x7e000000u;
@@ -160,12 +160,11 @@ void write_plot(const std::string& path, const std::string& scene, const std::ve
 void run_converge(const ConvergeArgs& a) {
     // Scene, tree, render settings.
     Scene scene = load_scene_argument(a.scene);
-    const TreeOptions tree_opts = tree_options(a.tree, -1);
+    const TreeOptions tree_opts = tree_options(a.tree);
     const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, tree_opts));
     RenderOptions ro;
     ro.width = a.width, ro.height = a.height;
-    ro.max_depth = uint32_t(
-        a.max_depth >= 0 ? a.max_depth : (scene.max_depth_hint > 0 ? scene.max_depth_hint : 8));
+    ro.max_depth = uint32_t(a.max_depth >= 0 ? a.max_depth : default_max_depth(scene));
     const std::string label = scene_label(scene, a.scene);
 
     // Reference.
@@ -187,14 +186,10 @@ void run_converge(const ConvergeArgs& a) {
     std::printf("\n%-8s %-28s %9s %8s %11s %9s %11s %12s\n", "backend", "device", "seconds", "spp",
                 "rmse", "rel rmse", "rel mse", "mean signed");
     for (size_t b = 0; b < a.backends.size(); ++b) {
-        std::unique_ptr<Backend> backend = open_backend(a.backends[b], BackendOptions{});
+        std::unique_ptr<Backend> backend = open_device(a.backends[b]);
         // --tree auto: the tree this device's cost model picks.
-        GpuScene gb = g;
-        if (tree_opts.kind == TreeKind::Auto) {
-            TreeOptions to = tree_opts;
-            to.auto_model = tree_cost_model(backend->device());
-            gb = pack_scene(scene, build_kdtree(scene.triangles, to));
-        }
+        const GpuScene gb =
+            prepare_scene(scene, backend->device(), tree_opts, a.width, a.height);
         backend->load(gb, a.width, a.height);
         Run run;
         run.backend = backend->device().backend, run.device = backend->device().name;

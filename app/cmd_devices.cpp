@@ -2,10 +2,6 @@
 #include <cstdio>
 
 #include "app/commands.h"
-#include "opencl/cl_backend.h"
-#if MCPT_WITH_VULKAN
-#include "vulkan/vk_backend.h"
-#endif
 
 namespace mcpt {
 
@@ -21,10 +17,7 @@ void add_devices_command(CLI::App& app) {
                     std::printf("      %-30s %s\n", k.c_str(), v.c_str());
             }
         };
-        print("opencl", list_opencl_devices());
-#if MCPT_WITH_VULKAN
-        print("vulkan", list_vulkan_devices());
-#endif
+        for (const std::string& api : device_apis()) print(api.c_str(), list_devices(api));
     });
 }
 

@@ -8,14 +8,10 @@
 #include <memory>
 
 #include "app/commands.h"
-#include "common/error.h"
-#include "common/image_io.h"
-#include "common/render_loop.h"
-#include "common/scene_features.h"
-#include "opencl/cl_backend.h"
-#if MCPT_WITH_VULKAN
-#include "vulkan/vk_backend.h"
-#endif
+#include "common/render/prepare.h"
+#include "common/render/scene_features.h"
+#include "common/render/session.h"
+#include "common/scene/scene_load.h"
 
 namespace mcpt {
 
@@ -40,20 +36,6 @@ struct RenderArgs {
     double target_error = 0;  // stop once the mean relative standard error is below this
 };
 
-std::unique_ptr<Backend> open_backend(const RenderArgs& a) {
-    BackendOptions o;
-    o.device = a.device;
-    o.fast_math = a.fast_math;
-    o.features = a.specialize == "on" ? 0u : FEATURE_ALL;
-    if (a.backend == "opencl") return make_opencl_backend(o);
-#if MCPT_WITH_VULKAN
-    if (a.backend == "vulkan") return make_vulkan_backend(o);
-    throw Error("unknown backend '" + a.backend + "' (available: opencl, vulkan)");
-#else
-    throw Error("unknown backend '" + a.backend + "' (available: opencl; built without Vulkan)");
-#endif
-}
-
 void print_progress(double frac, const RenderResult& r) {
     const int width = 30;
     const int filled = int(std::round(frac * width));
@@ -66,70 +48,67 @@ void print_progress(double frac, const RenderResult& r) {
 }
 
 void run_render(const RenderArgs& a) {
-    // Scene, device, tree (auto: with the device's cost model), device layout.
-    Scene scene = load_scene_argument(a.scene);
-    std::unique_ptr<Backend> backend = open_backend(a);
-    TreeOptions to = tree_options(a.tree, a.depth);
-    to.auto_model = tree_cost_model(backend->device());
-    const KdTree tree = build_kdtree(scene.triangles, to);
-    const GpuScene gpu_scene = pack_scene(scene, tree);
+    // Device, scene, settings: the engine's session does the rest.
+    BackendOptions bo;
+    bo.fast_math = a.fast_math;
+    Session session(a.backend + (a.device.empty() ? "" : ":" + a.device), bo);
+    Scene loaded = load_scene(a.scene);
+    for (const std::string& w : loaded.warnings) std::cerr << "mcpt: warning: " << w << "\n";
+    session.set_scene(std::move(loaded));
+    SessionSettings& s = session.settings();
+    s.width = a.width, s.height = a.height;
+    s.max_depth = a.max_depth;
+    s.tree = a.tree, s.tree_depth = a.depth;
+    s.seed = a.seed;
+    s.specialize = a.specialize == "on";
+    session.commit();
+    const Scene& scene = session.scene();
+    const GpuScene& g = session.prepared();
     std::printf("scene: %s: %zu triangles, %zu spheres, %zu materials, %u lights\n",
-                scene.name.empty() ? a.scene.c_str() : scene.name.c_str(),
-                scene.triangles.size(), scene.spheres.size(), scene.materials.size(),
-                gpu_scene.params.num_lights);
-    if (a.verbose && !tree.auto_choice.empty()) std::printf("%s\n", tree.auto_choice.c_str());
-    std::printf("tree: %s: %zu nodes, %zu leaves, depth %d, %.1f refs/leaf, %.2f ms, %zu bytes\n",
-                a.tree == "auto" ? (tree.stats.nodes > 1 ? "auto (sah)" : "auto (none)")
-                                 : a.tree.c_str(),
-                tree.stats.nodes, tree.stats.leaves, tree.stats.max_depth,
-                tree.stats.mean_leaf_size, tree.stats.build_seconds * 1e3, tree.stats.bytes);
+                scene.name.empty() ? a.scene.c_str() : scene.name.c_str(), scene.triangles.size(),
+                scene.spheres.size(), scene.materials.size(), g.params.num_lights);
+    if (a.verbose && !g.tree_choice.empty()) std::printf("%s\n", g.tree_choice.c_str());
+    std::printf("tree: %s%s\n", a.tree == "auto" ? "auto, " : "", describe_tree(g).c_str());
 
-    // Render.
-    RenderOptions ro;
-    ro.width = a.width, ro.height = a.height;
-    ro.spp = a.spp;
-    ro.seconds = a.seconds;
-    if (ro.spp == 0 && ro.seconds <= 0 && a.target_error > 0) ro.seconds = HUGE_VAL;
-    if (ro.spp == 0 && ro.seconds <= 0) ro.spp = 64;
-    // --target-error: mean standard error / mean radiance, checked at every flush (>= 16 spp).
-    double rel_error = HUGE_VAL;
-    if (a.target_error > 0) {
-        ro.stop_when = [&](const RenderResult& r) {
-            const std::vector<float> e = r.std_error_image();
-            double sum = 0;
-            for (float v : e) sum += v;
-            const double mean_l = r.mean_radiance();
-            rel_error = mean_l > 0 && r.spp >= 2 ? sum / double(e.size()) / mean_l : HUGE_VAL;
-            return r.spp >= 16 && rel_error < a.target_error;
-        };
-    }
-    ro.max_depth = uint32_t(a.max_depth >= 0 ? a.max_depth
-                                             : (scene.max_depth_hint > 0 ? scene.max_depth_hint : 8));
-    ro.seed = a.seed;
+    // Render in steps of a quarter second until the samples, the time or the error is there.
+    uint64_t spp = a.spp;
+    double seconds = a.seconds;
+    if (spp == 0 && seconds <= 0 && a.target_error <= 0) spp = 64;
     const bool bar = !a.quiet && isatty(2);
-    auto progress = [&](double frac, const RenderResult& so_far) {
-        // With a target error, progress is the fraction of the samples it needs.
-        if (a.target_error > 0 && rel_error < HUGE_VAL)
-            frac = std::max(frac, std::min(1.0, std::pow(a.target_error / rel_error, 2)));
-        print_progress(frac, so_far);
-    };
-    const RenderResult r = render(*backend, gpu_scene, scene.camera, ro,
-                                  bar ? ProgressFn(progress) : ProgressFn());
+    const RenderResult& r = session.result();
+    double elapsed = 0;
+    PassStats st;
+    while (true) {
+        const double step_ms = seconds > 0 ? std::min(250.0, (seconds - elapsed) * 1e3) : 250.0;
+        st = session.render(std::max(step_ms, 0.0), a.target_error, spp);
+        elapsed += st.seconds;
+        if (bar) {
+            double frac = spp > 0 ? double(r.spp) / double(spp)
+                                  : seconds > 0 ? std::min(1.0, elapsed / seconds) : 0.0;
+            // With a target error, progress is also the fraction of the samples it needs.
+            if (a.target_error > 0 && st.relative_error < HUGE_VAL)
+                frac = std::max(frac, std::min(1.0, std::pow(a.target_error / st.relative_error, 2)));
+            print_progress(frac, r);
+        }
+        if (st.target_reached || (spp > 0 && r.spp >= spp) || (seconds > 0 && elapsed >= seconds))
+            break;
+    }
     if (bar) std::fprintf(stderr, "\n");
 
     // Throughput and the error the image still carries.
+    Backend& backend = session.backend();
     const double pixels = double(r.width) * r.height;
     const double paths = double(r.spp) * pixels;
-    std::printf("device: %s (kernel build %.2f s)\n", backend->description().c_str(),
-                backend->compile_seconds());
+    std::printf("device: %s (kernel build %.2f s)\n", backend.description().c_str(),
+                backend.compile_seconds());
     if (a.verbose) {
-        std::printf("features used: %s\n", feature_names(gpu_scene.features).c_str());
+        std::printf("features used: %s\n", feature_names(g.features).c_str());
         std::printf("compiled for: %s; left out: %s\n",
-                    feature_names(backend->compiled_features()).c_str(),
-                    features_left_out(backend->compiled_features()).c_str());
+                    feature_names(backend.compiled_features()).c_str(),
+                    features_left_out(backend.compiled_features()).c_str());
     }
-    std::printf("rendered %dx%d, %llu spp, max depth %u in %.3f s: %.3f M samples/s, %.2f M rays/s\n",
-                r.width, r.height, (unsigned long long)r.spp, ro.max_depth, r.seconds,
+    std::printf("rendered %dx%d, %llu spp, max depth %d in %.3f s: %.3f M samples/s, %.2f M rays/s\n",
+                r.width, r.height, (unsigned long long)r.spp, session.max_depth(), r.seconds,
                 paths / r.seconds * 1e-6, r.rays / r.seconds * 1e-6);
     const std::vector<float> err = r.std_error_image();
     double mean_err = 0, max_err = 0;
@@ -140,9 +119,8 @@ void run_render(const RenderArgs& a) {
                 "relative to mean radiance %.4g: %.2f%%\n",
                 mean_err, max_err, mean_l, mean_l > 0 ? 100.0 * mean_err / mean_l : 0.0);
     if (a.target_error > 0) {
-        const bool reached = mean_l > 0 && r.spp >= 16 && mean_err / mean_l < a.target_error;
         std::printf("target relative error %.2f%%: %s\n", 100 * a.target_error,
-                    reached ? "reached" : "not reached (stopped by --time or --spp)");
+                    st.target_reached ? "reached" : "not reached (stopped by --time or --spp)");
     }
     if (r.nonfinite_total > 0) {
         std::printf("WARNING: %llu invalid samples (NaN/Inf, or paths a device loop limit cut "
@@ -151,7 +129,7 @@ void run_render(const RenderArgs& a) {
     } else {
         std::printf("non-finite samples: 0\n");
     }
-    write_image(a.output, r.width, r.height, r.mean_image());
+    session.write_image(a.output);
     std::printf("wrote %s\n", a.output.c_str());
 }
 

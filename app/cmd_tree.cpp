@@ -5,7 +5,7 @@
 #include <random>
 
 #include "app/commands.h"
-#include "common/cpu_trace.h"
+#include "common/accel/cpu_trace.h"
 
 namespace mcpt {
 
@@ -52,13 +52,7 @@ void run_tree(const TreeArgs& a) {
     for (int y = 0; y < side; ++y) {
         for (int x = 0; x < side; ++x) {
             const float fx = (x + 0.5f) / side * 2 - 1, fy = 1 - (y + 0.5f) / side * 2;
-            gpu::Ray r;
-            r.o = {p.cam_px, p.cam_py, p.cam_pz};
-            r.d = glm::normalize(glm::vec3(p.cam_wx, p.cam_wy, p.cam_wz) +
-                                 fx * glm::vec3(p.cam_ux, p.cam_uy, p.cam_uz) +
-                                 fy * glm::vec3(p.cam_vx, p.cam_vy, p.cam_vz));
-            r.tmax = 3.4e38f;
-            camera.add(cpu_trace(g, r, false));
+            camera.add(cpu_trace(g, cpu_camera_ray(g, p, fx, fy), false));
         }
     }
     // Random rays from points inside the bounds in uniform directions.

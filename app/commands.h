@@ -1,13 +1,12 @@
-// The mcpt subcommands: each registers its options on the CLI11 app and runs.
+// The mcpt subcommands: each registers its options on the CLI11 app and runs as a thin
+// client of the engine (common/render/session.h, device_registry.h, prepare.h).
 #pragma once
 #include <CLI/CLI.hpp>
-#include <memory>
 #include <string>
 
-#include "common/backend.h"
-
-#include "common/kdtree.h"
-#include "common/scene.h"
+#include "common/render/device_registry.h"
+#include "common/render/prepare.h"
+#include "common/scene/scene_load.h"
 
 namespace mcpt {
 
@@ -23,13 +22,7 @@ void add_compare_command(CLI::App& app);
 void add_converge_command(CLI::App& app);
 void add_bench_command(CLI::App& app);
 
-// A built-in scene name or a .gltf/.glb path, loaded and validated; warnings go to stderr.
+// load_scene(arg) with its warnings printed to stderr.
 Scene load_scene_argument(const std::string& arg);
-
-// "opencl", "vulkan", or either with ":device" (index or name substring).
-std::unique_ptr<Backend> open_backend(const std::string& spec, BackendOptions options);
-
-// --tree and --depth into TreeOptions.
-TreeOptions tree_options(const std::string& kind, int depth);
 
 }  // namespace mcpt

@@ -6,28 +6,17 @@
 #include <sstream>
 
 #include "common/error.h"
+#include "common/render/device_limits.h"
+#include "common/render/device_registry.h"
 #include "kPathtraceClSource.h"
 
 namespace mcpt {
 
 namespace {
 
-std::string lower(std::string s) {
-    std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
-    return s;
-}
-
 std::string trim(std::string s) {
     while (!s.empty() && (s.back() == '\0' || s.back() == ' ')) s.pop_back();
     return s;
-}
-
-std::string human_bytes(uint64_t b) {
-    std::ostringstream o;
-    if (b >= (1ull << 30)) o << double(b) / double(1ull << 30) << " GiB";
-    else if (b >= (1ull << 20)) o << double(b) / double(1ull << 20) << " MiB";
-    else o << b << " B";
-    return o.str();
 }
 
 struct ClDevice {
@@ -68,6 +57,9 @@ std::vector<ClDevice> enumerate() {
                 {"local memory", human_bytes(d.getInfo<CL_DEVICE_LOCAL_MEM_SIZE>())},
                 {"max work-group size", std::to_string(d.getInfo<CL_DEVICE_MAX_WORK_GROUP_SIZE>())},
             };
+            i.memory.max_buffer_bytes = d.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>();
+            i.memory.max_buffer_name = "CL_DEVICE_MAX_MEM_ALLOC_SIZE";
+            i.memory.device_memory_bytes = d.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
             out.push_back(cd);
         }
     }
@@ -80,8 +72,6 @@ public:
         : dev_(std::move(dev)), options_(std::move(options)) {
         context_ = cl::Context(dev_.device);
         queue_ = cl::CommandQueue(context_, dev_.device, CL_QUEUE_PROFILING_ENABLE);
-        max_alloc_ = dev_.device.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>();
-        global_mem_ = dev_.device.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
     }
 
     std::string description() const override {
@@ -96,24 +86,8 @@ public:
     void load(const GpuScene& scene, int width, int height) override {
         build(scene.stack_size, compile_features(options_, scene));
         // Check every buffer against the device limits before allocating.
+        check_device_limits(scene, width, height, dev_.info, description());
         const uint64_t accum_bytes = uint64_t(width) * uint64_t(height) * ACCUM_VEC4_PER_PIXEL * 16;
-        const std::pair<const char*, uint64_t> sizes[] = {
-            {"k-d nodes", scene.nodes.size() * sizeof(gpu::KdNode)},
-            {"leaf indices", scene.leaf_indices.size() * 4},
-            {"triangles", scene.triangles.size() * sizeof(gpu::GpuTriangle)},
-            {"accumulation buffer", accum_bytes}};
-        uint64_t total = accum_bytes + scene.device_bytes();
-        for (const auto& [what, bytes] : sizes) {
-            if (bytes > max_alloc_) {
-                throw Error(std::string("scene too large for ") + description() + ": " + what +
-                            " need " + human_bytes(bytes) + ", the device allows " +
-                            human_bytes(max_alloc_) + " per buffer");
-            }
-        }
-        if (total > global_mem_) {
-            throw Error("scene too large for " + description() + ": needs " + human_bytes(total) +
-                        " of " + human_bytes(global_mem_) + " device memory");
-        }
         // Upload (empty arrays get one dummy element: OpenCL has no empty buffers).
         params_ = make_buffer(&scene.params, sizeof(gpu::GpuParams), CL_MEM_READ_ONLY);
         nodes_ = upload(scene.nodes);
@@ -196,7 +170,6 @@ private:
     cl::Buffer params_, nodes_, leaf_, tris_, spheres_, materials_, lights_, accum_;
     size_t accum_floats_ = 0;
     size_t local_ = WORKGROUP_SIZE;
-    uint64_t max_alloc_ = 0, global_mem_ = 0;
     double compile_seconds_ = 0;
     uint32_t built_features_ = 0;
     double device_seconds_ = 0;
@@ -217,28 +190,9 @@ std::unique_ptr<Backend> make_opencl_backend(const BackendOptions& options) {
     if (devices.empty()) {
         throw Error("no OpenCL device found (install an ICD such as pocl-opencl-icd)");
     }
-    const ClDevice* chosen = nullptr;
-    const std::string& sel = options.device;
-    if (sel.empty()) {
-        // Best: the first GPU, else the first device.
-        for (const ClDevice& d : devices)
-            if (d.info.type == "gpu" && !chosen) chosen = &d;
-        if (!chosen) chosen = &devices.front();
-    } else if (std::all_of(sel.begin(), sel.end(), ::isdigit)) {
-        const size_t i = std::stoul(sel);
-        if (i >= devices.size()) {
-            throw Error("OpenCL device index " + sel + " out of range (" +
-                        std::to_string(devices.size()) + " devices; see 'mcpt devices')");
-        }
-        chosen = &devices[i];
-    } else {
-        for (const ClDevice& d : devices) {
-            if (!chosen && (lower(d.info.name).find(lower(sel)) != std::string::npos ||
-                            lower(d.info.platform).find(lower(sel)) != std::string::npos))
-                chosen = &d;
-        }
-        if (!chosen) throw Error("no OpenCL device matches '" + sel + "' (see 'mcpt devices')");
-    }
+    std::vector<DeviceInfo> infos;
+    for (const ClDevice& d : devices) infos.push_back(d.info);
+    const ClDevice* chosen = &devices[select_device(infos, options.device, "opencl")];
     try {
         return std::make_unique<OpenClBackend>(*chosen, options);
     } catch (const cl::Error& e) {

@@ -4,7 +4,7 @@
 #include <memory>
 #include <vector>
 
-#include "common/backend.h"
+#include "common/render/backend.h"
 
 namespace mcpt {
 

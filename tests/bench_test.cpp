@@ -8,7 +8,7 @@
 #include <sstream>
 #include <string>
 
-#include "common/svg_plot.h"
+#include "common/io/svg_plot.h"
 #include "test_util.h"
 
 namespace mcpt {

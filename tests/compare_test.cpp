@@ -3,8 +3,8 @@
 // light 2% brighter in one backend and a variant that drops refraction through glass.
 #include <gtest/gtest.h>
 
-#include "app/commands.h"
-#include "common/compare.h"
+#include "common/render/device_registry.h"
+#include "common/analysis/compare.h"
 #include "test_scenes.h"
 #include "test_util.h"
 
@@ -26,7 +26,7 @@ Case make_case(Scene scene) {
 }
 
 // Vulkan is part of the build: a missing device fails the test (install-deps brings lavapipe).
-std::unique_ptr<Backend> vulkan_backend() { return open_backend("vulkan", BackendOptions{}); }
+std::unique_ptr<Backend> vulkan_backend() { return open_device("vulkan", BackendOptions{}); }
 
 // A on OpenCL, B on Vulkan, independent seeds; returns the agreement.
 Agreement compare(const Case& c, const std::string& a_defines = "", float b_light_scale = 1.f) {

@@ -1,6 +1,6 @@
 // load_gltf(): small .gltf/.glb files written by the tests (data-URI buffers, hand-built GLB)
 // plus the hand-checked files in tests/data/.
-#include "common/gltf_loader.h"
+#include "common/scene/gltf_loader.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "common/error.h"
-#include "common/scene.h"
+#include "common/scene/scene.h"
 
 namespace mcpt {
 namespace {

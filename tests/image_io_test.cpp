@@ -1,5 +1,5 @@
 // Image I/O: exact EXR round trips, 8-bit sRGB PNG output, and the errors write_image reports.
-#include "common/image_io.h"
+#include "common/io/image_io.h"
 
 #include <gtest/gtest.h>
 #include <stb_image.h>

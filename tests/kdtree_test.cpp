@@ -4,7 +4,7 @@
 // Two traversals are checked: a plain pbrt-v3 KdTreeAccel::Intersect written here (double
 // precision, a stack of exactly stack_size() entries) and the shared device traversal
 // gpu::trace_ray from common/gpu/traverse.h.
-#include "common/kdtree.h"
+#include "common/accel/kdtree.h"
 
 #include <gtest/gtest.h>
 
@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "common/error.h"
-#include "gpu/traverse.h"
+#include "common/gpu/traverse.h"
 
 namespace mcpt {
 namespace {

@@ -5,7 +5,7 @@
 
 #include <cmath>
 
-#include "common/render_loop.h"
+#include "common/render/render_loop.h"
 
 namespace mcpt {
 namespace {

@@ -2,13 +2,13 @@
 // (and nothing it does not), --tree auto follows the device's cost model, and kernels built
 // for a scene's features render the same image as the full kernel on OpenCL and Vulkan,
 // while a build that leaves out a feature the scene uses is rejected by the same test.
-#include "common/scene_features.h"
+#include "common/render/scene_features.h"
 
 #include <gtest/gtest.h>
 
-#include "app/commands.h"
-#include "common/builtin_scenes.h"
-#include "common/compare.h"
+#include "common/render/device_registry.h"
+#include "common/scene/builtin_scenes.h"
+#include "common/analysis/compare.h"
 #include "test_scenes.h"
 #include "test_util.h"
 
@@ -147,8 +147,8 @@ Agreement full_vs_specialized(const std::string& backend, const Case& c, uint32_
     if (backend == "opencl") full.device = special.device = test::test_opencl_device();
     full.features = FEATURE_ALL;
     special.features = features;
-    auto a = open_backend(backend, full);
-    auto b = open_backend(backend, special);
+    auto a = open_device(backend, full);
+    auto b = open_device(backend, special);
     BatchOptions bo;
     bo.batches = 32;
     bo.spp_per_batch = 8;

@@ -1,6 +1,6 @@
 // validate_scene(), Scene::bounds(), frame_camera() and the built-in scenes, including the
 // orientation of every built-in wall and light.
-#include "common/scene.h"
+#include "common/scene/scene.h"
 
 #include <gtest/gtest.h>
 
@@ -8,7 +8,7 @@
 #include <limits>
 #include <string>
 
-#include "common/builtin_scenes.h"
+#include "common/scene/builtin_scenes.h"
 #include "common/error.h"
 
 namespace mcpt {

@@ -5,7 +5,7 @@
 #include <cstring>
 #include <map>
 
-#include "common/compare.h"
+#include "common/analysis/compare.h"
 #include "test_scenes.h"
 #include "test_util.h"
 

@@ -4,8 +4,8 @@
 
 #include <random>
 
-#include "common/compare.h"
-#include "common/stats.h"
+#include "common/analysis/compare.h"
+#include "common/analysis/stats.h"
 
 namespace mcpt::stats {
 namespace {

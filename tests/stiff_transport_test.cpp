@@ -3,8 +3,8 @@
 // non-finite samples that must be counted, also under -cl-fast-relaxed-math.
 #include <gtest/gtest.h>
 
-#include "common/builtin_scenes.h"
-#include "common/compare.h"
+#include "common/scene/builtin_scenes.h"
+#include "common/analysis/compare.h"
 #include "test_util.h"
 
 namespace mcpt {

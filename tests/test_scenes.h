@@ -2,7 +2,7 @@
 #pragma once
 #include <cmath>
 
-#include "common/builtin_scenes.h"
+#include "common/scene/builtin_scenes.h"
 
 namespace mcpt::test {
 

@@ -5,7 +5,7 @@
 #include <array>
 #include <cstdio>
 
-#include "app/commands.h"
+#include "common/render/device_registry.h"
 
 namespace mcpt::test {
 
@@ -15,7 +15,7 @@ std::unique_ptr<Backend> test_backend(const std::string& api, BackendOptions opt
     } else if (const char* e = std::getenv("MCPT_TEST_VULKAN_DEVICE")) {
         if (options.device.empty()) options.device = e;
     }
-    return open_backend(api, options);
+    return open_device(api, options);
 }
 
 CliRun run_mcpt(const std::string& args) {

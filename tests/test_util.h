@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "common/render_loop.h"
+#include "common/render/render_loop.h"
 #include "opencl/cl_backend.h"
 
 namespace mcpt::test {

@@ -9,9 +9,9 @@
 #include <iostream>
 #include <optional>
 
-#include "common/builtin_scenes.h"
+#include "common/scene/builtin_scenes.h"
 #include "common/error.h"
-#include "common/gpu_scene.h"
+#include "common/render/gpu_scene.h"
 #include "test_util.h"
 #include "vulkan/vk_backend.h"
 

@@ -3,7 +3,7 @@
 // tree kind, from inside and from outside.
 #include <gtest/gtest.h>
 
-#include "common/cpu_trace.h"
+#include "common/accel/cpu_trace.h"
 #include "test_scenes.h"
 
 namespace mcpt {

@@ -6,6 +6,8 @@
 #include <cstring>
 
 #include "common/error.h"
+#include "common/render/device_limits.h"
+#include "common/render/device_registry.h"
 #include "pathtrace_comp_spv.h"
 #include "vulkan/vk_context.h"
 #include "vulkan/vk_device.h"
@@ -13,7 +15,6 @@
 namespace mcpt {
 
 using vk::Buffer;
-using vk::human_bytes;
 
 struct VulkanBackend::Impl {
     std::shared_ptr<vk::Instance> instance;
@@ -206,54 +207,12 @@ struct VulkanBackend::Impl {
 
     // ---- Backend
 
-    void check_limits(const GpuScene& scene, uint64_t accum_bytes) const {
-        // Every storage buffer against maxStorageBufferRange and maxMemoryAllocationSize.
-        const VkPhysicalDeviceLimits& l = pd.props.limits;
-        const uint64_t range =
-            vk::env_limit("MCPT_VULKAN_MAX_BUFFER_BYTES", l.maxStorageBufferRange);
-        const std::string lowered =
-            range < l.maxStorageBufferRange ? " (lowered by MCPT_VULKAN_MAX_BUFFER_BYTES)" : "";
-        const std::pair<const char*, uint64_t> sizes[] = {
-            {"k-d nodes", scene.nodes.size() * sizeof(gpu::KdNode)},
-            {"leaf indices", scene.leaf_indices.size() * 4},
-            {"triangles", scene.triangles.size() * sizeof(gpu::GpuTriangle)},
-            {"spheres", scene.spheres.size() * sizeof(gpu::GpuSphere)},
-            {"materials", scene.materials.size() * sizeof(gpu::GpuMaterial)},
-            {"lights", scene.lights.size() * sizeof(gpu::GpuLight)},
-            {"accumulation buffer", accum_bytes}};
-        for (const auto& [what, bytes] : sizes) {
-            const char* need = std::strcmp(what, "accumulation buffer") == 0 ? " needs " : " need ";
-            if (bytes > range) {
-                throw Error("scene too large for " + description() + ": " + what + need +
-                            human_bytes(bytes) + ", maxStorageBufferRange is " +
-                            human_bytes(range) + lowered);
-            }
-            if (pd.max_allocation > 0 && bytes > pd.max_allocation) {
-                throw Error("scene too large for " + description() + ": " + what + need +
-                            human_bytes(bytes) + ", maxMemoryAllocationSize is " +
-                            human_bytes(pd.max_allocation));
-            }
-        }
-        // Everything against the heap that device-local buffers come from.
-        const uint64_t total = accum_bytes + scene.device_bytes() + sizeof(gpu::GpuParams);
-        for (uint32_t t = 0; t < pd.memory.memoryTypeCount; ++t) {
-            if (pd.memory.memoryTypes[t].propertyFlags & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT) {
-                const uint64_t heap =
-                    pd.memory.memoryHeaps[pd.memory.memoryTypes[t].heapIndex].size;
-                if (total > heap) {
-                    throw Error("scene too large for " + description() + ": needs " +
-                                human_bytes(total) + " of " + human_bytes(heap) + " device memory");
-                }
-                break;
-            }
-        }
-    }
-
     void load(const GpuScene& scene, int width, int height) {
         // Check every buffer against the device limits before allocating or compiling.
         const uint64_t npix = uint64_t(width) * uint64_t(height);
         const uint64_t accum_bytes = npix * ACCUM_VEC4_PER_PIXEL * 16;
-        check_limits(scene, accum_bytes);
+        pd.info.memory = vk::memory_limits(pd);
+        check_device_limits(scene, width, height, pd.info, description());
         dev->wait_idle();
         release_scene();
 
@@ -456,31 +415,9 @@ std::unique_ptr<Backend> make_vulkan_backend(const BackendOptions& options) {
     std::shared_ptr<vk::Instance> instance = vk::shared_instance(vk::validation_requested());
     std::vector<vk::PhysicalDevice> devices = instance->devices();
     if (devices.empty()) throw Error(vk::kNoDeviceMessage);
-    const vk::PhysicalDevice* chosen = nullptr;
-    const std::string& sel = options.device;
-    if (sel.empty()) {
-        // Best: the first discrete or integrated GPU, else the first device.
-        for (const vk::PhysicalDevice& d : devices) {
-            if (!chosen && (d.props.deviceType == VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU ||
-                            d.props.deviceType == VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU))
-                chosen = &d;
-        }
-        if (!chosen) chosen = &devices.front();
-    } else if (std::all_of(sel.begin(), sel.end(), ::isdigit)) {
-        const size_t i = std::stoul(sel);
-        if (i >= devices.size()) {
-            throw Error("Vulkan device index " + sel + " out of range (" +
-                        std::to_string(devices.size()) + " devices; see 'mcpt devices')");
-        }
-        chosen = &devices[i];
-    } else {
-        for (const vk::PhysicalDevice& d : devices) {
-            if (!chosen && (vk::lower(d.info.name).find(vk::lower(sel)) != std::string::npos ||
-                            vk::lower(d.info.platform).find(vk::lower(sel)) != std::string::npos))
-                chosen = &d;
-        }
-        if (!chosen) throw Error("no Vulkan device matches '" + sel + "' (see 'mcpt devices')");
-    }
+    std::vector<DeviceInfo> infos;
+    for (const vk::PhysicalDevice& d : devices) infos.push_back(d.info);
+    const vk::PhysicalDevice* chosen = &devices[select_device(infos, options.device, "vulkan")];
     // Vulkan 1.1 and a compute queue are all the shader needs.
     if (chosen->props.apiVersion < VK_API_VERSION_1_1) {
         throw Error("Vulkan device " + chosen->info.name + " supports only Vulkan " +

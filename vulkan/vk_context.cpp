@@ -122,18 +122,6 @@ const char* call_name(const char* expr) {
     return last + 1;
 }
 
-std::string human_bytes(uint64_t b) {
-    std::ostringstream o;
-    if (b >= (1ull << 30))
-        o << double(b) / double(1ull << 30) << " GiB";
-    else if (b >= (1ull << 20))
-        o << double(b) / double(1ull << 20) << " MiB";
-    else if (b >= (1ull << 10))
-        o << double(b) / double(1ull << 10) << " KiB";
-    else
-        o << b << " B";
-    return o.str();
-}
 
 std::string lower(std::string s) {
     std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
@@ -148,6 +136,24 @@ std::string version_string(uint32_t v) {
 bool validation_requested() {
     const char* e = std::getenv("MCPT_VULKAN_VALIDATION");
     return e && std::strcmp(e, "1") == 0;
+}
+
+MemoryLimits memory_limits(const PhysicalDevice& d) {
+    // Tests may lower the range through the environment (read now, not when listed).
+    MemoryLimits m;
+    const uint64_t range = d.props.limits.maxStorageBufferRange;
+    m.max_buffer_bytes = env_limit("MCPT_VULKAN_MAX_BUFFER_BYTES", range);
+    m.max_buffer_name = "maxStorageBufferRange";
+    if (m.max_buffer_bytes < range) m.max_buffer_note = " (lowered by MCPT_VULKAN_MAX_BUFFER_BYTES)";
+    m.max_allocation_bytes = d.max_allocation;
+    m.max_allocation_name = "maxMemoryAllocationSize";
+    for (uint32_t t = 0; t < d.memory.memoryTypeCount; ++t) {
+        if (d.memory.memoryTypes[t].propertyFlags & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT) {
+            m.device_memory_bytes = d.memory.memoryHeaps[d.memory.memoryTypes[t].heapIndex].size;
+            break;
+        }
+    }
+    return m;
 }
 
 uint64_t env_limit(const char* name, uint64_t fallback) {
@@ -366,6 +372,7 @@ std::vector<PhysicalDevice> Instance::devices() const {
             {"maxComputeWorkGroupCount", xyz(l.maxComputeWorkGroupCount)},
             {"maxComputeSharedMemorySize", human_bytes(l.maxComputeSharedMemorySize)},
         };
+        i.memory = memory_limits(d);
         for (uint32_t hi = 0; hi < d.memory.memoryHeapCount; ++hi) {
             const VkMemoryHeap& heap = d.memory.memoryHeaps[hi];
             i.limits.emplace_back(

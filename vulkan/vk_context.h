@@ -13,7 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "common/backend.h"
+#include "common/render/backend.h"
+#include "common/render/device_limits.h"
 
 namespace mcpt::vk {
 
@@ -104,7 +105,6 @@ void check(VkResult r, const char* call);
 #define VK_CHECK(fn, ...) ::mcpt::vk::check(fn(__VA_ARGS__), ::mcpt::vk::call_name(#fn))
 const char* call_name(const char* expr);  // "f.vkCreateBuffer" -> "vkCreateBuffer"
 
-std::string human_bytes(uint64_t b);
 std::string lower(std::string s);
 std::string version_string(uint32_t v);  // "1.3.230"
 
@@ -118,6 +118,10 @@ struct PhysicalDevice {
     uint32_t queue_family = UINT32_MAX;  // first family with compute, UINT32_MAX if none
     uint32_t timestamp_valid_bits = 0;   // of that family
 };
+
+// The buffer limits of a device for check_device_limits(), with MCPT_VULKAN_MAX_BUFFER_BYTES
+// applied as the environment says now.
+MemoryLimits memory_limits(const PhysicalDevice& d);
 
 // A Vulkan 1.1 instance; with validation, VK_LAYER_KHRONOS_validation and a debug-utils
 // messenger counting warnings and errors.

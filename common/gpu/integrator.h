@@ -160,6 +160,17 @@ MCPT_FN PathResult path_result(vec3 radiance, uint rays) {
     return r;
 }
 
+// The pinhole camera's ray through the image-plane point (fx, fy) in [-1, 1]^2, y up.
+MCPT_FN Ray camera_ray(SCENE_PARAMS_ float fx, float fy) {
+    Ray ray;
+    ray.o = V3(PARAM(cam_px), PARAM(cam_py), PARAM(cam_pz));
+    ray.d = normalize(V3(PARAM(cam_wx), PARAM(cam_wy), PARAM(cam_wz)) +
+                      V3(PARAM(cam_ux), PARAM(cam_uy), PARAM(cam_uz)) * fx +
+                      V3(PARAM(cam_vx), PARAM(cam_vy), PARAM(cam_vz)) * fy);
+    ray.tmax = MCPT_FLT_MAX;
+    return ray;
+}
+
 // One path's radiance estimate for `pixel`, sample `sample_index`.
 MCPT_FN PathResult trace_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
     uint seed = PARAM(seed);
@@ -169,12 +180,7 @@ MCPT_FN PathResult trace_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
     uint px = pixel % PARAM(width), py = pixel / PARAM(width);
     float fx = (F32(px) + u_cam.x) / F32(PARAM(width)) * 2.0f - 1.0f;
     float fy = 1.0f - (F32(py) + u_cam.y) / F32(PARAM(height)) * 2.0f;
-    Ray ray;
-    ray.o = V3(PARAM(cam_px), PARAM(cam_py), PARAM(cam_pz));
-    ray.d = normalize(V3(PARAM(cam_wx), PARAM(cam_wy), PARAM(cam_wz)) +
-                      V3(PARAM(cam_ux), PARAM(cam_uy), PARAM(cam_uz)) * fx +
-                      V3(PARAM(cam_vx), PARAM(cam_vy), PARAM(cam_vz)) * fy);
-    ray.tmax = MCPT_FLT_MAX;
+    Ray ray = camera_ray(SCENE_ARGS_ fx, fy);
 
     vec3 radiance = V3S(0.0f);
     vec3 beta = V3S(1.0f);

@@ -1,0 +1,20 @@
+// The device traversal and path tracer compiled for the CPU: the same functions the kernels
+// run, used by tests (against brute force) and by `mcpt tree` (work per ray).
+#pragma once
+#include "common/gpu/integrator.h"
+#include "common/render/gpu_scene.h"
+
+namespace mcpt {
+
+// Closest (or any) hit of the ray in the packed scene, through the shared trace_ray().
+gpu::Hit cpu_trace(const GpuScene& scene, const gpu::Ray& ray, bool any_hit);
+
+// The camera ray through (fx, fy) in [-1, 1]^2 of params' camera, through the shared
+// camera_ray().
+gpu::Ray cpu_camera_ray(const GpuScene& scene, const gpu::GpuParams& params, float fx, float fy);
+
+// One path sample through the shared trace_path(); params carries camera and depth settings.
+gpu::PathResult cpu_trace_path(const GpuScene& scene, const gpu::GpuParams& params, uint32_t pixel,
+                               uint32_t sample_index);
+
+}  // namespace mcpt

@@ -1,0 +1,771 @@
+// k-d tree construction for common/kdtree.h.
+//
+// TreeKind::Sah: pbrt-v3 KdTreeAccel costs and termination rules (leaf at max depth, at
+// <= max_leaf_prims triangles, when the best split costs over 4x the leaf with < 16 triangles,
+// or after 3 bad refines), built in O(N log N) by a hybrid split search over all three axes:
+//  - nodes with more than kExactMax references: binned SAH. One pass counts each reference's
+//    first and last bin per axis, with up to kBins bins spanning the union of the references
+//    (so its ends are exact empty-space cuts); the bin boundaries are swept, and the best one
+//    is refined by an exact sweep over the events that fall in the two bins around it.
+//  - smaller nodes: exact SAH, sorting the bound events per axis and sweeping every position
+//    (Wald & Havran 2006 event order at one position: end, planar, start).
+// Triangles lying in the split plane go to both children (so do references in the sweeps). A
+// triangle straddling the split is clipped to each child box (Sutherland-Hodgman, bounds
+// widened by a few ulps to stay conservative): "perfect splits", which shrink references and
+// cut duplication by about a third.
+//
+// TreeKind::Median: the 2015 thesis baseline: split at the median triangle centroid, axes in
+// turn (x, y, z, x, ...), to exactly max_depth levels unless a node holds <= 1 triangle; a
+// triangle goes to every child its bounds overlap (both when it lies in the plane).
+// TreeKind::None: one leaf with every triangle.
+//
+// Both trees come out of one engine. A worker builds a subtree depth-first with an explicit
+// stack, the references of pending nodes in one array (split in place); an above child with
+// many references becomes a job for another worker, linked in later. Every split depends only
+// on the node's own references, and the final pre-order flattening follows the tree, not the
+// schedule, so the output is the same for every thread count.
+#include "common/accel/kdtree.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <cstdio>
+#include <cstring>
+#include <deque>
+#include <exception>
+#include <limits>
+#include <memory>
+#include <mutex>
+#include <system_error>
+#include <thread>
+
+#include "common/error.h"
+
+namespace mcpt {
+
+namespace {
+
+constexpr int kMaxTreeDepth = 63;     // stack_size() stays within the device default, 64
+constexpr size_t kHandOffMin = 4096;  // a child this large becomes another worker's job
+constexpr size_t kMinEntryLimit = size_t(1) << 24;  // runaway guard on nodes + references:
+constexpr size_t kEntriesPerTriangle = 64;          // max(2^24, 64 N)
+constexpr size_t kExactMax = 16;   // nodes with at most this many references sweep exactly
+constexpr int kBins = 64;          // bins per axis for larger nodes, at most
+constexpr int kMinBins = 8;        // ... and at least
+constexpr size_t kRefsPerBin = 2;  // ... and one bin per this many references
+
+struct Box {
+    float lo[3], hi[3];
+};
+
+// A triangle's reference in a node: its bounds clipped to the node, and its index.
+struct Ref {
+    float lo[3], hi[3];
+    uint32_t tri;
+};
+
+// A node's split, or a leaf when axis < 0.
+struct Split {
+    int axis = -1;
+    float pos = 0.f;
+    int bad_refines = 0;
+    bool clip_exact = false;  // clip straddling triangles to the child boxes exactly
+};
+
+// Per-worker buffers, reused from node to node.
+struct Scratch {
+    std::vector<Ref> arena;  // references of the pending nodes, the current one on top
+    std::vector<uint64_t> events;
+    std::vector<float> keys;
+};
+
+// How a tree kind splits a node (refs: the node's references).
+class SplitRule {
+  public:
+    virtual ~SplitRule() = default;
+    virtual Split choose(const Ref* refs, size_t n, const Box& box, const Box& refs_union,
+                         int depth, int bad_refines, Scratch& scratch) const = 0;
+};
+
+Box empty_box() {
+    const float inf = std::numeric_limits<float>::infinity();
+    return {{inf, inf, inf}, {-inf, -inf, -inf}};
+}
+
+inline void extend(Box& b, const Ref& r) {
+    for (int a = 0; a < 3; ++a)
+        b.lo[a] = std::min(b.lo[a], r.lo[a]), b.hi[a] = std::max(b.hi[a], r.hi[a]);
+}
+
+uint32_t float_bits(float f) {
+    uint32_t u;
+    std::memcpy(&u, &f, 4);
+    return u;
+}
+
+// Bounds of the part of triangle t inside box b (Sutherland-Hodgman), widened by a few ulps
+// of the triangle's coordinates so rounding in the clipped vertices cannot shrink them;
+// false when nothing is left.
+bool clip_triangle(const Triangle& t, const Box& b, Box& out) {
+    glm::vec3 poly[2][9] = {{t.v0, t.v1, t.v2}};
+    int n = 3, cur = 0;
+    for (int a = 0; a < 3; ++a) {
+        for (int side = 0; side < 2; ++side) {
+            const float plane = side ? b.hi[a] : b.lo[a];
+            const auto inside = [&](const glm::vec3& v) {
+                return side ? v[a] <= plane : v[a] >= plane;
+            };
+            // Skip planes the polygon lies inside of.
+            bool all_inside = true;
+            for (int i = 0; i < n; ++i) all_inside = all_inside && inside(poly[cur][i]);
+            if (all_inside) continue;
+            // Keep the inside part, adding a vertex where an edge crosses the plane.
+            int m = 0;
+            const int next = cur ^ 1;
+            for (int i = 0; i < n; ++i) {
+                const glm::vec3& p = poly[cur][i];
+                const glm::vec3& q = poly[cur][(i + 1) % n];
+                const bool p_in = inside(p), q_in = inside(q);
+                if (p_in) poly[next][m++] = p;
+                if (p_in != q_in) {
+                    glm::vec3 v = p + (q - p) * ((plane - p[a]) / (q[a] - p[a]));
+                    v[a] = plane;
+                    poly[next][m++] = v;
+                }
+            }
+            n = m, cur = next;
+            if (n == 0) return false;
+        }
+    }
+    // Bounds, widened.
+    for (int a = 0; a < 3; ++a) {
+        float lo = poly[cur][0][a], hi = lo;
+        for (int i = 1; i < n; ++i)
+            lo = std::min(lo, poly[cur][i][a]), hi = std::max(hi, poly[cur][i][a]);
+        const float mag = std::max({std::fabs(t.v0[a]), std::fabs(t.v1[a]), std::fabs(t.v2[a])});
+        out.lo[a] = lo - 4e-6f * mag;
+        out.hi[a] = hi + 4e-6f * mag;
+    }
+    return true;
+}
+
+// Builds subtrees depth-first on a pool of workers and flattens them in pre-order.
+class Engine {
+  public:
+    Engine(const std::vector<Triangle>& tris, const SplitRule& rule, int threads)
+        : tris_(tris),
+          rule_(rule),
+          threads_(std::max(threads, 1)),
+          entry_limit_(std::max(kMinEntryLimit, kEntriesPerTriangle * tris.size())) {}
+
+    void run(std::vector<Ref> refs, const Box& box, KdTree& tree) {
+        // Root job, then every worker (this thread included) drains the queue.
+        enqueue(Job{std::move(refs), box, box, 0, 0, nullptr});
+        std::vector<std::thread> pool;
+        try {
+            for (int i = 1; i < threads_; ++i) pool.emplace_back([this] { worker(); });
+        } catch (const std::system_error&) {
+            // Fewer threads than asked for: the ones running finish the work.
+        }
+        worker();
+        for (std::thread& t : pool) t.join();
+        if (error_) std::rethrow_exception(error_);
+        flatten(tree);
+    }
+
+  private:
+    enum : uint8_t { kLeafKind = 3, kLinkKind = 4 };  // kinds 0-2: interior on that axis
+    // Interior: a = split bits, b = local above index; leaf: a = first local index, b = count;
+    // link: a = the subtree that continues here.
+    struct LocalNode {
+        uint32_t a, b;
+        uint8_t kind;
+    };
+    struct Subtree {
+        std::vector<LocalNode> nodes;  // pre-order
+        std::vector<uint32_t> indices;
+    };
+    struct Job {
+        std::vector<Ref> refs;
+        Box box, refs_union;
+        int depth, bad_refines;
+        Subtree* out;
+    };
+
+    uint32_t enqueue(Job job) {
+        std::lock_guard<std::mutex> lock(mu_);
+        const uint32_t id = uint32_t(subtrees_.size());
+        subtrees_.push_back(std::make_unique<Subtree>());
+        job.out = subtrees_.back().get();
+        queue_.push_back(std::move(job));
+        ++pending_;
+        cv_.notify_one();
+        return id;
+    }
+
+    void worker() {
+        Scratch scratch;
+        std::unique_lock<std::mutex> lock(mu_);
+        while (true) {
+            // Oldest (largest) job first; leave when nothing is queued or running.
+            cv_.wait(lock, [&] { return !queue_.empty() || pending_ == 0; });
+            if (queue_.empty()) return;
+            Job job = std::move(queue_.front());
+            queue_.pop_front();
+            lock.unlock();
+            if (!failed_) {
+                try {
+                    build(job, scratch);
+                } catch (...) {
+                    std::lock_guard<std::mutex> guard(mu_);
+                    if (!error_) error_ = std::current_exception();
+                    failed_ = true;
+                }
+            }
+            lock.lock();
+            if (--pending_ == 0) cv_.notify_all();
+        }
+    }
+
+    // Counts new nodes and references against the runaway guard, in batches.
+    void account(size_t& local, size_t add, bool flush = false) {
+        local += add;
+        if (local < 65536 && !flush) return;
+        if (entries_.fetch_add(local) + local > entry_limit_) {
+            throw Error("k-d tree too large (over " + std::to_string(entry_limit_) +
+                        " nodes and references): lower the depth");
+        }
+        local = 0;
+    }
+
+    // A child reference, clipped to the child box (exactly for straddling triangles).
+    Ref clip(const Ref& r, const Box& child, bool exact) const {
+        Ref c = r;
+        for (int a = 0; a < 3; ++a) {
+            c.lo[a] = std::max(c.lo[a], child.lo[a]);
+            c.hi[a] = std::min(c.hi[a], child.hi[a]);
+        }
+        Box t;
+        if (exact && clip_triangle(tris_[r.tri], child, t)) {
+            Ref e = c;
+            bool ok = true;
+            for (int a = 0; a < 3; ++a) {
+                e.lo[a] = std::max(e.lo[a], t.lo[a]);
+                e.hi[a] = std::min(e.hi[a], t.hi[a]);
+                ok = ok && e.lo[a] <= e.hi[a];
+            }
+            if (ok) return e;
+        }
+        return c;
+    }
+
+    // Splits the top node's references (arena[begin..end)) in place into the side(s) each
+    // overlaps, flat ones in the plane to both: [above only | both, clipped above | below
+    // only | both, clipped below]. Returns the first below reference; fills the children's
+    // reference unions.
+    size_t partition(std::vector<Ref>& v, size_t begin, const Split& sp, const Box& below,
+                     const Box& above, Box& u_below, Box& u_above) const {
+        const int a = sp.axis;
+        const float pos = sp.pos;
+        u_below = u_above = empty_box();
+        // Three-way partition: above only, both, below only.
+        size_t lo = begin, mid = begin, hi = v.size();
+        while (mid < hi) {
+            const Ref& r = v[mid];
+            const bool planar = r.lo[a] == pos && r.hi[a] == pos;
+            if (r.lo[a] >= pos && !planar) {
+                extend(u_above, r);
+                std::swap(v[lo++], v[mid++]);
+            } else if (r.hi[a] <= pos && !planar) {
+                extend(u_below, r);
+                std::swap(v[mid], v[--hi]);
+            } else {
+                ++mid;
+            }
+        }
+        // Duplicate the references on both sides, each clipped to its child box.
+        for (size_t i = lo; i < hi; ++i) {
+            const Ref r = v[i];
+            const bool straddles = sp.clip_exact && r.lo[a] < pos && r.hi[a] > pos;
+            v.push_back(clip(r, below, straddles));
+            v[i] = clip(r, above, straddles);
+            extend(u_below, v.back());
+            extend(u_above, v[i]);
+        }
+        return hi;
+    }
+
+    // Builds one job's subtree depth-first: below child first, so it lands right after its
+    // parent; a large above child is handed to another worker and linked in later.
+    void build(Job& job, Scratch& s) {
+        Subtree& out = *job.out;
+        std::vector<Ref>& v = s.arena;
+        // Take over the job's array (reserved for growth) unless this worker's is larger.
+        if (job.refs.capacity() > v.capacity()) {
+            v.swap(job.refs);
+        } else {
+            v.assign(job.refs.begin(), job.refs.end());
+        }
+        std::vector<Ref>().swap(job.refs);
+        struct Entry {
+            size_t begin, end;
+            Box box, refs_union;
+            int depth, bad_refines;
+            int64_t parent;  // node whose above index is this entry, or -1
+            int64_t link;    // subtree to link here, or -1
+        };
+        std::vector<Entry> stack{
+            {0, v.size(), job.box, job.refs_union, job.depth, job.bad_refines, -1, -1}};
+        size_t counted = 0;
+        while (!stack.empty()) {
+            const Entry e = stack.back();
+            stack.pop_back();
+            const uint32_t self = uint32_t(out.nodes.size());
+            account(counted, 1);
+            if (e.parent >= 0) out.nodes[size_t(e.parent)].b = self;
+            if (e.link >= 0) {
+                out.nodes.push_back({uint32_t(e.link), 0u, kLinkKind});
+                continue;
+            }
+            // Leaf or split.
+            const size_t n = e.end - e.begin;
+            const Split sp =
+                rule_.choose(v.data() + e.begin, n, e.box, e.refs_union, e.depth, e.bad_refines, s);
+            if (sp.axis < 0) {
+                out.nodes.push_back({uint32_t(out.indices.size()), uint32_t(n), kLeafKind});
+                for (size_t i = e.begin; i < e.end; ++i) out.indices.push_back(v[i].tri);
+                account(counted, n);
+                v.resize(e.begin);
+                continue;
+            }
+            out.nodes.push_back({float_bits(sp.pos), 0u, uint8_t(sp.axis)});
+            // Child boxes and references.
+            Box below = e.box, above = e.box, u_below, u_above;
+            const int a = sp.axis;
+            below.hi[a] = above.lo[a] = std::clamp(sp.pos, e.box.lo[a], e.box.hi[a]);
+            const int depth = e.depth + 1;
+            const size_t mid = partition(v, e.begin, sp, below, above, u_below, u_above);
+            if (threads_ > 1 && mid - e.begin >= kHandOffMin) {
+                // Hand the above child to another worker.
+                Job child{{}, above, u_above, depth, sp.bad_refines, nullptr};
+                child.refs.reserve(2 * (mid - e.begin));
+                child.refs.assign(v.begin() + ptrdiff_t(e.begin), v.begin() + ptrdiff_t(mid));
+                v.erase(v.begin() + ptrdiff_t(e.begin), v.begin() + ptrdiff_t(mid));
+                const uint32_t id = enqueue(std::move(child));
+                stack.push_back({e.begin, e.begin, above, u_above, depth, 0, self, int64_t(id)});
+                stack.push_back({e.begin, v.size(), below, u_below, depth, sp.bad_refines, -1, -1});
+            } else {
+                stack.push_back({e.begin, mid, above, u_above, depth, sp.bad_refines, self, -1});
+                stack.push_back({mid, v.size(), below, u_below, depth, sp.bad_refines, -1, -1});
+            }
+        }
+        account(counted, 0, true);
+    }
+
+    // Pre-order walk of the whole tree across subtrees: final nodes and leaf indices.
+    void flatten(KdTree& tree) const {
+        size_t nodes = 0, refs = 0;
+        for (const auto& st : subtrees_) nodes += st->nodes.size(), refs += st->indices.size();
+        tree.nodes.reserve(nodes);
+        tree.leaf_indices.reserve(refs);
+        struct Item {
+            uint32_t subtree, node;
+            int64_t patch;  // parent whose above index is this node, or -1
+        };
+        std::vector<Item> stack{{0u, 0u, -1}};
+        while (!stack.empty()) {
+            Item it = stack.back();
+            stack.pop_back();
+            const LocalNode* ln = &subtrees_[it.subtree]->nodes[it.node];
+            while (ln->kind == kLinkKind) {
+                it.subtree = ln->a, it.node = 0;
+                ln = &subtrees_[it.subtree]->nodes[0];
+            }
+            const size_t self = tree.nodes.size();
+            if (it.patch >= 0) tree.nodes[size_t(it.patch)].flags |= uint32_t(self) << 2;
+            if (ln->kind == kLeafKind) {
+                const size_t offset = tree.leaf_indices.size();
+                tree.nodes.push_back({uint32_t(offset), (ln->b << 2) | KD_LEAF});
+                const std::vector<uint32_t>& idx = subtrees_[it.subtree]->indices;
+                tree.leaf_indices.insert(tree.leaf_indices.end(), idx.begin() + ln->a,
+                                         idx.begin() + ln->a + ln->b);
+            } else {
+                tree.nodes.push_back({ln->a, uint32_t(ln->kind)});
+                stack.push_back({it.subtree, ln->b, int64_t(self)});
+                stack.push_back({it.subtree, it.node + 1, -1});
+            }
+        }
+    }
+
+    const std::vector<Triangle>& tris_;
+    const SplitRule& rule_;
+    const int threads_;
+    const size_t entry_limit_;
+    std::mutex mu_;
+    std::condition_variable cv_;
+    std::deque<Job> queue_;
+    std::vector<std::unique_ptr<Subtree>> subtrees_;
+    size_t pending_ = 0;  // jobs queued or running
+    std::atomic<bool> failed_{false};
+    std::exception_ptr error_;
+    std::atomic<size_t> entries_{0};
+};
+
+// Sortable key of a float: unsigned order equals float order (-0 is folded into +0 first).
+uint32_t float_key(float f) {
+    f += 0.0f;
+    uint32_t u;
+    std::memcpy(&u, &f, 4);
+    return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
+}
+
+float key_float(uint32_t k) {
+    uint32_t u = (k & 0x80000000u) ? (k & 0x7fffffffu) : ~k;
+    float f;
+    std::memcpy(&f, &u, 4);
+    return f;
+}
+
+// pbrt-v3 SAH cost of splitting `box` at `pos` on `axis` with nb/na references below/above.
+struct SahCost {
+    const TreeOptions& opt;
+    const Box& box;
+    float inv_total_sa;
+    float d[3];
+    float operator()(int axis, float pos, size_t nb, size_t na) const {
+        const int o0 = (axis + 1) % 3, o1 = (axis + 2) % 3;
+        const float face = d[o0] * d[o1], rim = d[o0] + d[o1];
+        const float p_below = 2.f * (face + (pos - box.lo[axis]) * rim) * inv_total_sa;
+        const float p_above = 2.f * (face + (box.hi[axis] - pos) * rim) * inv_total_sa;
+        const float bonus = (nb == 0 || na == 0) ? opt.empty_bonus : 0.f;
+        return opt.traversal_cost +
+               opt.isect_cost * (1.f - bonus) * (p_below * float(nb) + p_above * float(na));
+    }
+};
+
+struct Candidate {
+    int axis = -1;
+    float pos = 0.f;
+    float cost = std::numeric_limits<float>::infinity();
+    void offer(int a, float p, float c) {
+        if (c < cost) axis = a, pos = p, cost = c;
+    }
+    void offer(const Candidate& c) {
+        if (c.cost < cost) *this = c;
+    }
+};
+
+enum : uint64_t { kEnd = 0, kPlanar = 1, kStart = 2 };  // event order at one position
+
+// Adds the events of a reference on axis a that fall in [w0, w1] (Wald & Havran: a flat
+// reference gives one planar event, others a start and an end).
+inline void add_events(const Ref& r, int a, float w0, float w1, std::vector<uint64_t>& events) {
+    const float lo = r.lo[a], hi = r.hi[a];
+    if (lo == hi) {
+        if (lo >= w0 && lo <= w1) events.push_back(uint64_t(float_key(lo)) << 2 | kPlanar);
+        return;
+    }
+    if (lo >= w0 && lo <= w1) events.push_back(uint64_t(float_key(lo)) << 2 | kStart);
+    if (hi >= w0 && hi <= w1) events.push_back(uint64_t(float_key(hi)) << 2 | kEnd);
+}
+
+// Sorts the events of axis a and sweeps every position: `below` references start before
+// the first event, `above` end after it; flat references in the plane count on both sides.
+void sweep(std::vector<uint64_t>& events, int a, size_t below, size_t above, const SahCost& sah,
+           Candidate& best) {
+    std::sort(events.begin(), events.end());
+    for (size_t i = 0; i < events.size();) {
+        const uint64_t key = events[i] >> 2;
+        size_t ends = 0, planar = 0, starts = 0;
+        for (; i < events.size() && (events[i] >> 2) == key; ++i) {
+            const uint64_t type = events[i] & 3u;
+            ends += type == kEnd, planar += type == kPlanar, starts += type == kStart;
+        }
+        above -= ends + planar;
+        const float pos = key_float(uint32_t(key));
+        if (pos > sah.box.lo[a] && pos < sah.box.hi[a]) {
+            best.offer(a, pos, sah(a, pos, below + planar, above + planar));
+        }
+        below += starts + planar;
+    }
+}
+
+// Exact SAH for small nodes: every event position on every axis.
+void exact_search(const Ref* refs, size_t n, const SahCost& sah, Candidate& best,
+                  std::vector<uint64_t>& events) {
+    const float inf = std::numeric_limits<float>::infinity();
+    for (int a = 0; a < 3; ++a) {
+        if (!(sah.d[a] > 0.f)) continue;
+        events.clear();
+        for (size_t i = 0; i < n; ++i) add_events(refs[i], a, -inf, inf, events);
+        sweep(events, a, 0, n, sah, best);
+    }
+}
+
+// Binned SAH for large nodes: bins span the references' union, so its ends are exact
+// empty-space cuts; the best boundary is then refined by an exact sweep over
+// the events of the two bins around the best one.
+void binned_search(const Ref* refs, size_t n, const Box& refs_union, const SahCost& sah,
+                   Candidate& best, std::vector<uint64_t>& events) {
+    const Box& box = sah.box;
+    const float* ulo = refs_union.lo;
+    const float* uhi = refs_union.hi;
+    // Count bounds into bins over the union.
+    const int bins = int(std::clamp<size_t>(n / kRefsPerBin, kMinBins, kBins));
+    uint32_t starts[3][kBins], ends[3][kBins];
+    std::memset(starts, 0, sizeof starts), std::memset(ends, 0, sizeof ends);
+    float scale[3], width[3];
+    for (int a = 0; a < 3; ++a) {
+        width[a] = (uhi[a] - ulo[a]) / float(bins);
+        scale[a] = uhi[a] > ulo[a] ? float(bins) / (uhi[a] - ulo[a]) : 0.f;
+    }
+    const int last = bins - 1;  // references lie in the union: only the top end needs a clamp
+    const auto bin = [&](float x, int a) { return std::min(int((x - ulo[a]) * scale[a]), last); };
+    for (size_t i = 0; i < n; ++i) {
+        const Ref& r = refs[i];
+        ++starts[0][bin(r.lo[0], 0)], ++ends[0][bin(r.hi[0], 0)];
+        ++starts[1][bin(r.lo[1], 1)], ++ends[1][bin(r.hi[1], 1)];
+        ++starts[2][bin(r.lo[2], 2)], ++ends[2][bin(r.hi[2], 2)];
+    }
+    // Sweep the bin boundaries, union ends included.
+    int best_bin[3] = {-1, -1, -1};
+    for (int a = 0; a < 3; ++a) {
+        if (!(uhi[a] > ulo[a])) continue;
+        Candidate axis_best;
+        size_t below = 0, ended = 0;
+        for (int i = 0; i <= bins; ++i) {
+            if (i > 0) below += starts[a][i - 1], ended += ends[a][i - 1];
+            const float pos = i == bins ? uhi[a] : ulo[a] + width[a] * float(i);
+            if (!(pos > box.lo[a] && pos < box.hi[a])) continue;
+            const float cost = sah(a, pos, below, n - ended);
+            if (cost < axis_best.cost) best_bin[a] = i;
+            axis_best.offer(a, pos, cost);
+        }
+        best.offer(axis_best);
+    }
+    // Exact sweep within the two bins around the best boundary.
+    if (best.axis >= 0 && best_bin[best.axis] > 0 && best_bin[best.axis] < bins) {
+        const int a = best.axis, i = best_bin[a];
+        const float w0 = ulo[a] + width[a] * float(i - 1), w1 = ulo[a] + width[a] * float(i + 1);
+        size_t below = 0, ended = 0;
+        events.clear();
+        for (size_t k = 0; k < n; ++k) {
+            const float lo = refs[k].lo[a], hi = refs[k].hi[a];
+            below += lo < w0;
+            ended += hi < w0;
+            if (hi >= w0 && lo <= w1) add_events(refs[k], a, w0, w1, events);
+        }
+        sweep(events, a, below, n - ended, sah, best);
+    }
+}
+
+// The median rule: the median triangle centroid on axes in turn, to exactly max_depth levels.
+class MedianRule : public SplitRule {
+  public:
+    MedianRule(const std::vector<Triangle>& tris, int max_depth)
+        : tris_(tris), max_depth_(max_depth) {}
+
+    Split choose(const Ref* refs, size_t n, const Box&, const Box&, int depth, int,
+                 Scratch& scratch) const override {
+        Split split;
+        if (n <= 1 || depth >= max_depth_) return split;
+        const int a = depth % 3;
+        std::vector<float>& c = scratch.keys;
+        c.resize(n);
+        for (size_t i = 0; i < n; ++i) {
+            const Triangle& t = tris_[refs[i].tri];
+            c[i] = (t.v0[a] + t.v1[a] + t.v2[a]) * (1.f / 3.f);
+        }
+        std::nth_element(c.begin(), c.begin() + ptrdiff_t(n / 2), c.end());
+        split.axis = a;
+        split.pos = c[n / 2];
+        return split;
+    }
+
+  private:
+    const std::vector<Triangle>& tris_;
+    int max_depth_;
+};
+
+class SahRule : public SplitRule {
+  public:
+    SahRule(const TreeOptions& opt, int max_depth) : opt_(opt), max_depth_(max_depth) {}
+
+    Split choose(const Ref* refs, size_t n, const Box& box, const Box& refs_union, int depth,
+                 int bad_refines, Scratch& scratch) const override {
+        Split leaf;
+        if (n <= size_t(std::max(opt_.max_leaf_prims, 0)) || depth >= max_depth_ || n == 0) {
+            return leaf;
+        }
+        // Node surface area; a node flat in two axes cannot be split usefully.
+        SahCost sah{opt_, box, 0.f, {}};
+        for (int a = 0; a < 3; ++a) sah.d[a] = box.hi[a] - box.lo[a];
+        const float total_sa =
+            2.f * (sah.d[0] * sah.d[1] + sah.d[1] * sah.d[2] + sah.d[2] * sah.d[0]);
+        if (!(total_sa > 0.f)) return leaf;
+        sah.inv_total_sa = 1.f / total_sa;
+        // Best split over the three axes.
+        Candidate best;
+        if (n > kExactMax) {
+            binned_search(refs, n, refs_union, sah, best, scratch.events);
+        } else {
+            exact_search(refs, n, sah, best, scratch.events);
+        }
+        // pbrt-v3 termination.
+        const float leaf_cost = opt_.isect_cost * float(n);
+        if (best.cost > leaf_cost) ++bad_refines;
+        if ((best.cost > 4.f * leaf_cost && n < 16) || best.axis < 0 || bad_refines >= 3) {
+            return leaf;
+        }
+        Split split;
+        split.axis = best.axis;
+        split.pos = best.pos;
+        split.bad_refines = bad_refines;
+        split.clip_exact = true;
+        return split;
+    }
+
+  private:
+    const TreeOptions& opt_;
+    int max_depth_;
+};
+
+// Whole-tree statistics from the flattened arrays.
+void fill_stats(KdTree& tree) {
+    TreeStats& s = tree.stats;
+    s.nodes = tree.nodes.size();
+    s.references = tree.leaf_indices.size();
+    s.leaves = s.empty_leaves = 0;
+    s.max_depth = 0;
+    // Depth of every node: the below child follows its parent, the above child is in flags.
+    std::vector<std::pair<uint32_t, int>> stack{{0u, 0}};
+    while (!stack.empty()) {
+        const auto [index, depth] = stack.back();
+        stack.pop_back();
+        const gpu::KdNode& node = tree.nodes[index];
+        if ((node.flags & 3u) == KD_LEAF) {
+            ++s.leaves;
+            s.empty_leaves += (node.flags >> 2) == 0;
+            s.max_depth = std::max(s.max_depth, depth);
+        } else {
+            stack.push_back({node.flags >> 2, depth + 1});
+            stack.push_back({index + 1, depth + 1});
+        }
+    }
+    const size_t full = s.leaves - s.empty_leaves;
+    s.mean_leaf_size = full ? double(s.references) / double(full) : 0.0;
+    s.bytes = s.nodes * sizeof(gpu::KdNode) + s.references * sizeof(uint32_t);
+}
+
+}  // namespace
+
+TreeKind parse_tree_kind(const std::string& name) {
+    if (name == "sah") return TreeKind::Sah;
+    if (name == "median") return TreeKind::Median;
+    if (name == "none") return TreeKind::None;
+    if (name == "auto") return TreeKind::Auto;
+    throw Error("unknown tree kind '" + name + "' (valid: auto, sah, median, none)");
+}
+
+const char* tree_kind_name(TreeKind kind) {
+    switch (kind) {
+        case TreeKind::Sah:
+            return "sah";
+        case TreeKind::Median:
+            return "median";
+        case TreeKind::None:
+            return "none";
+        case TreeKind::Auto:
+            return "auto";
+    }
+    return "unknown";
+}
+
+KdTree build_kdtree(const std::vector<Triangle>& triangles, const TreeOptions& options) {
+    if (options.kind == TreeKind::Auto) {
+        // The SAH tree, kept unless the cost model prefers none.
+        TreeOptions o = options;
+        o.kind = TreeKind::Sah;
+        KdTree sah = build_kdtree(triangles, o);
+        const TreeChoice choice = choose_tree(sah, triangles.size(), options.auto_model);
+        if (choice.kind == TreeKind::Sah) {
+            sah.auto_choice = choice.reason;
+            return sah;
+        }
+        o.kind = TreeKind::None;
+        KdTree none = build_kdtree(triangles, o);
+        none.stats.build_seconds += sah.stats.build_seconds;
+        none.auto_choice = choice.reason;
+        return none;
+    }
+    const auto start = std::chrono::steady_clock::now();
+    if (options.max_depth < -1 || options.max_depth > kMaxTreeDepth) {
+        throw Error("k-d tree depth must be between 0 and " + std::to_string(kMaxTreeDepth) +
+                    " (or -1 for the default)");
+    }
+    if (triangles.size() >= (size_t(1) << 30)) {
+        throw Error("too many triangles for the k-d tree (at most 2^30 - 1)");
+    }
+    KdTree tree;
+    tree.kind = options.kind;
+    for (const Triangle& t : triangles) {
+        tree.bounds.extend(t.v0), tree.bounds.extend(t.v1), tree.bounds.extend(t.v2);
+    }
+    const size_t n = triangles.size();
+    if (options.kind == TreeKind::None || n == 0) {
+        // One leaf holding every triangle (or none).
+        tree.leaf_indices.resize(n);
+        for (size_t i = 0; i < n; ++i) tree.leaf_indices[i] = uint32_t(i);
+        tree.nodes.push_back({0u, uint32_t(n << 2) | KD_LEAF});
+    } else {
+        // References with the triangles' bounds, then the tree of the chosen kind.
+        std::vector<Ref> refs;
+        refs.reserve(2 * n);  // room for the duplicated references of the first branch
+        refs.resize(n);
+        for (size_t i = 0; i < n; ++i) {
+            const Triangle& t = triangles[i];
+            const glm::vec3 lo = glm::min(t.v0, glm::min(t.v1, t.v2));
+            const glm::vec3 hi = glm::max(t.v0, glm::max(t.v1, t.v2));
+            refs[i] = {{lo.x, lo.y, lo.z}, {hi.x, hi.y, hi.z}, uint32_t(i)};
+        }
+        const Box root{{tree.bounds.min.x, tree.bounds.min.y, tree.bounds.min.z},
+                       {tree.bounds.max.x, tree.bounds.max.y, tree.bounds.max.z}};
+        const int threads = options.threads > 0
+                                ? options.threads
+                                : int(std::max(1u, std::thread::hardware_concurrency()));
+        if (options.kind == TreeKind::Median) {
+            const MedianRule rule(triangles, options.max_depth < 0 ? 3 : options.max_depth);
+            Engine(triangles, rule, threads).run(std::move(refs), root, tree);
+        } else {
+            // pbrt's default depth: 8 + 1.3 log2 N.
+            int depth = options.max_depth;
+            if (depth < 0) depth = int(std::lround(8.0 + 1.3 * std::log2(double(n))));
+            const SahRule rule(options, std::min(depth, kMaxTreeDepth));
+            Engine(triangles, rule, threads).run(std::move(refs), root, tree);
+        }
+    }
+    fill_stats(tree);
+    tree.stats.build_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return tree;
+}
+
+std::string describe(const TreeStats& s, size_t triangle_count) {
+    const double per_tri = double(std::max<size_t>(triangle_count, 1));
+    const bool large = s.bytes >= 1024 * 1024;
+    char buf[512];
+    std::snprintf(buf, sizeof buf,
+                  "  k-d tree: %zu nodes, %zu leaves (%zu empty), depth %d\n"
+                  "  references: %zu (%.2f per triangle, %.2f per non-empty leaf)\n"
+                  "  memory: %.2f %s nodes + leaf indices (%.1f bytes per triangle)\n"
+                  "  build: %.3f s\n",
+                  s.nodes, s.leaves, s.empty_leaves, s.max_depth, s.references,
+                  double(s.references) / per_tri, s.mean_leaf_size,
+                  double(s.bytes) / (large ? 1024.0 * 1024.0 : 1024.0), large ? "MiB" : "KiB",
+                  double(s.bytes) / per_tri, s.build_seconds);
+    return buf;
+}
+
+}  // namespace mcpt

@@ -1,0 +1,77 @@
+// --tree auto: the expected cost of a ray through a tree, from the surface area heuristic's
+// own model, and the choice between the SAH tree and none that follows from it.
+#include <cstdio>
+#include <cstring>
+#include <vector>
+
+#include "common/accel/kdtree.h"
+
+namespace mcpt {
+
+namespace {
+
+double half_area(const float lo[3], const float hi[3]) {
+    const double dx = double(hi[0]) - lo[0], dy = double(hi[1]) - lo[1], dz = double(hi[2]) - lo[2];
+    return dx * dy + dy * dz + dz * dx;
+}
+
+}  // namespace
+
+TreeCost expected_tree_cost(const KdTree& tree) {
+    TreeCost c;
+    if (tree.nodes.empty() || tree.bounds.empty()) return c;
+    struct Item {
+        uint32_t node;
+        float lo[3], hi[3];
+    };
+    Item root{0,
+              {tree.bounds.min.x, tree.bounds.min.y, tree.bounds.min.z},
+              {tree.bounds.max.x, tree.bounds.max.y, tree.bounds.max.z}};
+    const double root_area = half_area(root.lo, root.hi);
+    if (!(root_area > 0)) {
+        // A line or a point: every ray that hits tests every leaf it passes; count them all.
+        c.node_visits = double(tree.nodes.size());
+        c.triangle_tests = double(tree.leaf_indices.size());
+        return c;
+    }
+    // Each node is reached with probability area(node) / area(root) (the SAH's model).
+    std::vector<Item> stack{root};
+    while (!stack.empty()) {
+        const Item it = stack.back();
+        stack.pop_back();
+        const gpu::KdNode n = tree.nodes[it.node];
+        const double p = half_area(it.lo, it.hi) / root_area;
+        c.node_visits += p;
+        const uint32_t axis = n.flags & 3u;
+        if (axis == KD_LEAF) {
+            c.triangle_tests += p * double(n.flags >> 2);
+            continue;
+        }
+        float split;
+        std::memcpy(&split, &n.split_or_offset, 4);
+        Item below = it, above = it;
+        below.node = it.node + 1, above.node = n.flags >> 2;
+        below.hi[axis] = split, above.lo[axis] = split;
+        stack.push_back(below);
+        stack.push_back(above);
+    }
+    return c;
+}
+
+TreeChoice choose_tree(const KdTree& sah_tree, size_t triangle_count, const TreeCostModel& m) {
+    TreeChoice ch;
+    const TreeCost c = expected_tree_cost(sah_tree);
+    ch.cost_tree = m.tree_entry + m.node_visit * c.node_visits + c.triangle_tests;
+    ch.cost_none = double(triangle_count);
+    ch.kind = ch.cost_tree < ch.cost_none ? TreeKind::Sah : TreeKind::None;
+    char buf[256];
+    std::snprintf(buf, sizeof buf,
+                  "tree auto: %s (%s device; expected cost per ray in triangle tests: SAH tree "
+                  "%.1f, from %.1f node visits and %.1f triangle tests; no tree %.0f)",
+                  tree_kind_name(ch.kind), m.name, ch.cost_tree, c.node_visits, c.triangle_tests,
+                  ch.cost_none);
+    ch.reason = buf;
+    return ch;
+}
+
+}  // namespace mcpt

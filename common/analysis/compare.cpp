@@ -1,0 +1,129 @@
+#include "common/analysis/compare.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "common/error.h"
+#include "common/analysis/stats.h"
+
+namespace mcpt {
+
+BatchSet render_batches(Backend& backend, const GpuScene& scene, const Camera& camera,
+                        RenderOptions options, const BatchOptions& batch) {
+    if (batch.batches < 2) throw Error("need at least 2 batches");
+    BatchSet set;
+    set.width = options.width, set.height = options.height;
+    set.batches = batch.batches;
+    set.spp_per_batch = batch.spp_per_batch;
+    const size_t npix = size_t(options.width) * size_t(options.height);
+    std::vector<double> sum(npix, 0.0), sum_sq(npix, 0.0);
+    backend.load(scene, options.width, options.height);
+    options.spp = batch.spp_per_batch;
+    for (int b = 0; b < batch.batches; ++b) {
+        // One batch: an independent render with its own seed.
+        options.seed = batch.seed_base + uint32_t(b);
+        const RenderResult r = render_loaded(backend, scene, camera, options);
+        const std::vector<float> img = r.mean_image();
+        for (size_t i = 0; i < npix; ++i) {
+            const double m = (double(img[3 * i]) + img[3 * i + 1] + img[3 * i + 2]) / 3.0;
+            sum[i] += m, sum_sq[i] += m * m;
+        }
+        set.nonfinite += r.nonfinite_total;
+        set.seconds += r.seconds;
+        set.rays += r.rays;
+    }
+    // Mean and unbiased variance of the batch means.
+    const double k = batch.batches;
+    set.mean.resize(npix), set.var.resize(npix);
+    for (size_t i = 0; i < npix; ++i) {
+        set.mean[i] = sum[i] / k;
+        set.var[i] = std::max(0.0, (sum_sq[i] - k * set.mean[i] * set.mean[i]) / (k - 1));
+    }
+    return set;
+}
+
+std::string Agreement::verdict() const {
+    std::ostringstream o;
+    o << (agree ? "AGREE" : "DIFFER") << ": min p " << min_p << " (Sidak level " << sidak_level
+      << ", " << sidak_rejections << " pixels below), " << bh_discoveries
+      << " BH discoveries, mean z " << mean_z_score << ", chi2 z " << chi2_score << " (limit "
+      << global_z_limit << "), detectable uniform bias " << 100 * detectable_bias << "%";
+    return o.str();
+}
+
+Agreement test_agreement(const BatchSet& a, const BatchSet& b, double alpha) {
+    // Float rounding: two compilers evaluating the same path differ by a few ulps, which a
+    // pixel without sampling noise (a light or its mirror image seen directly) would turn
+    // into an infinite z. Each pixel's difference gets this much relative rounding
+    // uncertainty on top of its sampling variance.
+    constexpr double kRoundingRel = kFloatRoundingTolerance;
+    if (a.width != b.width || a.height != b.height) throw Error("images differ in size");
+    const size_t npix = a.mean.size();
+    Agreement g;
+    g.p_image.assign(npix, 1.f);
+    g.z_image.assign(npix, 0.f);
+    // Per-pixel Welch tests on the batch means.
+    std::vector<double> p_tested;
+    double sum_z = 0, sum_z2 = 0, signal = 0, sum_a = 0, sum_b = 0;
+    for (size_t i = 0; i < npix; ++i) {
+        sum_a += a.mean[i], sum_b += b.mean[i];
+        if (a.var[i] == 0 && b.var[i] == 0 && a.mean[i] == b.mean[i]) continue;  // no information
+        // Rounding variance split over the two sides: adds (tol * mean)^2 to the error^2.
+        const double tol = kRoundingRel * std::max(std::abs(a.mean[i]), std::abs(b.mean[i]));
+        const double sampling_se2 = a.var[i] / a.batches + b.var[i] / b.batches;
+        const stats::Welch w = stats::welch_test(
+            b.mean[i], b.var[i] + 0.5 * tol * tol * b.batches, b.batches, a.mean[i],
+            a.var[i] + 0.5 * tol * tol * a.batches, a.batches);
+        g.p_image[i] = float(w.p);
+        g.z_image[i] = float(std::clamp(w.z, -1e30, 1e30));
+        p_tested.push_back(w.p);
+        g.min_p = std::min(g.min_p, w.p);
+        sum_z += w.z, sum_z2 += w.z * w.z;
+        // How strongly a relative bias delta would shift this pixel's z: mean / std error
+        // (pixels whose error is mostly rounding, not sampling noise, say nothing of that).
+        if (w.std_error > 0 && sampling_se2 > tol * tol)
+            signal += 0.5 * (a.mean[i] + b.mean[i]) / w.std_error;
+    }
+    const size_t m = p_tested.size();
+    g.pixels_tested = m;
+    // Three tests share alpha: per-pixel (Sidak), mean of z, sum of z^2.
+    const double alpha_each = alpha / 3;
+    g.sidak_level = stats::sidak_level(alpha_each, std::max<size_t>(m, 1));
+    for (double p : p_tested) g.sidak_rejections += p < g.sidak_level;
+    const std::vector<bool> bh = stats::benjamini_hochberg(p_tested, alpha);
+    g.bh_discoveries = size_t(std::count(bh.begin(), bh.end(), true));
+    g.global_z_limit = stats::normal_quantile(1 - alpha_each / 2);
+    if (m > 0) {
+        g.mean_z_score = sum_z / std::sqrt(double(m));
+        // Wilson-Hilferty: (X/m)^(1/3) is nearly normal for X ~ chi2(m).
+        const double md = double(m), v = 2.0 / (9.0 * md);
+        g.chi2_score = (std::cbrt(sum_z2 / md) - (1 - v)) / std::sqrt(v);
+        g.detectable_bias = signal > 0 ? g.global_z_limit * std::sqrt(md) / signal : INFINITY;
+    }
+    g.mean_relative_diff = sum_a > 0 ? (sum_b - sum_a) / sum_a : 0;
+    g.agree = g.sidak_rejections == 0 && std::abs(g.mean_z_score) < g.global_z_limit &&
+              g.chi2_score < g.global_z_limit && a.nonfinite == 0 && b.nonfinite == 0;
+    return g;
+}
+
+SameSeedDiff same_seed_diff(const RenderResult& a, const RenderResult& b, double tolerance) {
+    if (a.width != b.width || a.height != b.height) throw Error("images differ in size");
+    SameSeedDiff d;
+    d.tolerance = tolerance;
+    const std::vector<float> ia = a.mean_image(), ib = b.mean_image();
+    d.pixels = ia.size() / 3;
+    for (size_t i = 0; i < d.pixels; ++i) {
+        bool diverged = false;
+        for (int c = 0; c < 3; ++c) {
+            const double x = ia[3 * i + c], y = ib[3 * i + c];
+            const double diff = std::abs(x - y);
+            d.max_abs_diff = std::max(d.max_abs_diff, diff);
+            diverged |= diff > tolerance * std::max({std::abs(x), std::abs(y), 1e-3});
+        }
+        d.diverged += diverged;
+    }
+    return d;
+}
+
+}  // namespace mcpt

@@ -1,0 +1,65 @@
+// Do two renderers produce the same image? Statistical agreement from independent batches
+// (per-pixel Welch t-tests on batch means with Sidak and Benjamini-Hochberg corrections,
+// plus global tests for a small uniform bias), and same-seed agreement (identical random
+// streams: what differs is float rounding and compiler behaviour).
+#pragma once
+#include <string>
+#include <vector>
+
+#include "common/render/render_loop.h"
+
+namespace mcpt {
+
+// Per-pixel batch means (mean of r, g, b) from `batches` independent renders.
+struct BatchSet {
+    int width = 0, height = 0, batches = 0;
+    uint64_t spp_per_batch = 0;
+    std::vector<double> mean, var;  // per pixel, over the batch means
+    uint64_t nonfinite = 0;
+    double seconds = 0, rays = 0;   // totals over all batches
+};
+
+struct BatchOptions {
+    int batches = 32;
+    uint64_t spp_per_batch = 4;
+    uint32_t seed_base = 1;  // batch b uses seed seed_base + b
+};
+
+// Loads the scene once, then renders the batches with independent seeds.
+BatchSet render_batches(Backend& backend, const GpuScene& scene, const Camera& camera,
+                        RenderOptions options, const BatchOptions& batch);
+
+struct Agreement {
+    size_t pixels_tested = 0;        // pixels with variance or differing means
+    double min_p = 1, sidak_level = 0;
+    size_t sidak_rejections = 0;
+    size_t bh_discoveries = 0;       // pixels flagged at false discovery rate alpha
+    double mean_z_score = 0;         // sum of signed z / sqrt(m): ~N(0,1) if unbiased
+    double chi2_score = 0;           // Wilson-Hilferty normal score of sum z^2 vs chi2(m)
+    double global_z_limit = 0;       // |mean_z_score| and chi2_score must stay below this
+    double detectable_bias = 0;      // smallest uniform relative bias the mean-z test detects
+    double mean_relative_diff = 0;   // (mean B - mean A) / mean A over all pixels
+    bool agree = true;
+    std::vector<float> p_image;      // per-pixel p-values
+    std::vector<float> z_image;      // per-pixel signed z (B - A)
+    std::string verdict() const;     // one line
+};
+
+// Relative difference of per-pixel means that counts as float rounding, not bias: well
+// above what two compilers' ulps add up to over a path, far below what the tests detect.
+constexpr double kFloatRoundingTolerance = 2e-5;
+
+// Tests whether A and B have equal per-pixel means, family-wise level alpha; each pixel's
+// difference carries kFloatRoundingTolerance of its mean as rounding uncertainty.
+Agreement test_agreement(const BatchSet& a, const BatchSet& b, double alpha = 0.01);
+
+struct SameSeedDiff {
+    size_t pixels = 0, diverged = 0;  // diverged: relative difference > tolerance
+    double max_abs_diff = 0, tolerance = 1e-3;
+    double fraction_diverged() const { return pixels ? double(diverged) / double(pixels) : 0; }
+};
+
+// Per-pixel comparison of two renders made with the same seed and sample count.
+SameSeedDiff same_seed_diff(const RenderResult& a, const RenderResult& b, double tolerance = 1e-3);
+
+}  // namespace mcpt

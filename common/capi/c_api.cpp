@@ -1,0 +1,455 @@
+// include/mcpt/mcpt.h over the engine: handles are ids in a table (never pointers that a stale
+// handle could reach), every entry point catches everything, and messages are kept per
+// session (or per thread where there is no session).
+#include "mcpt/mcpt.h"
+
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <mutex>
+#include <new>
+#include <string>
+#include <unordered_map>
+
+#include "common/error.h"
+#include "common/render/device_registry.h"
+#include "common/render/prepare.h"
+#include "common/render/scene_features.h"
+#include "common/render/session.h"
+#include "common/scene/scene_load.h"
+
+namespace {
+
+using mcpt::Session;
+
+// A C-side error: the status and its message.
+struct CError {
+    mcpt_status status;
+    std::string message;
+};
+
+struct SessionBox {
+    std::mutex mutex;  // serialises calls on the session (cancel does not take it)
+    std::unique_ptr<Session> session;
+    std::string last_error;  // guarded by error_mutex
+    std::mutex error_mutex;
+};
+
+// The table of live sessions: handle value -> session.
+class Handles {
+public:
+    mcpt_session add(std::shared_ptr<SessionBox> box) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        const uintptr_t id = next_;
+        next_ += 16;  // never 0, never a small integer
+        boxes_[id] = std::move(box);
+        return reinterpret_cast<mcpt_session>(id);
+    }
+    std::shared_ptr<SessionBox> find(mcpt_session s) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        auto it = boxes_.find(reinterpret_cast<uintptr_t>(s));
+        return it == boxes_.end() ? nullptr : it->second;
+    }
+    std::shared_ptr<SessionBox> remove(mcpt_session s) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        auto it = boxes_.find(reinterpret_cast<uintptr_t>(s));
+        if (it == boxes_.end()) return nullptr;
+        std::shared_ptr<SessionBox> box = std::move(it->second);
+        boxes_.erase(it);
+        return box;
+    }
+
+private:
+    std::mutex mutex_;
+    std::unordered_map<uintptr_t, std::shared_ptr<SessionBox>> boxes_;
+    uintptr_t next_ = 0x6d637074000ull & ~uintptr_t(15);
+};
+
+Handles& handles() {
+    static Handles* h = new Handles;  // never destroyed: safe from atexit order
+    return *h;
+}
+
+thread_local std::string t_thread_error;   // failures without a live session
+thread_local std::string t_returned_error; // what mcpt_last_error() handed out
+
+mcpt_status thread_fail(mcpt_status status, const std::string& message) {
+    t_thread_error = message;
+    return status;
+}
+
+mcpt_status box_fail(SessionBox& box, mcpt_status status, const std::string& message) {
+    std::lock_guard<std::mutex> lock(box.error_mutex);
+    box.last_error = message;
+    return status;
+}
+
+// Runs `body` with every exception turned into a status; `context` is the status that an
+// mcpt::Error means in this call (a scene error while loading, a device error while rendering).
+template <class Body>
+mcpt_status guarded(mcpt_status context, std::string& message, Body&& body) {
+    try {
+        return body();
+    } catch (const CError& e) {
+        message = e.message;
+        return e.status;
+    } catch (const mcpt::Error& e) {
+        message = e.what();
+        return context;
+    } catch (const std::bad_alloc&) {
+        message = "out of memory";
+        return MCPT_ERROR_OUT_OF_MEMORY;
+    } catch (const std::exception& e) {
+        message = std::string("internal error: ") + e.what();
+        return MCPT_ERROR_INTERNAL;
+    } catch (...) {
+        message = "internal error: unknown exception";
+        return MCPT_ERROR_INTERNAL;
+    }
+}
+
+// Looks up the session and runs body(Session&) under its lock.
+template <class Body>
+mcpt_status with_session(mcpt_session s, mcpt_status context, Body&& body) {
+    std::shared_ptr<SessionBox> box;
+    try {
+        box = handles().find(s);
+    } catch (...) {
+        return thread_fail(MCPT_ERROR_INTERNAL, "internal error: handle table");
+    }
+    if (!box) {
+        return thread_fail(MCPT_ERROR_INVALID_HANDLE,
+                           s == nullptr ? "NULL session handle"
+                                        : "invalid session handle (released or never created)");
+    }
+    std::string message;
+    mcpt_status st;
+    {
+        std::lock_guard<std::mutex> lock(box->mutex);
+        if (!box->session) {
+            return box_fail(*box, MCPT_ERROR_INVALID_HANDLE, "session is being released");
+        }
+        st = guarded(context, message, [&] { return body(*box->session); });
+    }
+    if (st != MCPT_OK && st != MCPT_CANCELLED) box_fail(*box, st, message);
+    return st;
+}
+
+void copy(char* dst, size_t size, const std::string& src) {
+    const size_t n = std::min(size - 1, src.size());
+    std::memcpy(dst, src.data(), n);
+    dst[n] = '\0';
+}
+
+void require(bool ok, const char* message) {
+    if (!ok) throw CError{MCPT_ERROR_INVALID_ARGUMENT, message};
+}
+
+mcpt_device_info device_info(const mcpt::DeviceInfo& d) {
+    mcpt_device_info out;
+    std::memset(&out, 0, sizeof out);
+    copy(out.api, sizeof out.api, d.backend);
+    out.index = d.index;
+    copy(out.name, sizeof out.name, d.name);
+    copy(out.platform, sizeof out.platform, d.platform);
+    copy(out.type, sizeof out.type, d.type);
+    copy(out.spec, sizeof out.spec, d.backend + ":" + std::to_string(d.index));
+    return out;
+}
+
+// The session's scene is loaded; else an out-of-order error.
+void require_scene(const Session& s) {
+    if (!s.has_scene())
+        throw CError{MCPT_ERROR_INVALID_STATE, "no scene loaded (load one before rendering)"};
+}
+void require_image(const Session& s) {
+    if (s.spp() == 0)
+        throw CError{MCPT_ERROR_INVALID_STATE, "nothing rendered yet (call mcpt_session_render)"};
+}
+
+}  // namespace
+
+extern "C" {
+
+int mcpt_version(void) {
+    return MCPT_VERSION_MAJOR * 10000 + MCPT_VERSION_MINOR * 100 + MCPT_VERSION_PATCH;
+}
+
+const char* mcpt_version_string(void) { return MCPT_VERSION_STRING; }
+
+const char* mcpt_status_name(mcpt_status status) {
+    switch (status) {
+        case MCPT_OK: return "MCPT_OK";
+        case MCPT_CANCELLED: return "MCPT_CANCELLED";
+        case MCPT_ERROR_INVALID_ARGUMENT: return "MCPT_ERROR_INVALID_ARGUMENT";
+        case MCPT_ERROR_INVALID_HANDLE: return "MCPT_ERROR_INVALID_HANDLE";
+        case MCPT_ERROR_INVALID_STATE: return "MCPT_ERROR_INVALID_STATE";
+        case MCPT_ERROR_SCENE: return "MCPT_ERROR_SCENE";
+        case MCPT_ERROR_DEVICE: return "MCPT_ERROR_DEVICE";
+        case MCPT_ERROR_IO: return "MCPT_ERROR_IO";
+        case MCPT_ERROR_OUT_OF_MEMORY: return "MCPT_ERROR_OUT_OF_MEMORY";
+        case MCPT_ERROR_INTERNAL: return "MCPT_ERROR_INTERNAL";
+    }
+    return "unknown status";
+}
+
+const char* mcpt_last_error(mcpt_session s) {
+    try {
+        std::shared_ptr<SessionBox> box = s ? handles().find(s) : nullptr;
+        if (box) {
+            std::lock_guard<std::mutex> lock(box->error_mutex);
+            t_returned_error = box->last_error;
+        } else {
+            t_returned_error = t_thread_error;
+        }
+    } catch (...) {
+        return "out of memory";
+    }
+    return t_returned_error.c_str();
+}
+
+mcpt_status mcpt_devices(mcpt_device_info* devices, size_t capacity, size_t* count) {
+    std::string message;
+    const mcpt_status st = guarded(MCPT_ERROR_DEVICE, message, [&] {
+        require(count != nullptr, "count is NULL");
+        require(devices != nullptr || capacity == 0, "devices is NULL with a capacity > 0");
+        const std::vector<mcpt::DeviceInfo> all = mcpt::list_devices();
+        for (size_t i = 0; i < all.size() && i < capacity; ++i) devices[i] = device_info(all[i]);
+        *count = all.size();
+        return MCPT_OK;
+    });
+    return st == MCPT_OK ? st : thread_fail(st, message);
+}
+
+mcpt_status mcpt_session_create(const char* device, mcpt_session* out) {
+    std::string message;
+    const mcpt_status st = guarded(MCPT_ERROR_DEVICE, message, [&] {
+        require(out != nullptr, "out is NULL");
+        *out = nullptr;
+        auto box = std::make_shared<SessionBox>();
+        box->session = std::make_unique<Session>(device ? device : "");
+        *out = handles().add(std::move(box));
+        return MCPT_OK;
+    });
+    return st == MCPT_OK ? st : thread_fail(st, message);
+}
+
+mcpt_status mcpt_session_release(mcpt_session s) {
+    std::shared_ptr<SessionBox> box;
+    try {
+        box = handles().remove(s);
+    } catch (...) {
+        return thread_fail(MCPT_ERROR_INTERNAL, "internal error: handle table");
+    }
+    if (!box) {
+        return thread_fail(MCPT_ERROR_INVALID_HANDLE,
+                           s == nullptr ? "NULL session handle"
+                                        : "invalid session handle (released or never created)");
+    }
+    // Stop a render in progress, wait for it, then free the device.
+    std::string message;
+    const mcpt_status st = guarded(MCPT_ERROR_INTERNAL, message, [&] {
+        {
+            std::lock_guard<std::mutex> lock(box->error_mutex);
+            if (box->session) box->session->cancel();
+        }
+        std::lock_guard<std::mutex> lock(box->mutex);
+        box->session.reset();
+        return MCPT_OK;
+    });
+    return st == MCPT_OK ? st : thread_fail(st, message);
+}
+
+mcpt_status mcpt_session_device(mcpt_session s, mcpt_device_info* out) {
+    return with_session(s, MCPT_ERROR_DEVICE, [&](Session& session) {
+        require(out != nullptr, "out is NULL");
+        *out = device_info(session.device());
+        return MCPT_OK;
+    });
+}
+
+mcpt_status mcpt_session_load_file(mcpt_session s, const char* path) {
+    return with_session(s, MCPT_ERROR_SCENE, [&](Session& session) {
+        require(path != nullptr && *path, "path is NULL or empty");
+        session.set_scene(mcpt::load_scene(path));
+        return MCPT_OK;
+    });
+}
+
+mcpt_status mcpt_session_load_memory(mcpt_session s, const void* data, size_t size,
+                                     const char* base_dir) {
+    return with_session(s, MCPT_ERROR_SCENE, [&](Session& session) {
+        require(data != nullptr || size == 0, "data is NULL");
+        session.set_scene(mcpt::load_scene_memory(data, size, "memory", base_dir ? base_dir : ""));
+        return MCPT_OK;
+    });
+}
+
+mcpt_status mcpt_session_load_builtin(mcpt_session s, const char* name) {
+    return with_session(s, MCPT_ERROR_SCENE, [&](Session& session) {
+        require(name != nullptr, "name is NULL");
+        session.set_scene(mcpt::load_scene(name));
+        return MCPT_OK;
+    });
+}
+
+mcpt_status mcpt_session_scene_info(mcpt_session s, mcpt_scene_info* out) {
+    return with_session(s, MCPT_ERROR_INTERNAL, [&](Session& session) {
+        require(out != nullptr, "out is NULL");
+        require_scene(session);
+        if (!session.committed())
+            throw CError{MCPT_ERROR_INVALID_STATE,
+                         "scene not prepared yet (render or mcpt_session_commit first)"};
+        std::memset(out, 0, sizeof *out);
+        const mcpt::GpuScene& g = session.prepared();
+        out->triangles = g.triangles.size(), out->spheres = g.spheres.size();
+        out->materials = g.materials.size(), out->lights = g.params.num_lights;
+        copy(out->tree, sizeof out->tree, mcpt::tree_kind_name(g.tree_kind));
+        copy(out->tree_reason, sizeof out->tree_reason, g.tree_choice);
+        copy(out->features, sizeof out->features, mcpt::feature_names(g.features));
+        out->max_bounces = session.max_depth();
+        return MCPT_OK;
+    });
+}
+
+mcpt_status mcpt_session_set_size(mcpt_session s, int width, int height) {
+    return with_session(s, MCPT_ERROR_INTERNAL, [&](Session& session) {
+        require(width >= 1 && height >= 1 && width <= 16384 && height <= 16384,
+                "image size must be between 1x1 and 16384x16384");
+        session.settings().width = width, session.settings().height = height;
+        return MCPT_OK;
+    });
+}
+
+mcpt_status mcpt_session_set_max_bounces(mcpt_session s, int bounces) {
+    return with_session(s, MCPT_ERROR_INTERNAL, [&](Session& session) {
+        require(bounces >= -1 && bounces <= 1000000, "bounces must be -1 or 0 to 1000000");
+        session.settings().max_depth = bounces;
+        return MCPT_OK;
+    });
+}
+
+mcpt_status mcpt_session_set_tree(mcpt_session s, const char* kind, int depth) {
+    return with_session(s, MCPT_ERROR_INTERNAL, [&](Session& session) {
+        require(kind != nullptr, "kind is NULL");
+        try {
+            mcpt::tree_options(kind, depth);  // validates both
+        } catch (const mcpt::Error& e) {
+            throw CError{MCPT_ERROR_INVALID_ARGUMENT, e.what()};
+        }
+        session.settings().tree = kind, session.settings().tree_depth = depth;
+        return MCPT_OK;
+    });
+}
+
+mcpt_status mcpt_session_set_seed(mcpt_session s, uint32_t seed) {
+    return with_session(s, MCPT_ERROR_INTERNAL, [&](Session& session) {
+        session.settings().seed = seed;
+        return MCPT_OK;
+    });
+}
+
+mcpt_status mcpt_session_set_specialize(mcpt_session s, int on) {
+    return with_session(s, MCPT_ERROR_INTERNAL, [&](Session& session) {
+        session.settings().specialize = on != 0;
+        return MCPT_OK;
+    });
+}
+
+mcpt_status mcpt_session_set_reproducible(mcpt_session s, int on) {
+    return with_session(s, MCPT_ERROR_INTERNAL, [&](Session& session) {
+        session.settings().reproducible = on != 0;
+        return MCPT_OK;
+    });
+}
+
+mcpt_status mcpt_session_commit(mcpt_session s) {
+    return with_session(s, MCPT_ERROR_DEVICE, [&](Session& session) {
+        require_scene(session);
+        session.commit();
+        return MCPT_OK;
+    });
+}
+
+mcpt_status mcpt_session_render(mcpt_session s, double budget_ms, double target_error,
+                                uint64_t max_spp, mcpt_render_stats* stats) {
+    return with_session(s, MCPT_ERROR_DEVICE, [&](Session& session) {
+        require(std::isfinite(budget_ms) && budget_ms >= 0, "budget_ms must be finite and >= 0");
+        require(std::isfinite(target_error) && target_error >= 0,
+                "target_error must be finite and >= 0");
+        require_scene(session);
+        const mcpt::PassStats p = session.render(budget_ms, target_error, max_spp);
+        if (stats) {
+            stats->samples = p.samples, stats->spp = p.spp, stats->seconds = p.seconds;
+            stats->relative_error = std::isfinite(p.relative_error) ? p.relative_error : -1.0;
+            stats->target_reached = p.target_reached ? 1 : 0;
+        }
+        return p.cancelled ? MCPT_CANCELLED : MCPT_OK;
+    });
+}
+
+mcpt_status mcpt_session_cancel(mcpt_session s) {
+    // No session lock: a render holds it.
+    try {
+        std::shared_ptr<SessionBox> box = handles().find(s);
+        if (!box) {
+            return thread_fail(MCPT_ERROR_INVALID_HANDLE,
+                               s == nullptr ? "NULL session handle"
+                                            : "invalid session handle (released or never created)");
+        }
+        std::lock_guard<std::mutex> lock(box->error_mutex);
+        if (box->session) box->session->cancel();
+        return MCPT_OK;
+    } catch (...) {
+        return thread_fail(MCPT_ERROR_INTERNAL, "internal error in cancel");
+    }
+}
+
+mcpt_status mcpt_session_reset(mcpt_session s) {
+    return with_session(s, MCPT_ERROR_INTERNAL, [&](Session& session) {
+        session.reset();
+        return MCPT_OK;
+    });
+}
+
+mcpt_status mcpt_session_image_size(mcpt_session s, int* width, int* height) {
+    return with_session(s, MCPT_ERROR_INTERNAL, [&](Session& session) {
+        require(width != nullptr && height != nullptr, "width or height is NULL");
+        require_image(session);
+        *width = session.result().width, *height = session.result().height;
+        return MCPT_OK;
+    });
+}
+
+mcpt_status mcpt_session_read_rgba32f(mcpt_session s, float* pixels, size_t capacity) {
+    return with_session(s, MCPT_ERROR_INTERNAL, [&](Session& session) {
+        require(pixels != nullptr, "pixels is NULL");
+        require_image(session);
+        const std::vector<float> img = session.image_rgba32f();
+        require(capacity >= img.size(), "buffer too small: needs 4 * width * height floats");
+        std::memcpy(pixels, img.data(), img.size() * sizeof(float));
+        return MCPT_OK;
+    });
+}
+
+mcpt_status mcpt_session_read_rgba8(mcpt_session s, uint8_t* pixels, size_t capacity) {
+    return with_session(s, MCPT_ERROR_INTERNAL, [&](Session& session) {
+        require(pixels != nullptr, "pixels is NULL");
+        require_image(session);
+        const std::vector<uint8_t> img = session.image_rgba8();
+        require(capacity >= img.size(), "buffer too small: needs 4 * width * height bytes");
+        std::memcpy(pixels, img.data(), img.size());
+        return MCPT_OK;
+    });
+}
+
+mcpt_status mcpt_session_write_image(mcpt_session s, const char* path) {
+    return with_session(s, MCPT_ERROR_IO, [&](Session& session) {
+        require(path != nullptr && *path, "path is NULL or empty");
+        require_image(session);
+        session.write_image(path);
+        return MCPT_OK;
+    });
+}
+
+}  // extern "C"

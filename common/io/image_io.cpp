@@ -1,0 +1,139 @@
+// EXR through tinyexr (Debian's shared libtinyexr), PNG through stb_image_write (implementation
+// in stb_impl.cpp).
+#include "common/io/image_io.h"
+
+#include <stb_image_write.h>
+#include <tinyexr.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+
+#include "common/error.h"
+
+namespace mcpt {
+
+namespace {
+
+// Lower-case extension including the dot ("" when there is none)
+std::string extension_of(const std::string& path) {
+    const size_t slash = path.find_last_of("/\\");
+    const size_t dot = path.find_last_of('.');
+    if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
+    std::string ext = path.substr(dot);
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    return ext;
+}
+
+// Takes ownership of a tinyexr error message and returns it as a string
+std::string take_exr_error(const char* err) {
+    std::string msg = err ? err : "unknown error";
+    if (err) FreeEXRErrorMessage(err);
+    return msg;
+}
+
+void write_exr(const std::string& path, int width, int height, const std::vector<float>& rgb) {
+    // Split into planes in the customary alphabetical channel order B, G, R
+    const size_t n = size_t(width) * size_t(height);
+    std::vector<float> planes[3];
+    for (int c = 0; c < 3; ++c) planes[c].resize(n);
+    for (size_t i = 0; i < n; ++i) {
+        planes[0][i] = rgb[3 * i + 2];
+        planes[1][i] = rgb[3 * i + 1];
+        planes[2][i] = rgb[3 * i + 0];
+    }
+    unsigned char* images[3] = {reinterpret_cast<unsigned char*>(planes[0].data()),
+                                reinterpret_cast<unsigned char*>(planes[1].data()),
+                                reinterpret_cast<unsigned char*>(planes[2].data())};
+
+    EXRImage image;
+    InitEXRImage(&image);
+    image.images = images;
+    image.width = width;
+    image.height = height;
+    image.num_channels = 3;
+
+    // Header: three 32-bit float channels, lossless ZIP compression
+    EXRChannelInfo channels[3];
+    std::memset(channels, 0, sizeof(channels));
+    const char* names[3] = {"B", "G", "R"};
+    int pixel_types[3], requested_types[3];
+    for (int c = 0; c < 3; ++c) {
+        std::strcpy(channels[c].name, names[c]);
+        pixel_types[c] = TINYEXR_PIXELTYPE_FLOAT;
+        requested_types[c] = TINYEXR_PIXELTYPE_FLOAT;
+    }
+    EXRHeader header;
+    InitEXRHeader(&header);
+    header.num_channels = 3;
+    header.channels = channels;
+    header.pixel_types = pixel_types;
+    header.requested_pixel_types = requested_types;
+    header.compression_type = TINYEXR_COMPRESSIONTYPE_ZIP;
+
+    const char* err = nullptr;
+    if (SaveEXRImageToFile(&image, &header, path.c_str(), &err) != TINYEXR_SUCCESS)
+        throw Error("cannot write image " + path + ": " + take_exr_error(err));
+}
+
+void write_png(const std::string& path, int width, int height, const std::vector<float>& rgb) {
+    // Map every pixel to 8-bit sRGB; non-finite pixels become magenta
+    const size_t n = size_t(width) * size_t(height);
+    std::vector<uint8_t> bytes(3 * n);
+    for (size_t i = 0; i < n; ++i) {
+        const float* p = &rgb[3 * i];
+        if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) {
+            bytes[3 * i + 0] = 255;
+            bytes[3 * i + 1] = 0;
+            bytes[3 * i + 2] = 255;
+            continue;
+        }
+        for (int c = 0; c < 3; ++c) bytes[3 * i + c] = linear_to_srgb8(p[c]);
+    }
+    if (!stbi_write_png(path.c_str(), width, height, 3, bytes.data(), 3 * width))
+        throw Error("cannot write image " + path);
+}
+
+}  // namespace
+
+uint8_t linear_to_srgb8(float linear) {
+    // Clamp, exact sRGB OETF, round to nearest
+    if (!(linear > 0.0f)) return 0;
+    if (linear >= 1.0f) return 255;
+    const double v = linear;
+    const double s = v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
+    return uint8_t(std::clamp(std::lround(s * 255.0), 0L, 255L));
+}
+
+void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb) {
+    // Check the format and the buffer before touching the file
+    const std::string ext = extension_of(path);
+    if (ext != ".exr" && ext != ".png")
+        throw Error("unsupported image format \"" + ext + "\" for " + path + ", use .exr or .png");
+    if (width <= 0 || height <= 0 || rgb.size() != 3 * size_t(width) * size_t(height))
+        throw Error("cannot write image " + path + ": " + std::to_string(rgb.size()) +
+                    " floats do not make a " + std::to_string(width) + "x" +
+                    std::to_string(height) + " RGB image");
+    if (ext == ".exr")
+        write_exr(path, width, height, rgb);
+    else
+        write_png(path, width, height, rgb);
+}
+
+std::vector<float> read_exr(const std::string& path, int& width, int& height) {
+    // tinyexr returns RGBA (alpha 1 when absent); keep R, G, B
+    float* rgba = nullptr;
+    const char* err = nullptr;
+    if (LoadEXR(&rgba, &width, &height, path.c_str(), &err) != TINYEXR_SUCCESS)
+        throw Error("cannot read EXR image " + path + ": " + take_exr_error(err));
+    const size_t n = size_t(width) * size_t(height);
+    std::vector<float> rgb(3 * n);
+    for (size_t i = 0; i < n; ++i)
+        for (int c = 0; c < 3; ++c) rgb[3 * i + c] = rgba[4 * i + c];
+    std::free(rgba);
+    return rgb;
+}
+
+}  // namespace mcpt

@@ -1,0 +1,73 @@
+// What the render loop needs from a GPU API: compile for a scene, upload it, run one
+// dispatch, read the accumulation buffer back. opencl/ and vulkan/ implement it.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "common/render/gpu_scene.h"
+
+namespace mcpt {
+
+// What a device allows a scene's buffers, filled by the OpenCL and Vulkan device lists and
+// checked by check_device_limits() (device_limits.h) before anything is allocated.
+struct MemoryLimits {
+    uint64_t max_buffer_bytes = 0;      // largest buffer a kernel may bind; 0: unknown
+    std::string max_buffer_name;        // the API's name for it, for messages
+    std::string max_buffer_note;        // why it is lower than the device says, if it is
+    uint64_t max_allocation_bytes = 0;  // largest allocation when a separate limit; 0: none
+    std::string max_allocation_name;
+    uint64_t device_memory_bytes = 0;   // memory buffers come from; 0: unknown
+};
+
+struct DeviceInfo {
+    std::string backend;   // "opencl" | "vulkan"
+    int index = 0;         // position in that backend's device list
+    std::string name;      // device name
+    std::string platform;  // OpenCL platform / Vulkan driver
+    std::string type;      // "gpu" | "cpu" | "other"
+    std::vector<std::pair<std::string, std::string>> limits;  // name, value (for display)
+    MemoryLimits memory;
+};
+
+struct BackendOptions {
+    std::string device;          // "" (best), an index, or a name substring
+    bool fast_math = false;      // -cl-fast-relaxed-math / equivalent
+    std::string extra_defines;   // extra -D options for test variants (e.g. "-DMCPT_COUNTERS")
+    // Device features to compile for (FEATURE_* bits): 0 = the scene's own (the default),
+    // FEATURE_ALL = the full kernel; another mask only in tests' negative controls.
+    uint32_t features = 0;
+    // Non-zero: a build no driver or pipeline cache has seen (cold compile timings).
+    uint32_t compile_nonce = 0;
+};
+
+// The MCPT_FEATURES value a backend compiles `scene` with: the feature bits, and the compile
+// nonce above them (ignored by the device code, but part of every cache key).
+uint32_t compile_features(const BackendOptions& options, const GpuScene& scene);
+
+class Backend {
+public:
+    virtual ~Backend() = default;
+    // "opencl: NVIDIA H100 (NVIDIA CUDA)".
+    virtual std::string description() const = 0;
+    virtual const DeviceInfo& device() const = 0;
+    // Compiles the program for this scene (stack size), uploads its arrays and allocates the
+    // accumulation buffer for width*height pixels. Throws mcpt::Error on device limits.
+    virtual void load(const GpuScene& scene, int width, int height) = 0;
+    // Runs one dispatch and waits for it.
+    virtual void dispatch(const gpu::GpuParams& params) = 0;
+    // The accumulation buffer: ACCUM_VEC4_PER_PIXEL * 4 floats per pixel.
+    virtual void read_accum(std::vector<float>& out) = 0;
+    // Seconds spent compiling in load().
+    virtual double compile_seconds() const = 0;
+    // Device time spent in dispatches so far (OpenCL profiling events, Vulkan timestamps);
+    // 0 where the device cannot time itself.
+    virtual double device_seconds() const = 0;
+    // Most samples per pixel one dispatch may take: CPU Vulkan drivers cap the loop
+    // iterations of an invocation (llvmpipe: 65,535 over all loops), so they get 1.
+    virtual uint32_t max_samples_per_dispatch() const = 0;
+    // The FEATURE_* bits the loaded program was compiled with.
+    virtual uint32_t compiled_features() const = 0;
+};
+
+}  // namespace mcpt

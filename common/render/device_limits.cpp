@@ -1,0 +1,54 @@
+#include "common/render/device_limits.h"
+
+#include <sstream>
+
+#include "common/error.h"
+
+namespace mcpt {
+
+std::string human_bytes(uint64_t b) {
+    std::ostringstream o;
+    if (b >= (1ull << 30)) o << double(b) / double(1ull << 30) << " GiB";
+    else if (b >= (1ull << 20)) o << double(b) / double(1ull << 20) << " MiB";
+    else o << b << " B";
+    return o.str();
+}
+
+std::vector<std::pair<std::string, uint64_t>> device_buffers(const GpuScene& scene, int width,
+                                                             int height) {
+    const uint64_t accum = uint64_t(width) * uint64_t(height) * ACCUM_VEC4_PER_PIXEL * 16;
+    return {{"k-d nodes", scene.nodes.size() * sizeof(gpu::KdNode)},
+            {"leaf indices", scene.leaf_indices.size() * 4},
+            {"triangles", scene.triangles.size() * sizeof(gpu::GpuTriangle)},
+            {"spheres", scene.spheres.size() * sizeof(gpu::GpuSphere)},
+            {"materials", scene.materials.size() * sizeof(gpu::GpuMaterial)},
+            {"lights", scene.lights.size() * sizeof(gpu::GpuLight)},
+            {"accumulation buffer", accum},
+            {"parameters", sizeof(gpu::GpuParams)}};
+}
+
+void check_device_limits(const GpuScene& scene, int width, int height, const DeviceInfo& device,
+                         const std::string& where) {
+    const MemoryLimits& m = device.memory;
+    uint64_t total = 0;
+    for (const auto& [what, bytes] : device_buffers(scene, width, height)) {
+        total += bytes;
+        // "the accumulation buffer needs", "triangles need".
+        const std::string need = what + (what == "accumulation buffer" ? " needs " : " need ");
+        if (m.max_buffer_bytes > 0 && bytes > m.max_buffer_bytes) {
+            throw Error("scene too large for " + where + ": " + need + human_bytes(bytes) + ", " +
+                        m.max_buffer_name + " is " + human_bytes(m.max_buffer_bytes) +
+                        m.max_buffer_note);
+        }
+        if (m.max_allocation_bytes > 0 && bytes > m.max_allocation_bytes) {
+            throw Error("scene too large for " + where + ": " + need + human_bytes(bytes) + ", " +
+                        m.max_allocation_name + " is " + human_bytes(m.max_allocation_bytes));
+        }
+    }
+    if (m.device_memory_bytes > 0 && total > m.device_memory_bytes) {
+        throw Error("scene too large for " + where + ": needs " + human_bytes(total) + " of " +
+                    human_bytes(m.device_memory_bytes) + " device memory");
+    }
+}
+
+}  // namespace mcpt

@@ -1,0 +1,27 @@
+// One check of a scene against a device's memory limits, for both APIs: every device buffer
+// against the largest bindable buffer and allocation, and their total against the device's
+// memory. Backends run it in load(), before compiling or allocating anything.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "common/render/backend.h"
+#include "common/render/gpu_scene.h"
+
+namespace mcpt {
+
+// "1.5 GiB", "12 MiB", "256 B".
+std::string human_bytes(uint64_t bytes);
+
+// The device buffers of a scene rendered at width x height, named as messages name them.
+std::vector<std::pair<std::string, uint64_t>> device_buffers(const GpuScene& scene, int width,
+                                                             int height);
+
+// Throws mcpt::Error "scene too large for <where>: <buffer> need(s) <size>, <limit> is <size>"
+// naming the first buffer over a limit, or the total over the device's memory.
+void check_device_limits(const GpuScene& scene, int width, int height, const DeviceInfo& device,
+                         const std::string& where);
+
+}  // namespace mcpt

@@ -1,0 +1,107 @@
+#include "common/render/device_registry.h"
+
+#include <algorithm>
+#include <cctype>
+
+#include "common/error.h"
+#include "opencl/cl_backend.h"
+#if MCPT_WITH_VULKAN
+#include "vulkan/vk_backend.h"
+#endif
+
+namespace mcpt {
+
+namespace {
+std::string lower(std::string s) {
+    std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+    return s;
+}
+std::string api_list() {
+    std::string out;
+    for (const std::string& a : device_apis()) out += (out.empty() ? "" : ", ") + a;
+    return out;
+}
+}  // namespace
+
+std::vector<std::string> device_apis() {
+#if MCPT_WITH_VULKAN
+    return {"opencl", "vulkan"};
+#else
+    return {"opencl"};
+#endif
+}
+
+DeviceSpec parse_device_spec(const std::string& spec) {
+    const size_t colon = spec.find(':');
+    DeviceSpec s{spec.substr(0, colon), colon == std::string::npos ? "" : spec.substr(colon + 1)};
+    const std::vector<std::string> apis = device_apis();
+    if (std::find(apis.begin(), apis.end(), s.api) == apis.end()) {
+        throw Error("unknown backend '" + s.api + "' (available: " + api_list() +
+                    (apis.size() == 1 ? "; built without Vulkan)" : ")"));
+    }
+    return s;
+}
+
+std::vector<DeviceInfo> list_devices(const std::string& api) {
+    std::vector<DeviceInfo> out;
+    if (api.empty() || api == "opencl") {
+        for (DeviceInfo& d : list_opencl_devices()) out.push_back(std::move(d));
+    }
+#if MCPT_WITH_VULKAN
+    if (api.empty() || api == "vulkan") {
+        for (DeviceInfo& d : list_vulkan_devices()) out.push_back(std::move(d));
+    }
+#endif
+    return out;
+}
+
+size_t select_device(const std::vector<DeviceInfo>& devices, const std::string& sel,
+                     const std::string& api) {
+    const std::string name = api == "opencl" ? "OpenCL" : api == "vulkan" ? "Vulkan" : api;
+    if (devices.empty()) throw Error("no " + name + " device found");
+    if (sel.empty()) {
+        // Best: the first GPU, else the first device.
+        for (size_t i = 0; i < devices.size(); ++i)
+            if (devices[i].type == "gpu") return i;
+        return 0;
+    }
+    if (std::all_of(sel.begin(), sel.end(), [](unsigned char c) { return std::isdigit(c); })) {
+        const size_t i = sel.size() > 9 ? devices.size() : std::stoul(sel);
+        if (i >= devices.size()) {
+            throw Error(name + " device index " + sel + " out of range (" +
+                        std::to_string(devices.size()) + " devices; see 'mcpt devices')");
+        }
+        return i;
+    }
+    for (size_t i = 0; i < devices.size(); ++i) {
+        if (lower(devices[i].name).find(lower(sel)) != std::string::npos ||
+            lower(devices[i].platform).find(lower(sel)) != std::string::npos)
+            return i;
+    }
+    throw Error("no " + name + " device matches '" + sel + "' (see 'mcpt devices')");
+}
+
+std::unique_ptr<Backend> open_device(const std::string& spec, BackendOptions options) {
+    if (spec.empty()) {
+        // Any API: the first GPU, else the first device.
+        const std::vector<DeviceInfo> all = list_devices();
+        if (all.empty()) throw Error("no OpenCL or Vulkan device found (see 'mcpt devices')");
+        const DeviceInfo* best = &all.front();
+        for (const DeviceInfo& d : all) {
+            if (d.type == "gpu") {
+                best = &d;
+                break;
+            }
+        }
+        options.device = std::to_string(best->index);
+        return open_device(best->backend, options);
+    }
+    const DeviceSpec s = parse_device_spec(spec);
+    if (!s.device.empty()) options.device = s.device;
+#if MCPT_WITH_VULKAN
+    if (s.api == "vulkan") return make_vulkan_backend(options);
+#endif
+    return make_opencl_backend(options);
+}
+
+}  // namespace mcpt

@@ -1,0 +1,35 @@
+// The device registry: every device of every API this build has, chosen by one spec,
+// "api[:index|name]", and opened through the OpenCL or Vulkan host. Clients (the commands,
+// the C API, tests) never call an API's host directly.
+#pragma once
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/render/backend.h"
+
+namespace mcpt {
+
+// "opencl", and "vulkan" where built with it.
+std::vector<std::string> device_apis();
+
+// Every device of `api` ("" = every API, in device_apis() order).
+std::vector<DeviceInfo> list_devices(const std::string& api = "");
+
+// "api" or "api:device" split; throws mcpt::Error for an unknown API.
+struct DeviceSpec {
+    std::string api, device;
+};
+DeviceSpec parse_device_spec(const std::string& spec);
+
+// The position in `devices` (one API's list) that `selector` picks: "" = the first GPU, else
+// the first device; digits = an index; else a case-insensitive substring of the device or
+// platform name. Throws mcpt::Error naming the API when none matches.
+size_t select_device(const std::vector<DeviceInfo>& devices, const std::string& selector,
+                     const std::string& api);
+
+// Opens the device of `spec` ("opencl", "vulkan:1", "opencl:pthread"; "" = the first GPU of
+// any API, else the first device); a device given in `spec` overrides options.device.
+std::unique_ptr<Backend> open_device(const std::string& spec, BackendOptions options = {});
+
+}  // namespace mcpt

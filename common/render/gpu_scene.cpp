@@ -1,0 +1,140 @@
+#include "common/render/gpu_scene.h"
+
+#include <cmath>
+#include <numeric>
+
+#include "common/error.h"
+#include "common/render/scene_features.h"
+
+namespace mcpt {
+
+namespace {
+
+gpu::GpuMaterial pack_material(const Material& m) {
+    gpu::GpuMaterial g{};
+    g.r = m.color.x, g.g = m.color.y, g.b = m.color.z;
+    g.type = static_cast<uint32_t>(m.type);
+    g.er = m.emission.x, g.eg = m.emission.y, g.eb = m.emission.z;
+    g.ior = m.ior;
+    return g;
+}
+
+double mean_emission(const Material& m) {
+    return (double(m.emission.x) + double(m.emission.y) + double(m.emission.z)) / 3.0;
+}
+
+}  // namespace
+
+size_t GpuScene::device_bytes() const {
+    return nodes.size() * sizeof(gpu::KdNode) + leaf_indices.size() * 4 +
+           triangles.size() * sizeof(gpu::GpuTriangle) + spheres.size() * sizeof(gpu::GpuSphere) +
+           materials.size() * sizeof(gpu::GpuMaterial) + lights.size() * sizeof(gpu::GpuLight);
+}
+
+void build_alias_table(const std::vector<double>& weights, std::vector<gpu::GpuLight>& table) {
+    const size_t n = weights.size();
+    const double total = std::accumulate(weights.begin(), weights.end(), 0.0);
+    table.assign(n, gpu::GpuLight{});
+    if (n == 0 || !(total > 0)) return;
+    // Scaled weights: mean 1; split into slots below and above the mean.
+    std::vector<double> scaled(n);
+    std::vector<size_t> small, large;
+    for (size_t i = 0; i < n; ++i) {
+        scaled[i] = weights[i] / total * double(n);
+        table[i].pmf = float(weights[i] / total);
+        table[i].alias = uint32_t(i);
+        (scaled[i] < 1.0 ? small : large).push_back(i);
+    }
+    // Pair each light slot with a heavy one that fills it up.
+    while (!small.empty() && !large.empty()) {
+        size_t s = small.back(), l = large.back();
+        small.pop_back();
+        table[s].prob = float(scaled[s]);
+        table[s].alias = uint32_t(l);
+        scaled[l] = (scaled[l] + scaled[s]) - 1.0;
+        if (scaled[l] < 1.0) {
+            large.pop_back();
+            small.push_back(l);
+        }
+    }
+    // Leftovers are full slots (rounding).
+    for (size_t i : small) table[i].prob = 1.f;
+    for (size_t i : large) table[i].prob = 1.f;
+}
+
+GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
+    GpuScene g;
+    g.nodes = tree.nodes;
+    g.leaf_indices = tree.leaf_indices;
+    g.stack_size = tree.stack_size();
+    g.tree_stats = tree.stats;
+    g.tree_kind = tree.kind;
+    g.tree_choice = tree.auto_choice;
+    // Geometry and materials.
+    g.triangles.reserve(scene.triangles.size());
+    for (const Triangle& t : scene.triangles) {
+        g.triangles.push_back({t.v0.x, t.v0.y, t.v0.z, t.v1.x, t.v1.y, t.v1.z, t.v2.x, t.v2.y,
+                               t.v2.z, t.material});
+    }
+    for (const Sphere& s : scene.spheres) {
+        g.spheres.push_back({s.center.x, s.center.y, s.center.z, s.radius, s.material, 0, 0, 0});
+    }
+    for (const Material& m : scene.materials) g.materials.push_back(pack_material(m));
+    // Emitters weighted by power: area * mean(Le).
+    std::vector<double> weights;
+    std::vector<uint32_t> prims;
+    for (size_t i = 0; i < scene.triangles.size(); ++i) {
+        const Triangle& t = scene.triangles[i];
+        const Material& m = scene.materials.at(t.material);
+        if (!m.is_emissive()) continue;
+        glm::dvec3 e1 = glm::dvec3(t.v1) - glm::dvec3(t.v0), e2 = glm::dvec3(t.v2) - glm::dvec3(t.v0);
+        weights.push_back(0.5 * glm::length(glm::cross(e1, e2)) * mean_emission(m));
+        prims.push_back(uint32_t(i));
+    }
+    for (size_t i = 0; i < scene.spheres.size(); ++i) {
+        const Sphere& s = scene.spheres[i];
+        const Material& m = scene.materials.at(s.material);
+        if (!m.is_emissive()) continue;
+        weights.push_back(4.0 * M_PI * double(s.radius) * double(s.radius) * mean_emission(m));
+        prims.push_back(uint32_t(i) | LIGHT_SPHERE_BIT);
+    }
+    const double total = std::accumulate(weights.begin(), weights.end(), 0.0);
+    if (weights.empty() || !(total > 0) || !std::isfinite(total)) {
+        throw Error("scene has no light: no triangle or sphere with positive finite emission");
+    }
+    build_alias_table(weights, g.lights);
+    for (size_t i = 0; i < g.lights.size(); ++i) g.lights[i].prim = prims[i];
+    // Scene constants.
+    gpu::GpuParams& p = g.params;
+    p.num_triangles = uint32_t(g.triangles.size());
+    p.num_spheres = uint32_t(g.spheres.size());
+    p.num_lights = uint32_t(g.lights.size());
+    p.num_nodes = uint32_t(g.nodes.size());
+    p.light_power_total = float(total);
+    p.scene_min_x = tree.bounds.min.x, p.scene_min_y = tree.bounds.min.y;
+    p.scene_min_z = tree.bounds.min.z;
+    p.scene_max_x = tree.bounds.max.x, p.scene_max_y = tree.bounds.max.y;
+    p.scene_max_z = tree.bounds.max.z;
+    p.light_scale = 1.f;
+    p.rr_depth = 3;
+    p.max_depth = 8;
+    g.features = scene_features(g);
+    return g;
+}
+
+void set_camera(gpu::GpuParams& p, const Camera& c, int width, int height) {
+    p.width = uint32_t(width);
+    p.height = uint32_t(height);
+    const glm::vec3 w = glm::normalize(c.forward);
+    const glm::vec3 u = glm::normalize(glm::cross(w, c.up));
+    const glm::vec3 v = glm::cross(u, w);
+    const float tan_half = std::tan(0.5f * c.yfov);
+    const float aspect = float(width) / float(height);
+    const glm::vec3 su = u * (tan_half * aspect), sv = v * tan_half;
+    p.cam_px = c.position.x, p.cam_py = c.position.y, p.cam_pz = c.position.z;
+    p.cam_ux = su.x, p.cam_uy = su.y, p.cam_uz = su.z;
+    p.cam_vx = sv.x, p.cam_vy = sv.y, p.cam_vz = sv.z;
+    p.cam_wx = w.x, p.cam_wy = w.y, p.cam_wz = w.z;
+}
+
+}  // namespace mcpt

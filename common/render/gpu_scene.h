@@ -1,0 +1,38 @@
+// A scene packed into the device layout of gpu/shared_types.h: the arrays every backend
+// uploads as they are, plus the scene part of GpuParams.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "common/gpu/shared_types.h"
+#include "common/accel/kdtree.h"
+#include "common/scene/scene.h"
+
+namespace mcpt {
+
+struct GpuScene {
+    std::vector<gpu::KdNode> nodes;
+    std::vector<uint32_t> leaf_indices;
+    std::vector<gpu::GpuTriangle> triangles;
+    std::vector<gpu::GpuSphere> spheres;
+    std::vector<gpu::GpuMaterial> materials;
+    std::vector<gpu::GpuLight> lights;  // alias table over emitters, by power
+    gpu::GpuParams params{};            // scene fields set; per-dispatch fields zero
+    uint32_t stack_size = 1;            // k-d traversal stack entries (tree depth + 1)
+    uint32_t features = FEATURE_ALL;    // FEATURE_* bits the scene uses (scene_features.h)
+    TreeStats tree_stats;
+    TreeKind tree_kind = TreeKind::None;  // the tree packed (never Auto)
+    std::string tree_choice;             // TreeKind::Auto: what it chose and why
+    size_t device_bytes() const;        // total of all arrays
+};
+
+// Packs a validated scene and its tree. Throws mcpt::Error if the scene has no emitter.
+GpuScene pack_scene(const Scene& scene, const KdTree& tree);
+
+// Pinhole camera for a width x height image into params.
+void set_camera(gpu::GpuParams& params, const Camera& camera, int width, int height);
+
+// Walker/Vose alias table over non-negative weights: prob/alias per slot, pmf per entry.
+void build_alias_table(const std::vector<double>& weights, std::vector<gpu::GpuLight>& table);
+
+}  // namespace mcpt

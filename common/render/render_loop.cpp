@@ -1,0 +1,146 @@
+#include "common/render/render_loop.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "common/error.h"
+
+namespace mcpt {
+
+std::vector<float> RenderResult::mean_image() const {
+    const size_t n = size_t(width) * size_t(height);
+    std::vector<float> img(3 * n, 0.f);
+    for (size_t i = 0; i < n; ++i) {
+        const double count = double(spp) - nonfinite[i];
+        for (int c = 0; c < 3; ++c) img[3 * i + c] = count > 0 ? float(sum[3 * i + c] / count) : 0.f;
+    }
+    return img;
+}
+
+std::vector<float> RenderResult::std_error_image() const {
+    const size_t n = size_t(width) * size_t(height);
+    std::vector<float> err(3 * n, 0.f);
+    for (size_t i = 0; i < n; ++i) {
+        const double count = double(spp) - nonfinite[i];
+        if (count < 2) continue;
+        for (int c = 0; c < 3; ++c) {
+            const double mean = sum[3 * i + c] / count;
+            const double var = std::max(0.0, (sum_sq[3 * i + c] / count - mean * mean)) *
+                               count / (count - 1);
+            err[3 * i + c] = float(std::sqrt(var / count));
+        }
+    }
+    return err;
+}
+
+double RenderResult::mean_radiance() const {
+    const std::vector<float> img = mean_image();
+    double total = 0;
+    for (float v : img) total += v;
+    return img.empty() ? 0 : total / double(img.size());
+}
+
+double RenderResult::relative_error() const {
+    const std::vector<float> e = std_error_image();
+    double sum = 0;
+    for (float v : e) sum += v;
+    const double mean_l = mean_radiance();
+    if (spp < 2 || !(mean_l > 0) || e.empty()) return HUGE_VAL;
+    return sum / double(e.size()) / mean_l;
+}
+
+RenderResult render(Backend& backend, const GpuScene& scene, const Camera& camera,
+                    const RenderOptions& opt, const ProgressFn& progress) {
+    if (opt.width <= 0 || opt.height <= 0 || opt.width > 16384 || opt.height > 16384) {
+        throw Error("image size must be between 1x1 and 16384x16384");
+    }
+    backend.load(scene, opt.width, opt.height);
+    return render_loaded(backend, scene, camera, opt, progress);
+}
+
+ProgressiveRender::ProgressiveRender(Backend& backend, const GpuScene& scene,
+                                     const Camera& camera, const RenderOptions& opt)
+    : backend_(backend), opt_(opt) {
+    npix_ = uint32_t(opt.width) * uint32_t(opt.height);
+    p_ = scene.params;
+    set_camera(p_, camera, opt.width, opt.height);
+    p_.max_depth = opt.max_depth;
+    p_.rr_depth = opt.rr_depth;
+    p_.seed = opt.seed;
+    p_.light_scale = opt.light_scale;
+    r_.width = opt.width, r_.height = opt.height;
+    r_.sum.assign(3 * size_t(npix_), 0.0);
+    r_.sum_sq.assign(3 * size_t(npix_), 0.0);
+    r_.nonfinite.assign(npix_, 0.0);
+    // Work per dispatch (pixel-samples), adapted to the measured rate.
+    work_ = std::min<double>(npix_, 4096);
+}
+
+void ProgressiveRender::flush() {
+    if (unflushed_ == 0) return;
+    backend_.read_accum(device_sums_);
+    for (size_t i = 0; i < npix_; ++i) {
+        const float* a = &device_sums_[8 * i];
+        for (int c = 0; c < 3; ++c) {
+            r_.sum[3 * i + c] += a[c];
+            r_.sum_sq[3 * i + c] += a[4 + c];
+        }
+        r_.nonfinite[i] += a[3];
+        r_.nonfinite_total += uint64_t(a[3]);
+        r_.rays += a[7];
+    }
+    unflushed_ = 0;
+}
+
+uint32_t ProgressiveRender::pass(uint64_t max_spp) {
+    using clock = std::chrono::steady_clock;
+    // Every pixel gets `spp` more samples, in tiles of at most `work` pixel-samples.
+    uint32_t spp = uint32_t(std::max(1.0, std::floor(work_ / npix_)));
+    spp = std::min({spp, opt_.flush_spp - unflushed_, backend_.max_samples_per_dispatch()});
+    spp = uint32_t(std::max<uint64_t>(1, std::min<uint64_t>(spp, max_spp)));
+    const uint32_t tile = uint32_t(std::clamp(work_ / spp, 64.0, double(npix_)));
+    p_.sample_offset = uint32_t(r_.spp);
+    p_.samples_per_dispatch = spp;
+    p_.accumulate = unflushed_ > 0 ? 1u : 0u;
+    const auto start = clock::now();
+    for (uint32_t offset = 0; offset < npix_; offset += tile) {
+        p_.pixel_offset = offset;
+        p_.pixel_count = std::min(tile, npix_ - offset);
+        backend_.dispatch(p_);
+    }
+    last_pass_s_ = std::chrono::duration<double>(clock::now() - start).count();
+    r_.spp += spp;
+    unflushed_ += spp;
+    // Retarget the dispatch size from this pass's rate.
+    const double rate = double(spp) * npix_ / std::max(last_pass_s_, 1e-6);
+    work_ = std::clamp(rate * opt_.dispatch_ms * 1e-3, 64.0, 64.0 * npix_);
+    if (unflushed_ >= opt_.flush_spp) flush();
+    return spp;
+}
+
+RenderResult render_loaded(Backend& backend, const GpuScene& scene, const Camera& camera,
+                           const RenderOptions& opt, const ProgressFn& progress) {
+    using clock = std::chrono::steady_clock;
+    if (opt.spp == 0 && !(opt.seconds > 0)) throw Error("give a sample count or a time budget");
+    ProgressiveRender pr(backend, scene, camera, opt);
+    RenderResult& r = pr.result();
+    const auto start = clock::now();
+    auto elapsed = [&] { return std::chrono::duration<double>(clock::now() - start).count(); };
+    while (true) {
+        pr.pass(opt.spp > 0 ? opt.spp - r.spp : UINT64_MAX);
+        bool done = opt.spp > 0 ? r.spp >= opt.spp : elapsed() >= opt.seconds;
+        if (done || opt.stop_when) pr.flush();
+        r.seconds = elapsed();
+        if (opt.stop_when && opt.stop_when(r)) done = true;
+        if (progress) {
+            const double frac = opt.spp > 0 ? double(r.spp) / double(opt.spp)
+                                            : std::min(1.0, r.seconds / opt.seconds);
+            progress(frac, r);
+        }
+        if (done) break;
+    }
+    return std::move(r);
+}
+
+}  // namespace mcpt

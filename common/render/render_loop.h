@@ -1,0 +1,88 @@
+// Progressive rendering on any Backend: short dispatches sized to a time target, device sums
+// flushed into double-precision host accumulators so nothing drifts over millions of samples.
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "common/render/backend.h"
+
+namespace mcpt {
+
+struct RenderResult;
+
+struct RenderOptions {
+    int width = 256, height = 256;
+    uint64_t spp = 0;          // samples per pixel; 0: run for `seconds`
+    double seconds = 0;        // time budget when spp == 0
+    uint32_t max_depth = 8;    // bounces
+    uint32_t rr_depth = 3;     // Russian roulette from this bounce on
+    uint32_t seed = 0;
+    float light_scale = 1.f;   // negative controls only
+    double dispatch_ms = 30;   // target duration of one dispatch
+    uint32_t flush_spp = 128;  // device float sums hold at most this many samples per pixel
+    // Optional early stop, asked after every flush; when set, every pass is flushed.
+    std::function<bool(const RenderResult&)> stop_when;
+};
+
+struct RenderResult {
+    int width = 0, height = 0;
+    uint64_t spp = 0;             // samples per pixel taken
+    double seconds = 0;           // wall time of the dispatch loop
+    std::vector<double> sum;      // 3 per pixel: sum of finite samples
+    std::vector<double> sum_sq;   // 3 per pixel: sum of squared finite samples
+    std::vector<double> nonfinite;  // per pixel: non-finite samples (counted, not added)
+    double rays = 0;              // rays traced
+    uint64_t nonfinite_total = 0;
+
+    // Mean radiance per pixel (3 floats), the image.
+    std::vector<float> mean_image() const;
+    // Standard error of the mean per pixel and channel (3 floats), from the sample variance.
+    std::vector<float> std_error_image() const;
+    double mean_radiance() const;  // over all pixels and channels
+    // Mean standard error over pixels and channels relative to the mean radiance: the error
+    // the image still carries. HUGE_VAL while unknown (fewer than 2 samples, or black).
+    double relative_error() const;
+};
+
+// The render loop as a resumable object: passes of a few dispatches each (sized to
+// options.dispatch_ms from the measured rate), device sums flushed into double precision
+// every options.flush_spp samples. Sessions keep one across calls; render_loaded() runs one.
+class ProgressiveRender {
+public:
+    // The backend must hold the scene at options' size (Backend::load done).
+    ProgressiveRender(Backend& backend, const GpuScene& scene, const Camera& camera,
+                      const RenderOptions& options);
+    // One pass: every pixel gets between 1 and max_spp more samples, as many as the dispatch
+    // time target allows. Returns the samples per pixel added (not yet in result() until a
+    // flush; pass() flushes by itself whenever the device sums reach flush_spp).
+    uint32_t pass(uint64_t max_spp = UINT64_MAX);
+    // Adds the device sums into result().
+    void flush();
+    // Seconds the last pass took.
+    double last_pass_seconds() const { return last_pass_s_; }
+    RenderResult& result() { return r_; }
+    const RenderResult& result() const { return r_; }
+
+private:
+    Backend& backend_;
+    RenderOptions opt_;
+    gpu::GpuParams p_{};
+    RenderResult r_;
+    uint32_t npix_ = 0, unflushed_ = 0;
+    double work_ = 0, last_pass_s_ = 0;
+    std::vector<float> device_sums_;
+};
+
+using ProgressFn = std::function<void(double fraction, const RenderResult& so_far)>;
+
+// Loads the scene on the backend, then renders it.
+RenderResult render(Backend& backend, const GpuScene& scene, const Camera& camera,
+                    const RenderOptions& options, const ProgressFn& progress = nullptr);
+
+// Renders on a backend that already holds the scene at options' size (load() done):
+// for repeated renders with other seeds or light scales.
+RenderResult render_loaded(Backend& backend, const GpuScene& scene, const Camera& camera,
+                           const RenderOptions& options, const ProgressFn& progress = nullptr);
+
+}  // namespace mcpt

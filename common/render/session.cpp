@@ -1,0 +1,144 @@
+#include "common/render/session.h"
+
+#include <chrono>
+#include <cmath>
+
+#include "common/error.h"
+#include "common/io/image_io.h"
+#include "common/render/device_registry.h"
+#include "common/render/prepare.h"
+#include "common/scene/scene_load.h"
+
+namespace mcpt {
+
+namespace {
+bool same(const SessionSettings& a, const SessionSettings& b) {
+    return a.width == b.width && a.height == b.height && a.max_depth == b.max_depth &&
+           a.tree == b.tree && a.tree_depth == b.tree_depth && a.seed == b.seed &&
+           a.specialize == b.specialize && a.reproducible == b.reproducible &&
+           a.dispatch_ms == b.dispatch_ms && a.light_scale == b.light_scale;
+}
+}  // namespace
+
+Session::Session(const std::string& device_spec, BackendOptions options) {
+    // Specialization is a session setting: the backend compiles what commit() asks for.
+    options.features = 0;
+    backend_ = open_device(device_spec, options);
+}
+
+Session::Session(std::unique_ptr<Backend> backend) : backend_(std::move(backend)) {
+    if (!backend_) throw Error("a session needs a device");
+}
+
+Session::~Session() = default;
+
+void Session::set_scene(Scene scene) {
+    scene_ = std::move(scene);
+    has_scene_ = true;
+    dirty_ = true;
+}
+
+int Session::max_depth() const {
+    return settings_.max_depth >= 0 ? settings_.max_depth : default_max_depth(scene_);
+}
+
+void Session::commit() {
+    if (!has_scene_) throw Error("no scene loaded");
+    const SessionSettings& s = settings_;
+    if (s.width <= 0 || s.height <= 0 || s.width > 16384 || s.height > 16384)
+        throw Error("image size must be between 1x1 and 16384x16384");
+    if (!(s.dispatch_ms > 0) || !(s.light_scale >= 0))
+        throw Error("dispatch time and light scale must be positive");
+    progressive_.reset();
+    dirty_ = true;
+    // Tree, layout, limits; then compile and upload.
+    prepared_ = prepare_scene(scene_, device(), tree_options(s.tree, s.tree_depth), s.width,
+                              s.height);
+    GpuScene to_load = prepared_;
+    if (!s.specialize) to_load.features = FEATURE_ALL;
+    backend_->load(to_load, s.width, s.height);
+    RenderOptions ro;
+    ro.width = s.width, ro.height = s.height;
+    ro.max_depth = uint32_t(max_depth());
+    ro.seed = s.seed;
+    ro.light_scale = s.light_scale;
+    ro.dispatch_ms = s.dispatch_ms;
+    if (s.reproducible) ro.flush_spp = 1;
+    progressive_ = std::make_unique<ProgressiveRender>(*backend_, prepared_, scene_.camera, ro);
+    committed_settings_ = s;
+    dirty_ = false;
+}
+
+PassStats Session::render(double budget_ms, double target_error, uint64_t max_spp) {
+    using clock = std::chrono::steady_clock;
+    if (!(budget_ms >= 0) || !std::isfinite(budget_ms))
+        throw Error("the time budget must be a finite number of milliseconds >= 0");
+    if (!(target_error >= 0) || !std::isfinite(target_error))
+        throw Error("the target error must be finite and >= 0");
+    if (dirty_ || !same(settings_, committed_settings_)) commit();
+    cancel_.store(false);
+    const auto start = clock::now();
+    auto elapsed = [&] { return std::chrono::duration<double>(clock::now() - start).count(); };
+    RenderResult& r = progressive_->result();
+    PassStats st;
+    const uint64_t spp_before = r.spp;
+    const double budget_s = budget_ms * 1e-3;
+    while (true) {
+        if (max_spp > 0 && r.spp >= max_spp) break;
+        if (cancel_.load()) {
+            st.cancelled = true;
+            break;
+        }
+        progressive_->pass(max_spp > 0 ? max_spp - r.spp : UINT64_MAX);
+        if (target_error > 0) {
+            // Check the error after every pass (it needs the sums on the host).
+            progressive_->flush();
+            if (r.spp >= 2 && r.relative_error() <= target_error) break;
+        }
+        // Stop when the next pass would overrun the budget.
+        const double t = elapsed();
+        if (t + progressive_->last_pass_seconds() > budget_s) break;
+    }
+    progressive_->flush();
+    st.seconds = elapsed();
+    r.seconds += st.seconds;
+    st.samples = r.spp - spp_before;
+    st.spp = r.spp;
+    st.relative_error = r.relative_error();
+    st.target_reached = target_error > 0 && st.relative_error <= target_error;
+    cancel_.store(false);
+    return st;
+}
+
+void Session::reset() { dirty_ = true; }
+
+const RenderResult& Session::result() const {
+    return progressive_ ? progressive_->result() : empty_;
+}
+
+std::vector<float> Session::image_rgba32f() const {
+    const RenderResult& r = result();
+    const std::vector<float> rgb = r.mean_image();
+    std::vector<float> out(rgb.size() / 3 * 4);
+    for (size_t i = 0; i < rgb.size() / 3; ++i) {
+        for (int c = 0; c < 3; ++c) out[4 * i + c] = rgb[3 * i + c];
+        out[4 * i + 3] = 1.f;
+    }
+    return out;
+}
+
+std::vector<uint8_t> Session::image_rgba8() const {
+    const std::vector<float> rgba = image_rgba32f();
+    std::vector<uint8_t> out(rgba.size());
+    for (size_t i = 0; i < rgba.size(); ++i)
+        out[i] = (i % 4 == 3) ? 255 : linear_to_srgb8(rgba[i]);
+    return out;
+}
+
+void Session::write_image(const std::string& path) const {
+    const RenderResult& r = result();
+    if (r.spp == 0) throw Error("nothing rendered yet: no image to write");
+    mcpt::write_image(path, r.width, r.height, r.mean_image());
+}
+
+}  // namespace mcpt

@@ -1,0 +1,108 @@
+// A render session: one device, one scene, progressive passes accumulated in double
+// precision, the error estimate and the image. What the commands and the C API drive.
+//
+// Use: open on a device, set_scene(), change settings(), then render() as often as wanted;
+// a settings or scene change takes effect (and restarts accumulation) at the next render().
+// Thread safety: none inside; one thread at a time, except cancel() from any thread.
+#pragma once
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/render/backend.h"
+#include "common/render/gpu_scene.h"
+#include "common/render/render_loop.h"
+#include "common/scene/scene.h"
+
+namespace mcpt {
+
+struct SessionSettings {
+    int width = 256, height = 256;
+    int max_depth = -1;         // bounces; -1: the scene's default (default_max_depth)
+    std::string tree = "auto";  // auto | sah | median | none
+    int tree_depth = -1;        // tree depth limit; -1: the kind's default
+    uint32_t seed = 0;
+    bool specialize = true;     // compile only the features the scene uses
+    // Every sample added to the double sums on its own, so the image depends only on the seed
+    // and the sample count, not on how passes were timed (slower: one read-back per sample).
+    bool reproducible = false;
+    double dispatch_ms = 30;    // target duration of one dispatch
+    float light_scale = 1.f;    // negative controls only
+};
+
+// What one render() call did.
+struct PassStats {
+    uint64_t samples = 0;         // samples per pixel this call added
+    uint64_t spp = 0;             // samples per pixel in the image
+    double seconds = 0;           // wall time of this call
+    double relative_error = 0;    // RenderResult::relative_error() after it
+    bool cancelled = false;       // stopped by cancel()
+    bool target_reached = false;  // relative_error <= the target asked for
+};
+
+class Session {
+public:
+    // Opens the device of `spec` ("opencl", "vulkan:1", see device_registry.h).
+    explicit Session(const std::string& device_spec, BackendOptions options = {});
+    explicit Session(std::unique_ptr<Backend> backend);
+    ~Session();
+
+    Backend& backend() { return *backend_; }
+    const DeviceInfo& device() const { return backend_->device(); }
+
+    // A validated scene (scene_load.h); replaces the previous one.
+    void set_scene(Scene scene);
+    bool has_scene() const { return has_scene_; }
+    const Scene& scene() const { return scene_; }
+
+    // Changes take effect at the next render().
+    SessionSettings& settings() { return settings_; }
+    const SessionSettings& settings() const { return settings_; }
+    // The bounce limit in effect: settings().max_depth or the scene's default.
+    int max_depth() const;
+
+    // Prepares the scene for the device (tree, layout, limits) and compiles: done by
+    // render() when needed; call it to pay the cost up front. Throws mcpt::Error.
+    void commit();
+
+    // Renders passes for about budget_ms (at least one pass; a pass is never split), stopping
+    // early at max_spp samples per pixel in the image (0: no cap), when the relative error
+    // reaches target_error (0: none), or on cancel(). The image is current afterwards.
+    PassStats render(double budget_ms, double target_error = 0, uint64_t max_spp = 0);
+
+    // Ends a running render() after its current pass; any thread. A render() that starts
+    // later is not affected.
+    void cancel() { cancel_.store(true); }
+
+    // Drops the samples taken (the next render() starts from zero).
+    void reset();
+
+    // The prepared scene (tree kind and why, features); valid after commit().
+    const GpuScene& prepared() const { return prepared_; }
+    bool committed() const { return !dirty_; }
+    // The accumulated result (sums, spp, rays, seconds of render() calls); empty before.
+    const RenderResult& result() const;
+    uint64_t spp() const { return result().spp; }
+
+    // The image: linear radiance RGBA (alpha 1), or 8-bit sRGB RGBA (exposure 1, clamped),
+    // top row first. Writes .exr (linear) or .png (sRGB).
+    std::vector<float> image_rgba32f() const;
+    std::vector<uint8_t> image_rgba8() const;
+    void write_image(const std::string& path) const;
+
+private:
+    std::unique_ptr<Backend> backend_;
+    Scene scene_;
+    bool has_scene_ = false;
+    SessionSettings settings_;
+    SessionSettings committed_settings_;
+    bool dirty_ = true;
+    GpuScene prepared_;
+    std::unique_ptr<ProgressiveRender> progressive_;
+    RenderResult empty_;
+    std::atomic<bool> cancel_{false};
+};
+
+}  // namespace mcpt

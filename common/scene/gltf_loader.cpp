@@ -1,0 +1,619 @@
+// glTF 2.0 loader (tinygltf): the default scene's node hierarchy, triangle meshes flattened to
+// world space, the first perspective camera, and materials mapped as follows.
+//
+// glTF material mapping:
+//   emission = emissiveFactor * KHR_materials_emissive_strength.emissiveStrength (default 1);
+//              only the front side of a triangle emits (counter-clockwise seen from the front,
+//              clockwise under a mirroring node transform, as glTF defines it).
+//   KHR_materials_transmission.transmissionFactor > 0.5
+//       -> Glass, ior = KHR_materials_ior.ior (default 1.5), color = baseColorFactor.rgb
+//   otherwise metallicFactor >= 0.5 and roughnessFactor <= 0.1
+//       -> Mirror, color = baseColorFactor.rgb
+//   otherwise
+//       -> Diffuse, color = baseColorFactor.rgb; rough metals (metallicFactor >= 0.5) become
+//          Diffuse with a warning. glTF's defaults are metallicFactor = roughnessFactor = 1, so
+//          a material without pbrMetallicRoughness is a rough metal: set metallicFactor 0.
+//   A primitive without a material gets a grey (0.8) Diffuse material.
+//   Ignored with a warning: textures (only the factors are used), normal maps, skins,
+//   animations, morph targets, non-perspective cameras, primitive modes other than TRIANGLES
+//   and extensions other than the three above. Alpha is ignored. A file that requires
+//   (extensionsRequired) any other extension is rejected.
+
+#include "common/scene/gltf_loader.h"
+
+// tinygltf's implementation lives here. Images are never decoded (no stb_image): textures are
+// unsupported anyway, and it keeps stb's implementation out of this translation unit.
+#define TINYGLTF_IMPLEMENTATION
+#define TINYGLTF_NO_STB_IMAGE
+#define TINYGLTF_NO_STB_IMAGE_WRITE
+#define TINYGLTF_NO_EXTERNAL_IMAGE
+#include <tiny_gltf.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <glm/gtc/constants.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/gtc/type_ptr.hpp>
+#include <set>
+#include <sstream>
+#include <utility>
+
+#include "common/error.h"
+
+namespace mcpt {
+namespace {
+
+namespace tg = tinygltf;
+
+const char* const kEmissiveStrength = "KHR_materials_emissive_strength";
+const char* const kTransmission = "KHR_materials_transmission";
+const char* const kIor = "KHR_materials_ior";
+
+bool supported_extension(const std::string& name) {
+    return name == kEmissiveStrength || name == kTransmission || name == kIor;
+}
+
+// Image callback that keeps images undecoded.
+bool skip_image(tg::Image*, const int, std::string*, std::string*, int, int, const unsigned char*,
+                int, void*) {
+    return true;
+}
+
+// A number inside a material extension object, or `fallback`.
+double extension_number(const tg::ExtensionMap& ext, const char* name, const char* key,
+                        double fallback) {
+    const auto it = ext.find(name);
+    if (it == ext.end() || !it->second.Has(key)) return fallback;
+    const tg::Value& v = it->second.Get(key);
+    return v.IsNumber() ? v.GetNumberAsDouble() : fallback;
+}
+
+glm::vec3 rgb(const std::vector<double>& v, float fallback) {
+    if (v.size() < 3) return glm::vec3(fallback);
+    return glm::vec3(float(v[0]), float(v[1]), float(v[2]));
+}
+
+std::string mode_name(int mode) {
+    switch (mode) {
+        case TINYGLTF_MODE_POINTS:
+            return "POINTS";
+        case TINYGLTF_MODE_LINE:
+            return "LINES";
+        case TINYGLTF_MODE_LINE_LOOP:
+            return "LINE_LOOP";
+        case TINYGLTF_MODE_LINE_STRIP:
+            return "LINE_STRIP";
+        case TINYGLTF_MODE_TRIANGLE_STRIP:
+            return "TRIANGLE_STRIP";
+        case TINYGLTF_MODE_TRIANGLE_FAN:
+            return "TRIANGLE_FAN";
+        default:
+            return std::to_string(mode);
+    }
+}
+
+std::string trim(std::string s) {
+    while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.pop_back();
+    return s;
+}
+
+// Size in bytes of an index component type, 0 for anything else.
+size_t index_size(int component_type) {
+    switch (component_type) {
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+            return 1;
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
+            return 2;
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+            return 4;
+        default:
+            return 0;
+    }
+}
+
+uint32_t read_index(const unsigned char* p, size_t size) {
+    if (size == 1) return *p;
+    if (size == 2) {
+        uint16_t v;
+        std::memcpy(&v, p, 2);
+        return v;
+    }
+    uint32_t v;
+    std::memcpy(&v, p, 4);
+    return v;
+}
+
+class GltfLoader {
+  public:
+    // From a file; or from `bytes` in memory, named `path` in messages, whose external files
+    // are read from base_dir (none when empty: the loader never touches the file system).
+    explicit GltfLoader(std::string path) : path_(std::move(path)) {}
+    GltfLoader(std::string name, const unsigned char* bytes, size_t size, std::string base_dir)
+        : path_(std::move(name)), bytes_(bytes), size_(size), base_dir_(std::move(base_dir)),
+          in_memory_(true) {}
+    Scene load();
+
+  private:
+    [[noreturn]] void fail(const std::string& message) const {
+        throw Error(path_ + ": " + message);
+    }
+    void warn_once(const std::string& key, const std::string& message) {
+        if (warned_.insert(key).second) scene_.warnings.push_back(message);
+    }
+    void read_model();
+    void check_features();
+    void convert_materials();
+    std::vector<int> root_nodes();
+    void traverse(const std::vector<int>& roots);
+    glm::dmat4 local_transform(const tg::Node& node, int index);
+    void take_camera(int camera, const glm::dmat4& world);
+    void add_mesh(int mesh, const glm::dmat4& world);
+    uint32_t material_index(int material, const std::string& where);
+    const unsigned char* view_data(int view, size_t offset, size_t count, size_t stride,
+                                   size_t elem, const std::string& what) const;
+    template <class T, class Decode>
+    std::vector<T> read_accessor(const tg::Accessor& a, size_t elem, const std::string& what,
+                                 Decode decode) const;
+    std::vector<glm::vec3> read_positions(int accessor, const std::string& where) const;
+    std::vector<uint32_t> read_indices(int accessor, const std::string& where) const;
+
+    void parse_memory();
+
+    std::string path_;
+    const unsigned char* bytes_ = nullptr;
+    size_t size_ = 0;
+    std::string base_dir_;
+    bool in_memory_ = false;
+    tg::Model model_;
+    Scene scene_;
+    std::set<std::string> warned_;
+    int default_material_ = -1;
+};
+
+Scene GltfLoader::load() {
+    read_model();
+    try {
+        // Whole-file checks and warnings, then materials, then the node hierarchy.
+        check_features();
+        convert_materials();
+        traverse(root_nodes());
+    } catch (const Error&) {
+        throw;
+    } catch (const std::exception& e) {
+        fail(std::string("cannot convert the glTF model: ") + e.what());
+    }
+    // No camera in the file: frame the geometry.
+    if (!scene_.has_camera) frame_camera(scene_);
+    return std::move(scene_);
+}
+
+// Reads and parses the file with tinygltf (binary if it starts with the GLB magic).
+void GltfLoader::read_model() {
+    if (in_memory_) return parse_memory();
+    std::error_code ec;
+    if (!std::filesystem::exists(path_, ec)) fail("file not found");
+    if (std::filesystem::is_directory(path_, ec)) fail("is a directory, not a glTF file");
+    std::ifstream in(path_, std::ios::binary);
+    if (!in) fail("cannot open file");
+    char magic[4] = {};
+    in.read(magic, 4);
+    const bool binary = in.gcount() == 4 && std::memcmp(magic, "glTF", 4) == 0;
+    in.close();
+    scene_.name = std::filesystem::path(path_).stem().string();
+
+    tg::TinyGLTF loader;
+    loader.SetImageLoader(&skip_image, nullptr);
+    std::string err, warn;
+    bool ok = false;
+    try {
+        ok = binary ? loader.LoadBinaryFromFile(&model_, &err, &warn, path_)
+                    : loader.LoadASCIIFromFile(&model_, &err, &warn, path_);
+    } catch (const std::exception& e) {
+        fail(std::string("malformed glTF file: ") + e.what());
+    }
+    if (!ok)
+        fail(std::string("cannot load ") + (binary ? "binary glTF (.glb)" : "glTF") +
+             " file: " + (err.empty() ? "unknown tinygltf error" : trim(err)));
+    // tinygltf's own warnings, one line each.
+    std::string line;
+    for (std::istringstream lines(warn); std::getline(lines, line);)
+        if (!trim(line).empty()) warn_once("tinygltf:" + line, "glTF: " + trim(line));
+}
+
+// Parses a .glb or .gltf held in memory; external files only from base_dir_.
+void GltfLoader::parse_memory() {
+    if (bytes_ == nullptr || size_ == 0) fail("empty buffer: no glTF data");
+    if (size_ > 0xffffffffu) fail("buffer larger than 4 GiB");
+    const bool binary = size_ >= 4 && std::memcmp(bytes_, "glTF", 4) == 0;
+    scene_.name = path_;
+    tg::TinyGLTF loader;
+    loader.SetImageLoader(&skip_image, nullptr);
+    if (base_dir_.empty()) {
+        // No folder given: a URI that is not a data URI is an error, not a file read.
+        tg::FsCallbacks fs{};
+        fs.FileExists = [](const std::string&, void*) { return true; };  // ReadWholeFile says no
+        fs.ExpandFilePath = [](const std::string& p, void*) { return p; };
+        fs.ReadWholeFile = [](std::vector<unsigned char>*, std::string* err,
+                              const std::string& p, void*) {
+            if (err) *err += "external file '" + p + "' refused: loading from memory without a base folder\n";
+            return false;
+        };
+        fs.WriteWholeFile = [](std::string* err, const std::string&,
+                               const std::vector<unsigned char>&, void*) {
+            if (err) *err += "writing is not allowed\n";
+            return false;
+        };
+        loader.SetFsCallbacks(fs);
+    }
+    std::string err, warn;
+    bool ok = false;
+    try {
+        ok = binary ? loader.LoadBinaryFromMemory(&model_, &err, &warn, bytes_,
+                                                  static_cast<unsigned>(size_), base_dir_)
+                    : loader.LoadASCIIFromString(&model_, &err, &warn,
+                                                 reinterpret_cast<const char*>(bytes_),
+                                                 static_cast<unsigned>(size_), base_dir_);
+    } catch (const std::exception& e) {
+        fail(std::string("malformed glTF data: ") + e.what());
+    }
+    if (!ok)
+        fail(std::string("cannot load ") + (binary ? "binary glTF (.glb)" : "glTF") +
+             " data: " + (err.empty() ? "unknown tinygltf error" : trim(err)));
+    std::string line;
+    for (std::istringstream lines(warn); std::getline(lines, line);)
+        if (!trim(line).empty()) warn_once("tinygltf:" + line, "glTF: " + trim(line));
+}
+
+// Required extensions we lack are errors; everything else we skip is a warning, once.
+void GltfLoader::check_features() {
+    std::string missing;
+    for (const std::string& name : model_.extensionsRequired)
+        if (!supported_extension(name)) missing += (missing.empty() ? "" : ", ") + name;
+    if (!missing.empty()) fail("requires unsupported glTF extension(s): " + missing);
+    for (const std::string& name : model_.extensionsUsed)
+        if (!supported_extension(name))
+            warn_once("ext:" + name, "glTF extension " + name + " is not supported; ignored");
+    if (!model_.skins.empty()) warn_once("skins", "skins are not supported; ignored");
+    if (!model_.animations.empty())
+        warn_once("animations", "animations are not supported; using the static pose");
+
+    // Textures: any texture reference of a material (normal maps counted apart).
+    bool textures = false, normal_maps = false;
+    for (const tg::Material& m : model_.materials) {
+        textures = textures || m.pbrMetallicRoughness.baseColorTexture.index >= 0 ||
+                   m.pbrMetallicRoughness.metallicRoughnessTexture.index >= 0 ||
+                   m.emissiveTexture.index >= 0 || m.occlusionTexture.index >= 0;
+        normal_maps = normal_maps || m.normalTexture.index >= 0;
+        for (const auto& ext : m.extensions)
+            for (const std::string& key : ext.second.Keys())
+                if (key.size() >= 7 && key.compare(key.size() - 7, 7, "Texture") == 0)
+                    textures = true;
+    }
+    if (!textures && !normal_maps && !model_.textures.empty()) textures = true;
+    if (textures) warn_once("textures", "textures are not supported; using factors only");
+    if (normal_maps)
+        warn_once("normalTexture", "normal maps (normalTexture) are not supported; ignored");
+}
+
+// One scene material per glTF material, same index.
+void GltfLoader::convert_materials() {
+    for (size_t i = 0; i < model_.materials.size(); ++i) {
+        const tg::Material& g = model_.materials[i];
+        const tg::PbrMetallicRoughness& pbr = g.pbrMetallicRoughness;
+        Material m;
+        m.name = g.name.empty() ? "material " + std::to_string(i) : g.name;
+        m.color = rgb(pbr.baseColorFactor, 1.f);
+        // Emission scaled by KHR_materials_emissive_strength.
+        const double strength =
+            extension_number(g.extensions, kEmissiveStrength, "emissiveStrength", 1.0);
+        m.emission = rgb(g.emissiveFactor, 0.f) * float(strength);
+        // Glass, mirror or diffuse.
+        if (extension_number(g.extensions, kTransmission, "transmissionFactor", 0.0) > 0.5) {
+            m.type = MaterialType::Glass;
+            m.ior = float(extension_number(g.extensions, kIor, "ior", 1.5));
+        } else if (pbr.metallicFactor >= 0.5 && pbr.roughnessFactor <= 0.1) {
+            m.type = MaterialType::Mirror;
+        } else {
+            m.type = MaterialType::Diffuse;
+            if (pbr.metallicFactor >= 0.5)
+                warn_once("rough metal",
+                          "rough metallic materials (roughnessFactor > 0.1) are "
+                          "rendered as diffuse, e.g. '" +
+                              m.name + "'");
+        }
+        scene_.add_material(m);
+    }
+}
+
+// The default scene's roots (scene 0 when none is marked; parentless nodes when no scene).
+std::vector<int> GltfLoader::root_nodes() {
+    if (!model_.scenes.empty()) {
+        int s = model_.defaultScene < 0 ? 0 : model_.defaultScene;
+        if (size_t(s) >= model_.scenes.size())
+            fail("default scene " + std::to_string(s) + " out of range (file has " +
+                 std::to_string(model_.scenes.size()) + " scenes)");
+        return model_.scenes[size_t(s)].nodes;
+    }
+    std::vector<char> is_child(model_.nodes.size(), 0);
+    for (const tg::Node& n : model_.nodes)
+        for (int c : n.children)
+            if (c >= 0 && size_t(c) < model_.nodes.size()) is_child[size_t(c)] = 1;
+    std::vector<int> roots;
+    for (size_t i = 0; i < model_.nodes.size(); ++i)
+        if (!is_child[i]) roots.push_back(int(i));
+    return roots;
+}
+
+// Depth-first, pre-order walk with an explicit stack; each node may appear once.
+void GltfLoader::traverse(const std::vector<int>& roots) {
+    std::vector<char> seen(model_.nodes.size(), 0);
+    std::vector<std::pair<int, glm::dmat4>> stack;
+    for (auto it = roots.rbegin(); it != roots.rend(); ++it) stack.emplace_back(*it, glm::dmat4(1));
+    while (!stack.empty()) {
+        const auto [index, parent] = stack.back();
+        stack.pop_back();
+        // A valid node, not met before (the hierarchy must be a forest).
+        if (index < 0 || size_t(index) >= model_.nodes.size())
+            fail("node index " + std::to_string(index) + " out of range (file has " +
+                 std::to_string(model_.nodes.size()) + " nodes)");
+        if (seen[size_t(index)])
+            fail("node " + std::to_string(index) +
+                 " appears more than once in the node hierarchy (cycle or shared node)");
+        seen[size_t(index)] = 1;
+        const tg::Node& node = model_.nodes[size_t(index)];
+        const glm::dmat4 world = parent * local_transform(node, index);
+        // Its camera, its mesh, then its children in order.
+        if (node.camera >= 0 || node.camera < -1) take_camera(node.camera, world);
+        if (node.mesh >= 0 || node.mesh < -1) add_mesh(node.mesh, world);
+        for (auto c = node.children.rbegin(); c != node.children.rend(); ++c)
+            stack.emplace_back(*c, world);
+    }
+}
+
+// The node's matrix, or translation * rotation * scale.
+glm::dmat4 GltfLoader::local_transform(const tg::Node& node, int index) {
+    const std::string what = "node " + std::to_string(index) + ": ";
+    if (!node.matrix.empty()) {
+        if (node.matrix.size() != 16) fail(what + "matrix must have 16 numbers");
+        return glm::make_mat4(node.matrix.data());  // column-major, as in glTF
+    }
+    glm::dmat4 m(1);
+    if (!node.translation.empty()) {
+        if (node.translation.size() != 3) fail(what + "translation must have 3 numbers");
+        m = glm::translate(m, glm::make_vec3(node.translation.data()));
+    }
+    if (!node.rotation.empty()) {
+        if (node.rotation.size() != 4) fail(what + "rotation must have 4 numbers");
+        const auto& r = node.rotation;  // x, y, z, w
+        glm::dquat q(r[3], r[0], r[1], r[2]);
+        const double len = glm::length(q);
+        if (len > 0.0) q = q / len;
+        m = m * glm::mat4_cast(q);
+    }
+    if (!node.scale.empty()) {
+        if (node.scale.size() != 3) fail(what + "scale must have 3 numbers");
+        m = glm::scale(m, glm::make_vec3(node.scale.data()));
+    }
+    return m;
+}
+
+// The first perspective camera: position, forward = -Z and up = +Y of the node, in world space.
+void GltfLoader::take_camera(int camera, const glm::dmat4& world) {
+    if (camera < 0 || size_t(camera) >= model_.cameras.size())
+        fail("camera index " + std::to_string(camera) + " out of range (file has " +
+             std::to_string(model_.cameras.size()) + " cameras)");
+    const tg::Camera& c = model_.cameras[size_t(camera)];
+    const std::string label = c.name.empty() ? std::to_string(camera) : "'" + c.name + "'";
+    if (c.type != "perspective") {
+        warn_once("camera:" + c.type, "non-perspective (" + c.type +
+                                          ") cameras are not supported; camera " + label +
+                                          " ignored");
+        return;
+    }
+    if (scene_.has_camera) return;
+    const double yfov = c.perspective.yfov;
+    if (!(yfov > 0.0 && yfov < glm::pi<double>()))
+        fail("camera " + label + ": yfov must be in (0, pi) radians");
+    const glm::dmat3 basis(world);
+    glm::dvec3 forward = basis * glm::dvec3(0, 0, -1), up = basis * glm::dvec3(0, 1, 0);
+    // Orthonormalize (the node may carry scale or shear).
+    const double fl = glm::length(forward);
+    if (!(fl > 1e-12)) fail("camera " + label + ": degenerate node transform");
+    forward /= fl;
+    up -= glm::dot(up, forward) * forward;
+    const double ul = glm::length(up);
+    if (!(ul > 1e-12)) fail("camera " + label + ": degenerate node transform");
+    scene_.camera.position = glm::vec3(world * glm::dvec4(0, 0, 0, 1));
+    scene_.camera.forward = glm::vec3(forward);
+    scene_.camera.up = glm::vec3(up / ul);
+    scene_.camera.yfov = float(yfov);
+    scene_.has_camera = true;
+}
+
+uint32_t GltfLoader::material_index(int material, const std::string& where) {
+    if (material >= 0 && size_t(material) < model_.materials.size()) return uint32_t(material);
+    if (material != -1)
+        fail(where + ": material index " + std::to_string(material) + " out of range (file has " +
+             std::to_string(model_.materials.size()) + " materials)");
+    // No material: a shared grey diffuse one.
+    if (default_material_ < 0) {
+        Material m;
+        m.name = "default";
+        m.color = glm::vec3(0.8f);
+        default_material_ = int(scene_.add_material(m));
+    }
+    return uint32_t(default_material_);
+}
+
+// Every TRIANGLES primitive of the mesh, transformed to world space.
+void GltfLoader::add_mesh(int mesh, const glm::dmat4& world) {
+    if (mesh < 0 || size_t(mesh) >= model_.meshes.size())
+        fail("mesh index " + std::to_string(mesh) + " out of range (file has " +
+             std::to_string(model_.meshes.size()) + " meshes)");
+    const tg::Mesh& m = model_.meshes[size_t(mesh)];
+    // A mirroring transform flips the winding, so swap two vertices to keep the front side.
+    const bool flip = glm::determinant(glm::dmat3(world)) < 0.0;
+    for (size_t p = 0; p < m.primitives.size(); ++p) {
+        const tg::Primitive& prim = m.primitives[p];
+        const std::string where = "mesh " + std::to_string(mesh) +
+                                  (m.name.empty() ? "" : " '" + m.name + "'") + " primitive " +
+                                  std::to_string(p);
+        if (!prim.targets.empty())
+            warn_once("morph", "morph targets are not supported; using the base mesh");
+        if (prim.mode != TINYGLTF_MODE_TRIANGLES && prim.mode != -1) {
+            warn_once("mode:" + std::to_string(prim.mode),
+                      "primitive mode " + mode_name(prim.mode) + " is not supported; skipped");
+            continue;
+        }
+        const auto pos = prim.attributes.find("POSITION");
+        if (pos == prim.attributes.end()) {
+            warn_once("no POSITION", where + " has no POSITION attribute; skipped");
+            continue;
+        }
+        const uint32_t material = material_index(prim.material, where);
+        const std::vector<glm::vec3> v = read_positions(pos->second, where);
+        // Corner list: the indices, or 0, 1, 2, ... when not indexed.
+        std::vector<uint32_t> idx;
+        if (prim.indices >= 0 || prim.indices < -1) {
+            idx = read_indices(prim.indices, where);
+        } else {
+            idx.resize(v.size());
+            for (size_t i = 0; i < idx.size(); ++i) idx[i] = uint32_t(i);
+        }
+        if (idx.size() % 3 != 0)
+            warn_once("count%3", where + ": corner count " + std::to_string(idx.size()) +
+                                     " is not a multiple of 3; extra corners ignored");
+        for (size_t i = 0; i + 2 < idx.size(); i += 3) {
+            glm::vec3 c[3];
+            for (int k = 0; k < 3; ++k) {
+                const uint32_t j = idx[i + size_t(k)];
+                if (j >= v.size())
+                    fail(where + ": index " + std::to_string(j) + " out of range (POSITION has " +
+                         std::to_string(v.size()) + " vertices)");
+                c[k] = glm::vec3(world * glm::dvec4(glm::dvec3(v[j]), 1.0));
+            }
+            if (flip) std::swap(c[1], c[2]);
+            scene_.triangles.push_back({c[0], c[1], c[2], material});
+        }
+    }
+}
+
+// Start of `count` elements of `elem` bytes, `stride` apart, `offset` bytes into buffer view
+// `view`, after checking that the view lies in its buffer and the elements in the view.
+const unsigned char* GltfLoader::view_data(int view, size_t offset, size_t count, size_t stride,
+                                           size_t elem, const std::string& what) const {
+    if (view < 0 || size_t(view) >= model_.bufferViews.size())
+        fail(what + ": bufferView " + std::to_string(view) + " out of range (file has " +
+             std::to_string(model_.bufferViews.size()) + " buffer views)");
+    const tg::BufferView& bv = model_.bufferViews[size_t(view)];
+    if (bv.buffer < 0 || size_t(bv.buffer) >= model_.buffers.size())
+        fail(what + ": buffer " + std::to_string(bv.buffer) + " out of range");
+    const std::vector<unsigned char>& data = model_.buffers[size_t(bv.buffer)].data;
+    if (bv.byteOffset > data.size() || bv.byteLength > data.size() - bv.byteOffset)
+        fail(what + ": bufferView " + std::to_string(view) + " lies outside its buffer (" +
+             std::to_string(data.size()) + " bytes)");
+    // offset + (count - 1) * stride + elem <= byteLength, without overflow.
+    const size_t length = bv.byteLength;
+    const bool fits = count == 0 || (offset <= length && elem <= length - offset &&
+                                     (count - 1) <= (length - offset - elem) / stride);
+    if (!fits)
+        fail(what + ": accessor out of bounds (" + std::to_string(count) + " elements of " +
+             std::to_string(elem) + " bytes, stride " + std::to_string(stride) + ", offset " +
+             std::to_string(offset) + " in bufferView " + std::to_string(view) + " of " +
+             std::to_string(length) + " bytes)");
+    return data.data() + bv.byteOffset + offset;
+}
+
+// An accessor's elements, decoded from its buffer view (zeros without one), then the sparse
+// substitutions applied.
+template <class T, class Decode>
+std::vector<T> GltfLoader::read_accessor(const tg::Accessor& a, size_t elem,
+                                         const std::string& what, Decode decode) const {
+    // Base values.
+    const unsigned char* base = nullptr;
+    size_t stride = elem;
+    if (a.bufferView >= 0 || a.bufferView < -1) {
+        const int view = a.bufferView;
+        if (view >= 0 && size_t(view) < model_.bufferViews.size()) {
+            const size_t s = model_.bufferViews[size_t(view)].byteStride;
+            if (s != 0 && s < elem)
+                fail(what + ": byteStride " + std::to_string(s) + " smaller than an element");
+            if (s != 0) stride = s;
+        }
+        base = view_data(view, a.byteOffset, a.count, stride, elem, what);
+    } else if (a.count > (size_t(1) << 28)) {
+        fail(what + ": accessor count " + std::to_string(a.count) + " too large");
+    }
+    std::vector<T> out(a.count, T{});
+    if (base)
+        for (size_t i = 0; i < a.count; ++i) out[i] = decode(base + i * stride);
+
+    // Sparse substitutions: tightly packed indices and values.
+    if (a.sparse.isSparse) {
+        const size_t isize = index_size(a.sparse.indices.componentType);
+        if (isize == 0) fail(what + ": sparse indices must be unsigned byte, short or int");
+        if (a.sparse.count < 0 || a.sparse.indices.byteOffset < 0 || a.sparse.values.byteOffset < 0)
+            fail(what + ": negative sparse count or byteOffset");
+        const size_t n = size_t(a.sparse.count);
+        const unsigned char* ip =
+            view_data(a.sparse.indices.bufferView, size_t(a.sparse.indices.byteOffset), n, isize,
+                      isize, what + " (sparse indices)");
+        const unsigned char* vp =
+            view_data(a.sparse.values.bufferView, size_t(a.sparse.values.byteOffset), n, elem, elem,
+                      what + " (sparse values)");
+        for (size_t i = 0; i < n; ++i) {
+            const uint32_t j = read_index(ip + i * isize, isize);
+            if (j >= out.size())
+                fail(what + ": sparse index " + std::to_string(j) + " out of range");
+            out[j] = decode(vp + i * elem);
+        }
+    }
+    return out;
+}
+
+std::vector<glm::vec3> GltfLoader::read_positions(int accessor, const std::string& where) const {
+    const std::string what = where + " POSITION accessor " + std::to_string(accessor);
+    if (accessor < 0 || size_t(accessor) >= model_.accessors.size())
+        fail(what + " out of range (file has " + std::to_string(model_.accessors.size()) +
+             " accessors)");
+    const tg::Accessor& a = model_.accessors[size_t(accessor)];
+    if (a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT || a.type != TINYGLTF_TYPE_VEC3)
+        fail(what +
+             ": POSITION must be float VEC3 (non-float, quantized positions are not "
+             "supported)");
+    return read_accessor<glm::vec3>(a, 12, what, [](const unsigned char* p) {
+        glm::vec3 v;
+        std::memcpy(&v[0], p, 12);
+        return v;
+    });
+}
+
+std::vector<uint32_t> GltfLoader::read_indices(int accessor, const std::string& where) const {
+    const std::string what = where + " index accessor " + std::to_string(accessor);
+    if (accessor < 0 || size_t(accessor) >= model_.accessors.size())
+        fail(what + " out of range (file has " + std::to_string(model_.accessors.size()) +
+             " accessors)");
+    const tg::Accessor& a = model_.accessors[size_t(accessor)];
+    const size_t size = index_size(a.componentType);
+    if (size == 0 || a.type != TINYGLTF_TYPE_SCALAR)
+        fail(what + ": indices must be SCALAR unsigned byte, short or int");
+    return read_accessor<uint32_t>(a, size, what,
+                                   [size](const unsigned char* p) { return read_index(p, size); });
+}
+
+}  // namespace
+
+Scene load_gltf(const std::string& path) {
+    return GltfLoader(path).load();
+}
+
+Scene load_gltf_memory(const void* data, size_t size, const std::string& name,
+                       const std::string& base_dir) {
+    return GltfLoader(name, static_cast<const unsigned char*>(data), size, base_dir).load();
+}
+
+}  // namespace mcpt

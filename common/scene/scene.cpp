@@ -1,0 +1,184 @@
+// Scene bounds, validation (bad input throws mcpt::Error, degenerate triangles are dropped) and
+// automatic camera framing.
+#include "common/scene/scene.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "common/error.h"
+
+namespace mcpt {
+namespace {
+
+constexpr float kDefaultYfov = 0.6911f;  // radians, the Cornell box camera
+constexpr float kPi = 3.14159265358979f;
+
+// A vector as "(x, y, z)" for error messages.
+std::string str(const glm::vec3& v) {
+    std::ostringstream s;
+    s << "(" << v.x << ", " << v.y << ", " << v.z << ")";
+    return s.str();
+}
+
+bool finite(const glm::vec3& v) {
+    return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+
+bool non_negative(const glm::vec3& v) {
+    return v.x >= 0.f && v.y >= 0.f && v.z >= 0.f;
+}
+
+// "material 2 'glass'" (or just "material 2" when unnamed).
+std::string material_label(const Scene& scene, uint32_t index) {
+    std::string label = "material " + std::to_string(index);
+    if (index < scene.materials.size() && !scene.materials[index].name.empty())
+        label += " '" + scene.materials[index].name + "'";
+    return label;
+}
+
+void check_material(const Scene& scene, uint32_t i) {
+    const Material& m = scene.materials[i];
+    const std::string what = material_label(scene, i) + ": ";
+    // Every value finite, then the physical ranges.
+    if (!finite(m.color)) throw Error(what + "non-finite color " + str(m.color));
+    if (!finite(m.emission)) throw Error(what + "non-finite emission " + str(m.emission));
+    if (!std::isfinite(m.ior)) throw Error(what + "non-finite ior");
+    if (!non_negative(m.color)) throw Error(what + "negative color " + str(m.color));
+    if (!non_negative(m.emission)) throw Error(what + "negative emission " + str(m.emission));
+    const auto type = static_cast<uint32_t>(m.type);
+    if (type > static_cast<uint32_t>(MaterialType::Glass))
+        throw Error(what + "unknown material type " + std::to_string(type));
+    if (m.type == MaterialType::Glass && m.ior <= 0.f)
+        throw Error(what + "glass ior must be > 0, got " + std::to_string(m.ior));
+}
+
+void check_material_index(const Scene& scene, uint32_t index, const std::string& owner) {
+    if (index >= scene.materials.size())
+        throw Error(owner + ": material index " + std::to_string(index) +
+                    " out of range (scene has " + std::to_string(scene.materials.size()) +
+                    " materials)");
+}
+
+// Zero area or collinear, judged in double precision (float differences and their products are
+// then nearly exact) against a tiny threshold relative to the longest edge squared.
+bool degenerate(const Triangle& t) {
+    const glm::dvec3 a(t.v0), b(t.v1), c(t.v2);
+    const glm::dvec3 e1 = b - a, e2 = c - a, e3 = c - b;
+    const double longest2 = std::max({glm::dot(e1, e1), glm::dot(e2, e2), glm::dot(e3, e3)});
+    if (!(longest2 > 0.0)) return true;
+    return glm::length(glm::cross(e1, e2)) <= 1e-12 * longest2;
+}
+
+void check_camera(const Camera& c) {
+    if (!finite(c.position) || !finite(c.forward) || !finite(c.up))
+        throw Error("camera: non-finite position, forward or up vector");
+    if (!(c.yfov > 0.f && c.yfov < kPi))
+        throw Error("camera: vertical field of view must be in (0, pi) radians, got " +
+                    std::to_string(c.yfov));
+    const float fl = glm::length(c.forward), ul = glm::length(c.up);
+    if (!(fl > 0.f) || !(ul > 0.f)) throw Error("camera: zero-length forward or up vector");
+    if (glm::length(glm::cross(c.forward / fl, c.up / ul)) < 1e-3f)
+        throw Error("camera: forward and up vectors are parallel");
+}
+
+}  // namespace
+
+Bounds Scene::bounds() const {
+    Bounds b;
+    // Triangle vertices.
+    for (const Triangle& t : triangles) {
+        b.extend(t.v0);
+        b.extend(t.v1);
+        b.extend(t.v2);
+    }
+    // Sphere boxes.
+    for (const Sphere& s : spheres) {
+        const glm::vec3 r(std::abs(s.radius));
+        b.extend(s.center - r);
+        b.extend(s.center + r);
+    }
+    return b;
+}
+
+ValidationReport validate_scene(Scene& scene) {
+    ValidationReport report;
+    // Something to render.
+    if (scene.triangles.empty() && scene.spheres.empty())
+        throw Error("scene '" + scene.name + "' is empty: no triangles and no spheres");
+
+    // Materials: finite, non-negative, a valid type and a positive glass ior.
+    for (uint32_t i = 0; i < scene.materials.size(); ++i) check_material(scene, i);
+
+    // Triangles: a valid material and finite vertices.
+    for (size_t i = 0; i < scene.triangles.size(); ++i) {
+        const Triangle& t = scene.triangles[i];
+        const std::string owner = "triangle " + std::to_string(i);
+        check_material_index(scene, t.material, owner);
+        const glm::vec3* v[3] = {&t.v0, &t.v1, &t.v2};
+        for (int k = 0; k < 3; ++k)
+            if (!finite(*v[k]))
+                throw Error(owner + " (" + material_label(scene, t.material) +
+                            "): non-finite vertex v" + std::to_string(k) + " = " + str(*v[k]));
+    }
+
+    // Spheres: a valid material, a finite center and a finite positive radius.
+    for (size_t i = 0; i < scene.spheres.size(); ++i) {
+        const Sphere& s = scene.spheres[i];
+        const std::string owner = "sphere " + std::to_string(i);
+        check_material_index(scene, s.material, owner);
+        const std::string what = owner + " (" + material_label(scene, s.material) + "): ";
+        if (!finite(s.center)) throw Error(what + "non-finite center " + str(s.center));
+        if (!std::isfinite(s.radius) || s.radius <= 0.f)
+            throw Error(what + "radius must be finite and > 0, got " + std::to_string(s.radius));
+    }
+
+    // Camera, when the scene brings its own, and the bounce hint.
+    if (scene.has_camera) check_camera(scene.camera);
+    if (scene.max_depth_hint < 0)
+        throw Error("max_depth_hint must be >= 0, got " + std::to_string(scene.max_depth_hint));
+
+    // Drop degenerate triangles, keeping the order of the rest.
+    const size_t before = scene.triangles.size();
+    scene.triangles.erase(
+        std::remove_if(scene.triangles.begin(), scene.triangles.end(), degenerate),
+        scene.triangles.end());
+    report.degenerate_dropped = before - scene.triangles.size();
+    if (scene.triangles.empty() && scene.spheres.empty())
+        throw Error("scene '" + scene.name + "' is empty: all " + std::to_string(before) +
+                    " triangles are degenerate and there are no spheres");
+
+    // At least one emitter among the remaining primitives.
+    const auto emits = [&](uint32_t m) { return scene.materials[m].is_emissive(); };
+    const bool lit = std::any_of(scene.triangles.begin(), scene.triangles.end(),
+                                 [&](const Triangle& t) { return emits(t.material); }) ||
+                     std::any_of(scene.spheres.begin(), scene.spheres.end(),
+                                 [&](const Sphere& s) { return emits(s.material); });
+    if (!lit)
+        throw Error(
+            "scene has no light: no triangle or sphere uses a material with emission > 0 "
+            "(glTF: set a material's emissiveFactor)");
+    return report;
+}
+
+void frame_camera(Scene& scene) {
+    // Bounding sphere of the scene box (a unit sphere at the origin for an empty scene).
+    const Bounds b = scene.bounds();
+    glm::vec3 center(0.f);
+    float radius = 1.f;
+    if (!b.empty()) {
+        center = 0.5f * (b.min + b.max);
+        radius = 0.5f * glm::length(b.max - b.min);
+        if (!(radius > 0.f)) radius = 1.f;
+    }
+    // Keep a valid fov, then back off along +z until the sphere fits it vertically.
+    Camera& c = scene.camera;
+    if (!(c.yfov > 0.f && c.yfov < kPi)) c.yfov = kDefaultYfov;
+    const float distance = radius / std::sin(0.5f * c.yfov);
+    c.position = center + glm::vec3(0.f, 0.f, distance);
+    c.forward = glm::vec3(0.f, 0.f, -1.f);
+    c.up = glm::vec3(0.f, 1.f, 0.f);
+    scene.has_camera = true;
+}
+
+}  // namespace mcpt

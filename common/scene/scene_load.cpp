@@ -1,0 +1,47 @@
+#include "common/scene/scene_load.h"
+
+#include <algorithm>
+#include <cctype>
+
+#include "common/scene/builtin_scenes.h"
+#include "common/scene/gltf_loader.h"
+
+namespace mcpt {
+
+namespace {
+
+bool ends_with(const std::string& s, const std::string& suffix) {
+    if (s.size() < suffix.size()) return false;
+    std::string tail = s.substr(s.size() - suffix.size());
+    std::transform(tail.begin(), tail.end(), tail.begin(),
+                   [](unsigned char c) { return std::tolower(c); });
+    return tail == suffix;
+}
+
+Scene validated(Scene scene) {
+    const ValidationReport report = validate_scene(scene);
+    if (report.degenerate_dropped > 0) {
+        scene.warnings.push_back("dropped " + std::to_string(report.degenerate_dropped) +
+                                 " degenerate (zero-area or collinear) triangles");
+    }
+    return scene;
+}
+
+}  // namespace
+
+Scene load_scene(const std::string& arg) {
+    // A file by extension, else a built-in name.
+    return validated((ends_with(arg, ".gltf") || ends_with(arg, ".glb")) ? load_gltf(arg)
+                                                                          : make_builtin_scene(arg));
+}
+
+Scene load_scene_memory(const void* data, size_t size, const std::string& name,
+                        const std::string& base_dir) {
+    return validated(load_gltf_memory(data, size, name, base_dir));
+}
+
+int default_max_depth(const Scene& scene) {
+    return scene.max_depth_hint > 0 ? scene.max_depth_hint : kDefaultMaxDepth;
+}
+
+}  // namespace mcpt

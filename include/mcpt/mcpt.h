@@ -1,0 +1,202 @@
+/* mcpt.h: the C API of mcpt, a Monte Carlo path tracer with a k-d tree on OpenCL and Vulkan.
+ *
+ * C99, no C++ needed by the caller. Link -lmcpt (pkg-config mcpt, or CMake find_package(mcpt)
+ * and target mcpt::mcpt).
+ *
+ * Contents
+ *   1. Version
+ *   2. Status codes and errors
+ *   3. Devices
+ *   4. Sessions: create, release
+ *   5. Scenes: from a file, from memory, built in
+ *   6. Settings
+ *   7. Rendering: passes with a time budget, target error, cancel
+ *   8. Images: linear float RGBA, 8-bit sRGB RGBA, EXR/PNG files
+ *
+ * Handles are opaque: a released or never-created handle is recognised and refused with
+ * MCPT_ERROR_INVALID_HANDLE, never dereferenced. Every function returns a status (or a value
+ * that cannot fail); on failure, mcpt_last_error() gives the message. No C++ exception, abort
+ * or signal crosses this boundary.
+ *
+ * Thread safety: device enumeration and session creation may be called from any thread.
+ * Calls on one session are serialised by the session (a second thread waits), except
+ * mcpt_session_cancel(), which never waits and may be called from any thread at any time.
+ * Different sessions run independently.
+ */
+#ifndef MCPT_MCPT_H
+#define MCPT_MCPT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#if defined(_WIN32)
+#define MCPT_API __declspec(dllexport)
+#elif defined(__GNUC__)
+#define MCPT_API __attribute__((visibility("default")))
+#else
+#define MCPT_API
+#endif
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ---- 1. Version */
+
+#define MCPT_VERSION_MAJOR 0
+#define MCPT_VERSION_MINOR 1
+#define MCPT_VERSION_PATCH 0
+#define MCPT_VERSION_STRING "0.1.0"
+
+/* The library's version as major * 10000 + minor * 100 + patch, and as "0.1.0". Compare with
+ * the MCPT_VERSION_* macros the caller was compiled with. Any thread. */
+MCPT_API int mcpt_version(void);
+MCPT_API const char* mcpt_version_string(void);
+
+/* ---- 2. Status codes and errors */
+
+typedef enum mcpt_status {
+    MCPT_OK = 0,
+    MCPT_CANCELLED = 1,                 /* a render ended by mcpt_session_cancel(); the
+                                           samples it took are kept */
+    MCPT_ERROR_INVALID_ARGUMENT = -1,   /* NULL pointer, value out of range, buffer too small */
+    MCPT_ERROR_INVALID_HANDLE = -2,     /* NULL, released or unknown session */
+    MCPT_ERROR_INVALID_STATE = -3,      /* out of order: rendering before a scene is loaded,
+                                           reading an image before anything is rendered */
+    MCPT_ERROR_SCENE = -4,              /* a scene that cannot be read or rendered */
+    MCPT_ERROR_DEVICE = -5,             /* no such device, a driver failure, a scene or image
+                                           beyond the device's limits */
+    MCPT_ERROR_IO = -6,                 /* a file that cannot be written */
+    MCPT_ERROR_OUT_OF_MEMORY = -7,
+    MCPT_ERROR_INTERNAL = -8
+} mcpt_status;
+
+/* "MCPT_ERROR_SCENE" for a status; "unknown status" otherwise. Any thread. */
+MCPT_API const char* mcpt_status_name(mcpt_status status);
+
+typedef struct mcpt_session_s* mcpt_session;
+
+/* The message of the last failed call on `session`; with NULL (or a handle that is not a live
+ * session), of the last failed call on this thread that had no live session (create, or a
+ * call with a bad handle). "" if none. The text stays valid until this thread's next
+ * mcpt_last_error() call. */
+MCPT_API const char* mcpt_last_error(mcpt_session session);
+
+/* ---- 3. Devices */
+
+typedef struct mcpt_device_info {
+    char api[16];        /* "opencl" | "vulkan" */
+    int index;           /* position in that API's device list */
+    char name[256];      /* device name */
+    char platform[256];  /* OpenCL platform or Vulkan driver */
+    char type[16];       /* "gpu" | "cpu" | "other" */
+    char spec[32];       /* what mcpt_session_create() takes for it, e.g. "vulkan:0" */
+} mcpt_device_info;
+
+/* Every device of every API this build has. Writes at most `capacity` entries to `devices`
+ * (may be NULL when capacity is 0) and the total number to *count. Any thread. */
+MCPT_API mcpt_status mcpt_devices(mcpt_device_info* devices, size_t capacity, size_t* count);
+
+/* ---- 4. Sessions */
+
+/* Opens a session on a device: "" or NULL (the first GPU of any API, else the first device),
+ * "opencl", "vulkan", or either with ":index" or ":name substring" (see mcpt_devices()).
+ * On failure *out is NULL and mcpt_last_error(NULL) says why. Any thread. */
+MCPT_API mcpt_status mcpt_session_create(const char* device, mcpt_session* out);
+
+/* Cancels a render in progress, waits for it, and frees everything. Releasing a released
+ * handle returns MCPT_ERROR_INVALID_HANDLE. Any thread. */
+MCPT_API mcpt_status mcpt_session_release(mcpt_session session);
+
+/* The session's device. */
+MCPT_API mcpt_status mcpt_session_device(mcpt_session session, mcpt_device_info* out);
+
+/* ---- 5. Scenes (each replaces the session's scene and restarts accumulation) */
+
+/* A glTF 2.0 file (.gltf or .glb). */
+MCPT_API mcpt_status mcpt_session_load_file(mcpt_session session, const char* path);
+
+/* A .glb or .gltf held in memory, e.g. read from an Android app's assets. External files
+ * that a .gltf references are read from base_dir only; with base_dir NULL the file system is
+ * never touched. The bytes are not kept after the call. */
+MCPT_API mcpt_status mcpt_session_load_memory(mcpt_session session, const void* data,
+                                              size_t size, const char* base_dir);
+
+/* A built-in scene: "cornell" (the default scene), "furnace", "spheres". */
+MCPT_API mcpt_status mcpt_session_load_builtin(mcpt_session session, const char* name);
+
+/* What the session renders, after the first render (or mcpt_session_commit()). */
+typedef struct mcpt_scene_info {
+    uint64_t triangles, spheres, materials, lights;
+    char tree[16];           /* the k-d tree built: "sah" | "median" | "none" */
+    char tree_reason[512];   /* with tree "auto": why that tree ("" otherwise) */
+    char features[256];      /* the device features the scene uses, compiled in */
+    int max_bounces;         /* in effect */
+} mcpt_scene_info;
+MCPT_API mcpt_status mcpt_session_scene_info(mcpt_session session, mcpt_scene_info* out);
+
+/* ---- 6. Settings (take effect at the next render, which then restarts accumulation) */
+
+/* Image size, 1 to 16384 each (default 256 x 256). */
+MCPT_API mcpt_status mcpt_session_set_size(mcpt_session session, int width, int height);
+/* Bounces per path, 0 to 1000000; -1: the scene's default (8; the furnace: unlimited). */
+MCPT_API mcpt_status mcpt_session_set_max_bounces(mcpt_session session, int bounces);
+/* k-d tree: "auto" (default: the device's cost model picks SAH or none), "sah", "median",
+ * "none"; depth -1 for the kind's default, else 0 to 60. */
+MCPT_API mcpt_status mcpt_session_set_tree(mcpt_session session, const char* kind, int depth);
+/* Seed of the random stream (default 0): the same seed draws the same samples on every API. */
+MCPT_API mcpt_status mcpt_session_set_seed(mcpt_session session, uint32_t seed);
+/* 1 (default): compile only the features the scene uses; 0: the full kernel. */
+MCPT_API mcpt_status mcpt_session_set_specialize(mcpt_session session, int on);
+/* 1: every sample is added to the double-precision sums on its own, so the image depends only
+ * on the seed and the sample count, not on how passes were timed (slower). Default 0. */
+MCPT_API mcpt_status mcpt_session_set_reproducible(mcpt_session session, int on);
+
+/* Prepares and compiles the scene for the device now instead of in the next render. */
+MCPT_API mcpt_status mcpt_session_commit(mcpt_session session);
+
+/* ---- 7. Rendering */
+
+typedef struct mcpt_render_stats {
+    uint64_t samples;        /* samples per pixel this call added */
+    uint64_t spp;            /* samples per pixel in the image */
+    double seconds;          /* wall time of this call */
+    double relative_error;   /* mean per-pixel standard error / mean radiance; -1 while
+                                unknown (fewer than 2 samples per pixel) */
+    int target_reached;      /* relative_error <= target_error */
+} mcpt_render_stats;
+
+/* Adds samples to the image for about budget_ms milliseconds (at least one pass over the
+ * image; the budget is not exceeded by more than one pass), stopping early once the image
+ * has max_spp samples per pixel (0: no cap) or its relative error is at most target_error
+ * (0: no target). Returns MCPT_CANCELLED when mcpt_session_cancel() ended it. `stats` may be
+ * NULL. */
+MCPT_API mcpt_status mcpt_session_render(mcpt_session session, double budget_ms,
+                                         double target_error, uint64_t max_spp,
+                                         mcpt_render_stats* stats);
+
+/* Ends the session's running render after its current pass; never waits. A render that
+ * starts after this call is not affected. Any thread. */
+MCPT_API mcpt_status mcpt_session_cancel(mcpt_session session);
+
+/* Drops the samples taken; the next render starts from zero. */
+MCPT_API mcpt_status mcpt_session_reset(mcpt_session session);
+
+/* ---- 8. Images (top row first, after at least one render) */
+
+MCPT_API mcpt_status mcpt_session_image_size(mcpt_session session, int* width, int* height);
+/* Linear radiance, 4 floats per pixel (alpha 1): capacity >= 4 * width * height floats. */
+MCPT_API mcpt_status mcpt_session_read_rgba32f(mcpt_session session, float* pixels,
+                                               size_t capacity);
+/* 8-bit sRGB (exposure 1, clamped), 4 bytes per pixel (alpha 255): what an Android Bitmap
+ * of ARGB_8888 takes through copyPixelsFromBuffer. capacity >= 4 * width * height bytes. */
+MCPT_API mcpt_status mcpt_session_read_rgba8(mcpt_session session, uint8_t* pixels,
+                                             size_t capacity);
+/* Writes .exr (linear float) or .png (8-bit sRGB), by the path's extension. */
+MCPT_API mcpt_status mcpt_session_write_image(mcpt_session session, const char* path);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* MCPT_MCPT_H */
