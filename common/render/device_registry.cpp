@@ -4,7 +4,9 @@
 #include <cctype>
 
 #include "common/error.h"
+#if MCPT_WITH_OPENCL
 #include "opencl/cl_backend.h"
+#endif
 #if MCPT_WITH_VULKAN
 #include "vulkan/vk_backend.h"
 #endif
@@ -24,11 +26,14 @@ std::string api_list() {
 }  // namespace
 
 std::vector<std::string> device_apis() {
-#if MCPT_WITH_VULKAN
-    return {"opencl", "vulkan"};
-#else
-    return {"opencl"};
+    std::vector<std::string> apis;
+#if MCPT_WITH_OPENCL
+    apis.push_back("opencl");
 #endif
+#if MCPT_WITH_VULKAN
+    apis.push_back("vulkan");
+#endif
+    return apis;
 }
 
 DeviceSpec parse_device_spec(const std::string& spec) {
@@ -36,17 +41,19 @@ DeviceSpec parse_device_spec(const std::string& spec) {
     DeviceSpec s{spec.substr(0, colon), colon == std::string::npos ? "" : spec.substr(colon + 1)};
     const std::vector<std::string> apis = device_apis();
     if (std::find(apis.begin(), apis.end(), s.api) == apis.end()) {
-        throw Error("unknown backend '" + s.api + "' (available: " + api_list() +
-                    (apis.size() == 1 ? "; built without Vulkan)" : ")"));
+        throw Error("unknown backend '" + s.api + "' (available in this build: " + api_list() +
+                    ")");
     }
     return s;
 }
 
 std::vector<DeviceInfo> list_devices(const std::string& api) {
     std::vector<DeviceInfo> out;
+#if MCPT_WITH_OPENCL
     if (api.empty() || api == "opencl") {
         for (DeviceInfo& d : list_opencl_devices()) out.push_back(std::move(d));
     }
+#endif
 #if MCPT_WITH_VULKAN
     if (api.empty() || api == "vulkan") {
         for (DeviceInfo& d : list_vulkan_devices()) out.push_back(std::move(d));
@@ -101,7 +108,10 @@ std::unique_ptr<Backend> open_device(const std::string& spec, BackendOptions opt
 #if MCPT_WITH_VULKAN
     if (s.api == "vulkan") return make_vulkan_backend(options);
 #endif
-    return make_opencl_backend(options);
+#if MCPT_WITH_OPENCL
+    if (s.api == "opencl") return make_opencl_backend(options);
+#endif
+    throw Error("backend '" + s.api + "' not built");
 }
 
 }  // namespace mcpt

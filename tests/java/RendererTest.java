@@ -1,0 +1,112 @@
+package org.mcpt;
+
+import java.nio.ByteBuffer;
+import java.nio.file.Files;
+import java.nio.file.Paths;
+import java.util.Arrays;
+import java.util.Random;
+
+/**
+ * org.mcpt.Renderer on a desktop JVM, run by CTest: a reproducible render written as raw RGBA
+ * bytes (compared by CTest with the same render through the C API), then every misuse, each
+ * of which must raise a RendererException with the engine's message while the JVM lives on.
+ * Usage: RendererTest DEVICE OUT.rgba GLB_FILE
+ */
+public final class RendererTest {
+    static int failures = 0;
+
+    static void check(boolean ok, String what) {
+        System.out.println((ok ? "ok:   " : "FAIL: ") + what);
+        if (!ok) failures++;
+    }
+
+    interface Call {
+        void run();
+    }
+
+    // The call must throw a RendererException with this status and a message containing text.
+    static void expectError(String what, int status, String text, Call call) {
+        try {
+            call.run();
+            check(false, what + ": no exception");
+        } catch (RendererException e) {
+            check(e.status == status && e.getMessage().contains(text),
+                  what + ": " + e.status + " \"" + e.getMessage() + "\"");
+        }
+    }
+
+    public static void main(String[] args) throws Exception {
+        String device = args[0];
+        check(!Renderer.version().isEmpty(), "version " + Renderer.version());
+        check(Renderer.devices().length > 0, Renderer.devices().length + " devices");
+
+        // The reproducible render the C API repeats: cornell, 32x32, seed 7, 8 spp.
+        try (Renderer r = new Renderer(device)) {
+            check(r.device().startsWith(device.contains(":") ? device : device + ":"),
+                  "device " + r.device());
+            r.loadBuiltin("cornell");
+            r.setSize(32, 32);
+            r.setSeed(7);
+            r.setReproducible(true);
+            RenderStats st = r.render(1e6, 0, 8);
+            check(st.spp == 8 && !st.cancelled && st.relativeError > 0,
+                  "rendered " + st.spp + " spp, relative error " + st.relativeError);
+            byte[] rgba = r.readRgba8();
+            ByteBuffer direct = ByteBuffer.allocateDirect(4 * 32 * 32);
+            r.readRgba8(direct);
+            byte[] fromDirect = new byte[rgba.length];
+            direct.get(fromDirect);
+            check(Arrays.equals(rgba, fromDirect), "direct ByteBuffer equals byte[]");
+            check(r.readRgba32f().length == 4 * 32 * 32, "float image");
+            Files.write(Paths.get(args[1]), rgba);
+        }
+
+        // Misuse: every case raises, the JVM lives on.
+        try (Renderer r = new Renderer(device)) {
+            expectError("empty byte[]", -4, "empty buffer", () -> r.loadScene(new byte[0]));
+            Random rng = new Random(1);
+            for (int i = 0; i < 10; i++) {
+                byte[] junk = new byte[1 + rng.nextInt(2000)];
+                rng.nextBytes(junk);
+                if (i % 2 == 1) System.arraycopy("glTF".getBytes(), 0, junk, 0, Math.min(4, junk.length));
+                expectError("random byte[] " + junk.length, -4, "memory: cannot load",
+                            () -> r.loadScene(junk));
+            }
+            byte[] glb = Files.readAllBytes(Paths.get(args[2]));
+            byte[] cut = Arrays.copyOf(glb, glb.length / 2);
+            expectError("truncated .glb", -4, "cannot load", () -> r.loadScene(cut));
+            expectError("null byte[]", -1, "null", () -> r.loadScene(null));
+            expectError("render before a scene", -3, "no scene loaded", () -> r.render(10, 0, 1));
+            expectError("size 0", -1, "between 1x1", () -> r.setSize(0, 0));
+            expectError("unknown tree", -1, "unknown tree kind", () -> r.setTree("bvh", -1));
+            expectError("unknown built-in", -4, "cornell", () -> r.loadBuiltin("teapot"));
+            expectError("image before render", -3, "nothing rendered", () -> r.readRgba8());
+            r.loadScene(glb);
+            r.setSize(16, 16);
+            RenderStats st = r.render(1e6, 0, 2);
+            check(st.spp == 2, ".glb from byte[] rendered " + st.spp + " spp");
+            expectError("heap ByteBuffer", -1, "direct", () -> r.readRgba8(ByteBuffer.allocate(1024)));
+            expectError("small direct ByteBuffer", -1, "buffer too small",
+                        () -> r.readRgba8(ByteBuffer.allocateDirect(16)));
+            expectError("bad image format", -6, "x.bmp", () -> r.writeImage("x.bmp"));
+
+            // Cancel from another thread.
+            RenderStats[] result = new RenderStats[1];
+            Thread t = new Thread(() -> result[0] = r.render(120000, 0, 0));
+            long t0 = System.nanoTime();
+            t.start();
+            Thread.sleep(300);
+            r.cancel();
+            t.join();
+            double s = (System.nanoTime() - t0) * 1e-9;
+            check(result[0] != null && result[0].cancelled && s < 20, "cancelled after " + s + " s");
+            r.close();
+            r.close();
+            expectError("render after close", -2, "closed", () -> r.render(10, 0, 1));
+        }
+        expectError("unknown device", -5, "unknown backend", () -> new Renderer("metal"));
+
+        System.out.println(failures == 0 ? "all passed" : failures + " failed");
+        System.exit(failures == 0 ? 0 : 1);
+    }
+}
