@@ -58,14 +58,6 @@ std::vector<float> rgba32f(mcpt_session s) {
 
 }  // namespace
 
-TEST(CApi, Version) {
-    EXPECT_EQ(mcpt_version(),
-              MCPT_VERSION_MAJOR * 10000 + MCPT_VERSION_MINOR * 100 + MCPT_VERSION_PATCH);
-    EXPECT_STREQ(mcpt_version_string(), MCPT_VERSION_STRING);
-    EXPECT_STREQ(mcpt_status_name(MCPT_ERROR_SCENE), "MCPT_ERROR_SCENE");
-    EXPECT_STREQ(mcpt_status_name(mcpt_status(42)), "unknown status");
-}
-
 TEST(CApi, ListsDevices) {
     size_t n = 0;
     ASSERT_EQ(mcpt_devices(nullptr, 0, &n), MCPT_OK);
