@@ -46,16 +46,8 @@ struct TreeConfig {
 };
 const TreeConfig kTrees[] = {{"none", "none", -1}, {"median-3", "median", 3}, {"sah", "sah", -1}};
 
-// Work per ray, summed over the rays counted.
-struct Work {
-    double tri_tests = 0, node_visits = 0, rays = 0;
-    void add(const gpu::Hit& h) { tri_tests += h.tri_tests, node_visits += h.node_visits, ++rays; }
-    double tests() const { return rays > 0 ? tri_tests / rays : 0; }
-    double visits() const { return rays > 0 ? node_visits / rays : 0; }
-};
-
 struct Counts {
-    Work camera, paths;
+    gpu::RayWork camera, paths;
     double rays_per_path = 0;
 };
 
@@ -91,64 +83,6 @@ std::vector<std::pair<std::string, Scene>> bench_scenes(const BenchArgs& a) {
     return out;
 }
 
-// The rays of one path as trace_path() makes them (camera, bounces, shadow rays), traced
-// with the counting CPU build of the traversal.
-void count_path(const GpuScene& g, const gpu::GpuParams& p, uint32_t pixel, uint32_t sample,
-                Work& work) {
-    using namespace gpu;
-    const GpuParams* params = &p;
-    const KdNode* nodes = g.nodes.data();
-    const uint* leaf_indices = g.leaf_indices.data();
-    const GpuTriangle* triangles = g.triangles.data();
-    const GpuSphere* spheres = g.spheres.data();
-    const GpuMaterial* materials = g.materials.data();
-    const GpuLight* lights = g.lights.data();
-    // Camera ray through a jittered point of the pixel.
-    const vec4 u_cam = rng4(pixel, sample, 0u, p.seed);
-    const float fx = (float(pixel % p.width) + u_cam.x) / float(p.width) * 2.f - 1.f;
-    const float fy = 1.f - (float(pixel / p.width) + u_cam.y) / float(p.height) * 2.f;
-    Ray ray = cpu_camera_ray(g, p, fx, fy);
-    vec3 beta = V3S(1.f);
-    float eta_scale = 1.f;
-    for (uint depth = 0;; ++depth) {
-        // Next vertex.
-        const Hit hit = cpu_trace(g, ray, false);
-        work.add(hit);
-        if (hit.status != 0u || hit.prim == NO_HIT || depth >= p.max_depth) break;
-        const SurfacePoint s = surface_at(SCENE_ARGS_ ray, hit);
-        const GpuMaterial m = materials[s.material];
-        const vec3 wo = -ray.d;
-        const bool front = dot(s.ng, wo) > 0.f;
-        const vec3 n = front ? s.ng : -s.ng;
-        const vec4 ua = rng4(pixel, sample, 2u * depth + 1u, p.seed);
-        const vec4 ub = rng4(pixel, sample, 2u * depth + 2u, p.seed);
-        // Shadow ray of next-event estimation.
-        if (m.type == MAT_DIFFUSE && p.num_lights > 0u) {
-            const LightSample ls = sample_light(SCENE_ARGS_ s.p, V3(ua.x, ua.y, ua.z));
-            if (ls.valid && dot(n, ls.wi) > 0.f) {
-                Ray shadow;
-                shadow.o = offset_ray_origin(s.p, s.p_error, s.ng, ls.wi);
-                shadow.d = offset_ray_origin(ls.p, ls.p_error, ls.n, -ls.wi) - shadow.o;
-                shadow.tmax = 1.f - SHADOW_EPSILON;
-                work.add(cpu_trace(g, shadow, true));
-            }
-        }
-        // Bounce, then Russian roulette as the kernel does it.
-        const BsdfSample bs = sample_bsdf(m, n, wo, front, V3(ub.x, ub.y, ub.z));
-        if (!bs.valid) break;
-        beta = beta * bs.weight;
-        eta_scale *= bs.eta2;
-        ray.o = offset_ray_origin(s.p, s.p_error, s.ng, bs.wi);
-        ray.d = bs.wi;
-        ray.tmax = MCPT_FLT_MAX;
-        if (depth + 1u >= p.rr_depth) {
-            const float survive = std::min(1.f, max_component(beta * eta_scale));
-            if (ua.w >= survive) break;
-            beta = beta / survive;
-        }
-    }
-}
-
 // Camera rays through a grid and a few hundred full paths, fewer when a ray is expensive.
 Counts count_work(const GpuScene& g, const Scene& scene, const RenderOptions& ro,
                   const TreeConfig& tc) {
@@ -172,7 +106,7 @@ Counts count_work(const GpuScene& g, const Scene& scene, const RenderOptions& ro
     for (int i = 0; i < paths; ++i) {
         // Pixels spread over the image by a multiplicative hash.
         const uint32_t pixel = uint32_t((uint64_t(i) * 2654435761u) % npix);
-        count_path(g, p, pixel, uint32_t(i), c.paths);
+        c.paths.add(cpu_path_work(g, p, pixel, uint32_t(i)));
     }
     c.rays_per_path = c.paths.rays / paths;
     return c;
@@ -192,8 +126,8 @@ std::string markdown_table(const std::vector<Row>& rows) {
             continue;
         }
         t += fmt("%.2f", r.ms_per_frame) + " | " + fmt("%.3f", r.msamples) + " | " +
-             fmt("%.2f", r.mrays) + " | " + fmt("%.1f", r.counts.paths.tests()) + " | " +
-             fmt("%.1f", r.counts.paths.visits()) + " |\n";
+             fmt("%.2f", r.mrays) + " | " + fmt("%.1f", r.counts.paths.tests_per_ray()) + " | " +
+             fmt("%.1f", r.counts.paths.visits_per_ray()) + " |\n";
     }
     return t;
 }
@@ -207,9 +141,9 @@ void write_csv(const std::string& path, const std::vector<Row>& rows, const Rend
     for (const Row& r : rows) {
         f << r.model << ',' << r.triangles << ',' << r.tree << ',' << r.backend << ",\"" << r.device
           << "\"," << r.build_ms << ',' << r.tree_bytes << ',' << r.ms_per_frame << ','
-          << r.msamples << ',' << r.mrays << ',' << r.counts.paths.tests() << ','
-          << r.counts.paths.visits() << ',' << r.counts.camera.tests() << ','
-          << r.counts.camera.visits() << ',' << r.counts.rays_per_path << ',' << ro.width << ','
+          << r.msamples << ',' << r.mrays << ',' << r.counts.paths.tests_per_ray() << ','
+          << r.counts.paths.visits_per_ray() << ',' << r.counts.camera.tests_per_ray() << ','
+          << r.counts.camera.visits_per_ray() << ',' << r.counts.rays_per_path << ',' << ro.width << ','
           << ro.height << ',' << ro.spp << ",\"" << r.note << "\"\n";
     }
 }
@@ -273,7 +207,7 @@ void run_bench(const BenchArgs& a) {
             const KdTree tree = build_kdtree(scene.triangles, tree_options(tc.kind, tc.depth));
             const GpuScene g = pack_scene(scene, tree);
             const Counts counts = count_work(g, scene, sro, tc);
-            const double tests_per_frame = counts.paths.tests() * counts.rays_per_path *
+            const double tests_per_frame = counts.paths.tests_per_ray() * counts.rays_per_path *
                                            double(sro.width) * sro.height * double(sro.spp);
             for (OpenBackend& ob : backends) {
                 Row row;

@@ -18,20 +18,11 @@ struct TreeArgs {
     int rays = 65536;
 };
 
-struct RayWork {
-    double tri_tests = 0, node_visits = 0, hits = 0;
-    size_t rays = 0;
-    void add(const gpu::Hit& h) {
-        tri_tests += h.tri_tests, node_visits += h.node_visits, hits += h.prim != NO_HIT;
-        ++rays;
-    }
-    void print(const char* what) const {
-        std::printf("  %-34s %8zu rays: %7.2f triangle tests/ray, %7.2f node visits/ray, "
-                    "%5.1f%% hit\n",
-                    what, rays, tri_tests / double(rays), node_visits / double(rays),
-                    100.0 * hits / double(rays));
-    }
-};
+void print_work(const char* what, const gpu::RayWork& w) {
+    std::printf("  %-34s %8.0f rays: %7.2f triangle tests/ray, %7.2f node visits/ray, "
+                "%5.1f%% hit\n",
+                what, w.rays, w.tests_per_ray(), w.visits_per_ray(), 100.0 * w.hits / w.rays);
+}
 
 void run_tree(const TreeArgs& a) {
     Scene scene = load_scene_argument(a.scene);
@@ -48,7 +39,7 @@ void run_tree(const TreeArgs& a) {
     gpu::GpuParams p = g.params;
     const int side = std::max(1, int(std::sqrt(double(a.rays))));
     set_camera(p, scene.camera, side, side);
-    RayWork camera, random_rays;
+    gpu::RayWork camera, random_rays;
     for (int y = 0; y < side; ++y) {
         for (int x = 0; x < side; ++x) {
             const float fx = (x + 0.5f) / side * 2 - 1, fy = 1 - (y + 0.5f) / side * 2;
@@ -64,12 +55,12 @@ void run_tree(const TreeArgs& a) {
         r.o = b.min + (b.max - b.min) * glm::vec3(u(rng), u(rng), u(rng));
         const float z = 1 - 2 * u(rng), phi = 6.2831853f * u(rng), s = std::sqrt(1 - z * z);
         r.d = {s * std::cos(phi), s * std::sin(phi), z};
-        r.tmax = 3.4e38f;
+        r.tmax = MCPT_FLT_MAX;
         random_rays.add(cpu_trace(g, r, false));
     }
     std::printf("work per ray (shared traversal on the CPU):\n");
-    camera.print("camera rays");
-    random_rays.print("random rays from inside the bounds");
+    print_work("camera rays", camera);
+    print_work("random rays from inside the bounds", random_rays);
 }
 
 }  // namespace

@@ -1,5 +1,7 @@
 #include "common/accel/cpu_trace.h"
 
+#include "common/gpu/integrator.h"
+
 #include "common/error.h"
 
 namespace mcpt {
@@ -30,6 +32,15 @@ gpu::PathResult cpu_trace_path(const GpuScene& s, const gpu::GpuParams& params, 
     return gpu::trace_path(&params, s.nodes.data(), s.leaf_indices.data(), s.triangles.data(),
                            s.spheres.data(), s.materials.data(), s.lights.data(), pixel,
                            sample_index);
+}
+
+gpu::RayWork cpu_path_work(const GpuScene& s, const gpu::GpuParams& params, uint32_t pixel,
+                           uint32_t sample_index) {
+    gpu::RayWork work;
+    gpu::path_work = &work;
+    cpu_trace_path(s, params, pixel, sample_index);
+    gpu::path_work = nullptr;
+    return work;
 }
 
 }  // namespace mcpt

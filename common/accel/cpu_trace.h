@@ -1,7 +1,8 @@
 // The device traversal and path tracer compiled for the CPU: the same functions the kernels
-// run, used by tests (against brute force) and by `mcpt tree` (work per ray).
+// run, used by tests (against brute force), `mcpt tree` and `mcpt bench` (work per ray).
+// Only the plain data of gpu/ray_types.h is visible here, not the device dialect's macros.
 #pragma once
-#include "common/gpu/integrator.h"
+#include "common/gpu/ray_types.h"
 #include "common/render/gpu_scene.h"
 
 namespace mcpt {
@@ -16,5 +17,9 @@ gpu::Ray cpu_camera_ray(const GpuScene& scene, const gpu::GpuParams& params, flo
 // One path sample through the shared trace_path(); params carries camera and depth settings.
 gpu::PathResult cpu_trace_path(const GpuScene& scene, const gpu::GpuParams& params, uint32_t pixel,
                                uint32_t sample_index);
+
+// The traversal work of every ray (camera, bounce, shadow) of that same path sample.
+gpu::RayWork cpu_path_work(const GpuScene& scene, const gpu::GpuParams& params, uint32_t pixel,
+                           uint32_t sample_index);
 
 }  // namespace mcpt

@@ -10,8 +10,17 @@
 
 MCPT_NAMESPACE_BEGIN
 
-#define MCPT_FLT_MAX 3.402823466e+38f
 #define SHADOW_EPSILON 1.0e-4f
+
+// The C++ build reports every ray trace_path() traces to the thread's RayWork, if one is set
+// (cpu_path_work); devices compile the hook out.
+#if defined(MCPT_CPP)
+inline thread_local RayWork* path_work = nullptr;
+#define MCPT_COUNT_RAY(hit) \
+    if (path_work) path_work->add(hit)
+#else
+#define MCPT_COUNT_RAY(hit)
+#endif
 
 MCPT_FN float quiet_nan() { return uint_as_float(0x7fc00000u); }
 
@@ -148,11 +157,6 @@ MCPT_FN float emitter_hit_pdf(SCENE_PARAMS_ vec3 x, Ray ray, Hit hit, SurfacePoi
     return emitter_area_pdf(SCENE_ARGS_ materials[s.material]) * dot(to_l, to_l) / cos_l;
 }
 
-MCPT_STRUCT(PathResult) {
-    vec3 radiance;
-    uint rays;  // rays traced (camera, bounce and shadow rays)
-};
-
 MCPT_FN PathResult path_result(vec3 radiance, uint rays) {
     PathResult r;
     r.radiance = radiance;
@@ -194,6 +198,7 @@ MCPT_FN PathResult trace_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
         // Find the next vertex.
         Hit hit = trace_ray(SCENE_ARGS_ ray, false);
         rays += 1u;
+        MCPT_COUNT_RAY(hit);
         if (hit.status != 0u) return path_result(V3S(quiet_nan()), rays);
         if (hit.prim == NO_HIT) {
             ended = true;
@@ -233,6 +238,7 @@ MCPT_FN PathResult trace_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
                 shadow.tmax = 1.0f - SHADOW_EPSILON;
                 Hit blocker = trace_ray(SCENE_ARGS_ shadow, true);
                 rays += 1u;
+                MCPT_COUNT_RAY(blocker);
                 if (blocker.status != 0u) return path_result(V3S(quiet_nan()), rays);
                 if (blocker.prim == NO_HIT) {
                     float w = power_heuristic(ls.pdf, diffuse_pdf(n, ls.wi));

@@ -4,18 +4,11 @@
 #ifndef MCPT_GPU_INTERSECT_H
 #define MCPT_GPU_INTERSECT_H
 
+#include "ray_types.h"
 #include "sampling.h"
 #include "shared_types.h"
 
 MCPT_NAMESPACE_BEGIN
-
-#define NO_HIT 0xffffffffu
-
-MCPT_STRUCT(Ray) {
-    vec3 o;
-    vec3 d;
-    float tmax;
-};
 
 // Per-ray constants of the watertight test: the axis of largest |d| becomes z, the shear
 // maps d onto +z. kx/ky are swapped when d.z < 0 to keep the winding.

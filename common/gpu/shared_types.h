@@ -4,7 +4,7 @@
 #ifndef MCPT_GPU_SHARED_TYPES_H
 #define MCPT_GPU_SHARED_TYPES_H
 
-#include "lang.h"
+#include "platform.h"
 
 MCPT_NAMESPACE_BEGIN
 

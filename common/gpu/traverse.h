@@ -9,20 +9,6 @@
 
 MCPT_NAMESPACE_BEGIN
 
-#define SPHERE_BIT 0x80000000u
-#define TRACE_STACK_OVERFLOW 1u
-// A loop ended early without reaching its exit: some drivers cut loops after a fixed number of
-// iterations per invocation (llvmpipe/lavapipe: 65,535, shared by every loop of the shader).
-#define TRACE_INCOMPLETE 2u
-
-MCPT_STRUCT(Hit) {
-    float t;
-    float b1, b2;  // barycentrics of v1, v2 on a triangle hit
-    uint prim;     // triangle index, sphere index | SPHERE_BIT, or NO_HIT
-    uint status;   // 0, TRACE_STACK_OVERFLOW or TRACE_INCOMPLETE (the query is unreliable)
-    uint tri_tests, node_visits;  // counted when MCPT_COUNTERS is defined
-};
-
 // Relative slack on node-interval pruning: visiting a child too many is harmless, skipping
 // one the ray reaches after rounding is not.
 #define KD_SLACK 1.0e-6f

@@ -1,0 +1,83 @@
+// The declaring half of the device dialect: which language compiles this file, its vector
+// types, and the MCPT_-prefixed macros for structs, functions, namespaces and buffers. Host
+// code that needs the shared structs (shared_types.h, ray_types.h) includes only this; the
+// expression dialect (V3, F32, ABSF, ...) is in lang.h and stays inside device code.
+#ifndef MCPT_GPU_PLATFORM_H
+#define MCPT_GPU_PLATFORM_H
+
+#if defined(__OPENCL_VERSION__) || defined(__OPENCL_C_VERSION__)
+#define MCPT_OPENCL 1
+#elif defined(GL_core_profile) || defined(VULKAN) || defined(MCPT_GLSL)
+#ifndef MCPT_GLSL
+#define MCPT_GLSL 1
+#endif
+#else
+#define MCPT_CPP 1
+#endif
+
+// ---------------------------------------------------------------- C++ (GLM mirrors GLSL)
+#if defined(MCPT_CPP)
+// The C++ build always counts traversal work (mcpt tree reports it; one definition only).
+#define MCPT_COUNTERS 1
+#include <glm/glm.hpp>
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+namespace mcpt::gpu {
+using uint = uint32_t;
+using glm::vec2;
+using glm::vec3;
+using glm::vec4;
+using glm::uvec2;
+using glm::uvec4;
+using glm::clamp;
+using glm::cross;
+using glm::dot;
+using glm::length;
+using glm::max;
+using glm::min;
+using glm::mix;
+using glm::normalize;
+using std::abs;
+using std::floor;
+using std::sqrt;
+inline float inversesqrt(float x) { return 1.0f / std::sqrt(x); }
+inline uint float_as_uint(float f) { uint u; std::memcpy(&u, &f, 4); return u; }
+inline float uint_as_float(uint u) { float f; std::memcpy(&f, &u, 4); return f; }
+inline float fmax3(float a, float b, float c) { return std::max(a, std::max(b, c)); }
+}  // namespace mcpt::gpu
+#define MCPT_FN inline
+#define MCPT_STRUCT(name) struct name
+#define MCPT_NAMESPACE_BEGIN namespace mcpt::gpu {
+#define MCPT_NAMESPACE_END }
+#define MCPT_GLOBAL
+#define MCPT_CONST_BUF const
+
+// ---------------------------------------------------------------- OpenCL C
+#elif defined(MCPT_OPENCL)
+#define vec2 float2
+#define vec3 float3
+#define vec4 float4
+#define uvec2 uint2
+#define uvec4 uint4
+#define MCPT_FN inline
+#define MCPT_STRUCT(name) \
+    typedef struct name name; \
+    struct name
+#define MCPT_NAMESPACE_BEGIN
+#define MCPT_NAMESPACE_END
+#define MCPT_GLOBAL __global
+#define MCPT_CONST_BUF __global const
+
+// ---------------------------------------------------------------- GLSL (Vulkan)
+#else
+#define MCPT_FN
+#define MCPT_STRUCT(name) struct name
+#define MCPT_NAMESPACE_BEGIN
+#define MCPT_NAMESPACE_END
+#define MCPT_GLOBAL
+#define MCPT_CONST_BUF
+#endif
+
+#endif  // MCPT_GPU_PLATFORM_H
