@@ -14,7 +14,8 @@ int main(int argc, char** argv) {
         mcpt_session_release(s);
         return 1;
     }
-    printf("mcpt %s: %llu spp, relative error %.2f%%\n", mcpt_version_string(),
-           (unsigned long long)stats.spp, 100.0 * stats.relative_error);
+    printf("mcpt %s: %llu spp, ", mcpt_version_string(), (unsigned long long)stats.spp);
+    if (stats.relative_error < 0) printf("error unknown (under 2 spp)\n");
+    else printf("relative error %.2f%%\n", 100.0 * stats.relative_error);
     return mcpt_session_release(s) == MCPT_OK ? 0 : 1;
 }

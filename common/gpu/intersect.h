@@ -45,6 +45,9 @@ MCPT_FN vec3 tri_v0(GpuTriangle tri) { return V3(tri.v0x, tri.v0y, tri.v0z); }
 MCPT_FN vec3 tri_v1(GpuTriangle tri) { return V3(tri.v1x, tri.v1y, tri.v1z); }
 MCPT_FN vec3 tri_v2(GpuTriangle tri) { return V3(tri.v2x, tri.v2y, tri.v2z); }
 
+#if defined(MCPT_OPENCL)
+#pragma OPENCL FP_CONTRACT OFF
+#endif
 // Watertight ray-triangle test; hits with 0 < t < tmax. A ray through a shared edge or
 // vertex hits at least one of the triangles that share it.
 MCPT_FN TriHit intersect_triangle(Ray ray, WoopRay w, GpuTriangle tri) {
@@ -59,14 +62,15 @@ MCPT_FN TriHit intersect_triangle(Ray ray, WoopRay w, GpuTriangle tri) {
     vec3 b = tri_v1(tri) - ray.o;
     vec3 c = tri_v2(tri) - ray.o;
     float az = vec3_at(a, w.kz), bz = vec3_at(b, w.kz), cz = vec3_at(c, w.kz);
-    // Shear and scale into ray space.
-    float ax = vec3_at(a, w.kx) - w.sx * az, ay = vec3_at(a, w.ky) - w.sy * az;
-    float bx = vec3_at(b, w.kx) - w.sx * bz, by = vec3_at(b, w.ky) - w.sy * bz;
-    float cx = vec3_at(c, w.kx) - w.sx * cz, cy = vec3_at(c, w.ky) - w.sy * cz;
-    // Scaled barycentrics from 2D edge functions.
-    float u = cx * by - cy * bx;
-    float v = ax * cy - ay * cx;
-    float wv = bx * ay - by * ax;
+    // Shear and scale into ray space (exactly as written, so every call site agrees).
+    MCPT_PRECISE float ax = vec3_at(a, w.kx) - w.sx * az, ay = vec3_at(a, w.ky) - w.sy * az;
+    MCPT_PRECISE float bx = vec3_at(b, w.kx) - w.sx * bz, by = vec3_at(b, w.ky) - w.sy * bz;
+    MCPT_PRECISE float cx = vec3_at(c, w.kx) - w.sx * cz, cy = vec3_at(c, w.ky) - w.sy * cz;
+    // Scaled barycentrics from 2D edge functions, rounded exactly as written: a shared edge
+    // must give its two triangles values of opposite sign, which a fused multiply-add breaks.
+    MCPT_PRECISE float u = cx * by - cy * bx;
+    MCPT_PRECISE float v = ax * cy - ay * cx;
+    MCPT_PRECISE float wv = bx * ay - by * ax;
     if ((u < 0.0f || v < 0.0f || wv < 0.0f) && (u > 0.0f || v > 0.0f || wv > 0.0f)) return h;
     float det = u + v + wv;
     if (det == 0.0f) return h;
@@ -94,6 +98,9 @@ MCPT_FN TriHit intersect_triangle(Ray ray, WoopRay w, GpuTriangle tri) {
     h.hit = h.t > delta_t && h.t < ray.tmax;
     return h;
 }
+#if defined(MCPT_OPENCL)
+#pragma OPENCL FP_CONTRACT ON
+#endif
 
 // Nearest sphere hit with 0 < t < tmax, or -1.
 MCPT_FN float intersect_sphere(Ray ray, GpuSphere s) {

@@ -1,5 +1,6 @@
 // The declaring half of the device dialect: which language compiles this file, its vector
-// types, and the MCPT_-prefixed macros for structs, functions, namespaces and buffers. Host
+// types, and the MCPT_-prefixed macros for structs, functions, namespaces and buffers
+// (MCPT_PRECISE: a value computed exactly as written, without fused multiply-adds). Host
 // code that needs the shared structs (shared_types.h, ray_types.h) includes only this; the
 // expression dialect (V3, F32, ABSF, ...) is in lang.h and stays inside device code.
 #ifndef MCPT_GPU_PLATFORM_H
@@ -53,6 +54,7 @@ inline float fmax3(float a, float b, float c) { return std::max(a, std::max(b, c
 #define MCPT_NAMESPACE_END }
 #define MCPT_GLOBAL
 #define MCPT_CONST_BUF const
+#define MCPT_PRECISE  // the build compiles with -ffp-contract=off
 
 // ---------------------------------------------------------------- OpenCL C
 #elif defined(MCPT_OPENCL)
@@ -69,6 +71,7 @@ inline float fmax3(float a, float b, float c) { return std::max(a, std::max(b, c
 #define MCPT_NAMESPACE_END
 #define MCPT_GLOBAL __global
 #define MCPT_CONST_BUF __global const
+#define MCPT_PRECISE  // the OpenCL sources turn FP_CONTRACT off where it matters
 
 // ---------------------------------------------------------------- GLSL (Vulkan)
 #else
@@ -78,6 +81,7 @@ inline float fmax3(float a, float b, float c) { return std::max(a, std::max(b, c
 #define MCPT_NAMESPACE_END
 #define MCPT_GLOBAL
 #define MCPT_CONST_BUF
+#define MCPT_PRECISE precise  // SPIR-V NoContraction: no fused multiply-add
 #endif
 
 #endif  // MCPT_GPU_PLATFORM_H
