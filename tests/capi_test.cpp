@@ -230,12 +230,13 @@ TEST(CApi, MalformedMemoryScenes) {
         // The same buffer as a file: the data URI's base64 payload decoded.
         const std::string b64 = payload.substr(payload.find(',') + 1);
         std::string bin;
-        int val = 0, bits = -8;
+        uint32_t val = 0;
+        int bits = -8;
         for (unsigned char c : b64) {
             const char* table = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
             const char* p = std::strchr(table, c);
             if (c == '=' || p == nullptr) break;
-            val = (val << 6) + int(p - table), bits += 6;
+            val = (val << 6) + uint32_t(p - table), bits += 6;
             if (bits >= 0) bin.push_back(char((val >> bits) & 0xff)), bits -= 8;
         }
         std::ofstream(dir / "triangle.bin", std::ios::binary) << bin;
