@@ -100,12 +100,12 @@ PassStats Session::render(double budget_ms, double target_error, uint64_t max_sp
         if (t + progressive_->last_pass_seconds() > budget_s) break;
     }
     progressive_->flush();
-    st.seconds = elapsed();
-    r.seconds += st.seconds;
     st.samples = r.spp - spp_before;
     st.spp = r.spp;
     st.relative_error = r.relative_error();
     st.target_reached = target_error > 0 && st.relative_error <= target_error;
+    st.seconds = elapsed();  // the whole call, error estimate included
+    r.seconds += st.seconds;
     cancel_.store(false);
     return st;
 }
