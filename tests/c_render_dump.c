@@ -10,7 +10,8 @@ int main(int argc, char** argv) {
     FILE* f = NULL;
     if (argc != 3 && argc != 4) return 2;
     if (mcpt_session_create(argv[1], &s) != MCPT_OK || mcpt_session_load_builtin(s, "cornell") ||
-        mcpt_session_set_size(s, 32, 32) || mcpt_session_set_seed(s, argc == 4 ? (uint32_t)atoi(argv[3]) : 7) ||
+        mcpt_session_set_size(s, 32, 32) ||
+        mcpt_session_set_seed(s, argc == 4 ? (uint32_t)atoi(argv[3]) : 7) ||
         mcpt_session_set_reproducible(s, 1) || mcpt_session_render(s, 1e6, 0, 8, NULL) ||
         mcpt_session_read_rgba8(s, px, sizeof px)) {
         fprintf(stderr, "c_render_dump: %s\n", mcpt_last_error(s));

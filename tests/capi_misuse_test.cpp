@@ -1,10 +1,10 @@
 // The C API's answers that need no device: versions, status names, and calls with NULL or
 // made-up handles, or a backend this build lacks. (capi_test.cpp covers live sessions.)
-#include "mcpt/mcpt.h"
-
 #include <gtest/gtest.h>
 
 #include <string>
+
+#include "mcpt/mcpt.h"
 
 TEST(CApiMisuse, Version) {
     EXPECT_EQ(mcpt_version(),

@@ -1,16 +1,13 @@
 // The C API (include/mcpt/mcpt.h): every misuse gets a status and a message, never a crash;
 // loading from memory; passes with budgets, sample caps and target errors; cancel from
 // another thread; reproducible images. Runs on both APIs' test devices.
-#include "mcpt/mcpt.h"
-
 #include <gtest/gtest.h>
-
 #include <unistd.h>
 
 #include <chrono>
 #include <cmath>
-#include <cstring>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -19,6 +16,7 @@
 #include <thread>
 #include <vector>
 
+#include "mcpt/mcpt.h"
 #include "test_util.h"
 
 namespace {
@@ -28,7 +26,9 @@ std::vector<unsigned char> read_bytes(const std::string& path) {
     return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
-std::string data(const char* name) { return std::string(MCPT_TEST_DATA_DIR) + "/" + name; }
+std::string data(const char* name) {
+    return std::string(MCPT_TEST_DATA_DIR) + "/" + name;
+}
 
 // The C API's spec of a test API's device.
 std::string spec_of(const std::string& api) {
@@ -211,8 +211,7 @@ TEST(CApi, MalformedMemoryScenes) {
     const std::vector<unsigned char> glb = read_bytes(data("cube_box.glb"));
     ASSERT_GT(glb.size(), 100u);
     for (size_t cut : {size_t(12), size_t(40), glb.size() / 2, glb.size() - 1}) {
-        EXPECT_EQ(mcpt_session_load_memory(s.s, glb.data(), cut, nullptr), MCPT_ERROR_SCENE)
-            << cut;
+        EXPECT_EQ(mcpt_session_load_memory(s.s, glb.data(), cut, nullptr), MCPT_ERROR_SCENE) << cut;
     }
     // A .gltf whose buffer is an external file: refused without a folder, read with one.
     const std::filesystem::path dir =
@@ -245,8 +244,7 @@ TEST(CApi, MalformedMemoryScenes) {
               MCPT_ERROR_SCENE);
     EXPECT_NE(s.error().find("external file 'triangle.bin' refused"), std::string::npos)
         << s.error();
-    EXPECT_EQ(mcpt_session_load_memory(s.s, external.data(), external.size(),
-                                       dir.string().c_str()),
+    EXPECT_EQ(mcpt_session_load_memory(s.s, external.data(), external.size(), dir.string().c_str()),
               MCPT_OK)
         << s.error();
     std::filesystem::remove_all(dir);

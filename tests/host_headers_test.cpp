@@ -9,7 +9,7 @@
 #include "mcpt/mcpt.h"
 
 #if defined(V3) || defined(V3S) || defined(F32) || defined(U32) || defined(I32) || \
-    defined(ABSF) || defined(MINF) || defined(PARAM) || defined(SCENE_ARGS_) || \
+    defined(ABSF) || defined(MINF) || defined(PARAM) || defined(SCENE_ARGS_) ||    \
     defined(HAS_FEATURE) || defined(SELECT3)
 #error "a device dialect macro leaks into host code"
 #endif

@@ -11,7 +11,9 @@
 
 namespace {
 
-mcpt_session handle(jlong s) { return reinterpret_cast<mcpt_session>(static_cast<intptr_t>(s)); }
+mcpt_session handle(jlong s) {
+    return reinterpret_cast<mcpt_session>(static_cast<intptr_t>(s));
+}
 
 void throw_error(JNIEnv* env, int status, const std::string& message) {
     if (env->ExceptionCheck()) return;  // one pending exception at a time
@@ -71,7 +73,9 @@ jobjectArray strings(JNIEnv* env, const std::vector<std::string>& v) {
 
 #define JNI_FN(name) extern "C" JNIEXPORT auto JNICALL Java_org_mcpt_Renderer_##name
 
-JNI_FN(version)(JNIEnv* env, jclass)->jstring { return env->NewStringUTF(mcpt_version_string()); }
+JNI_FN(version)(JNIEnv* env, jclass)->jstring {
+    return env->NewStringUTF(mcpt_version_string());
+}
 
 JNI_FN(devices)(JNIEnv* env, jclass)->jobjectArray {
     size_t n = 0;
@@ -114,7 +118,8 @@ JNI_FN(nativeLoadMemory)(JNIEnv* env, jclass, jlong s, jbyteArray data)->void {
 
 JNI_FN(nativeLoadFile)(JNIEnv* env, jclass, jlong s, jstring path)->void {
     std::string p;
-    if (open(env, s) && utf8(env, path, p)) check(env, s, mcpt_session_load_file(handle(s), p.c_str()));
+    if (open(env, s) && utf8(env, path, p))
+        check(env, s, mcpt_session_load_file(handle(s), p.c_str()));
 }
 
 JNI_FN(nativeLoadBuiltin)(JNIEnv* env, jclass, jlong s, jstring name)->void {
@@ -149,15 +154,16 @@ JNI_FN(nativeSetReproducible)(JNIEnv* env, jclass, jlong s, jboolean on)->void {
     if (open(env, s)) check(env, s, mcpt_session_set_reproducible(handle(s), on ? 1 : 0));
 }
 
-JNI_FN(nativeRender)(JNIEnv* env, jclass, jlong s, jdouble budget, jdouble target,
-                     jlong max_spp)->jobject {
+JNI_FN(nativeRender)
+(JNIEnv* env, jclass, jlong s, jdouble budget, jdouble target, jlong max_spp)->jobject {
     if (!open(env, s)) return nullptr;
     if (max_spp < 0) {
         throw_error(env, MCPT_ERROR_INVALID_ARGUMENT, "maxSpp must be >= 0");
         return nullptr;
     }
     mcpt_render_stats st{};
-    const mcpt_status status = mcpt_session_render(handle(s), budget, target, uint64_t(max_spp), &st);
+    const mcpt_status status =
+        mcpt_session_render(handle(s), budget, target, uint64_t(max_spp), &st);
     if (!check(env, s, status)) return nullptr;
     jclass cls = env->FindClass("org/mcpt/RenderStats");
     if (!cls) return nullptr;
@@ -194,7 +200,8 @@ JNI_FN(nativeReadRgba8Array)(JNIEnv* env, jclass, jlong s, jbyteArray out)->void
     if (!out) return throw_error(env, MCPT_ERROR_INVALID_ARGUMENT, "array is null");
     std::vector<uint8_t> px(size_t(env->GetArrayLength(out)));
     if (check(env, s, mcpt_session_read_rgba8(handle(s), px.data(), px.size())))
-        env->SetByteArrayRegion(out, 0, jsize(px.size()), reinterpret_cast<const jbyte*>(px.data()));
+        env->SetByteArrayRegion(out, 0, jsize(px.size()),
+                                reinterpret_cast<const jbyte*>(px.data()));
 }
 
 JNI_FN(nativeReadRgba32f)(JNIEnv* env, jclass, jlong s, jfloatArray out)->void {

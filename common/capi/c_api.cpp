@@ -1,8 +1,6 @@
 // include/mcpt/mcpt.h over the engine: handles are ids in a table (never pointers that a stale
 // handle could reach), every entry point catches everything, and messages are kept per
 // session (or per thread where there is no session).
-#include "mcpt/mcpt.h"
-
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -17,6 +15,7 @@
 #include "common/render/scene_features.h"
 #include "common/render/session.h"
 #include "common/scene/scene_load.h"
+#include "mcpt/mcpt.h"
 
 namespace {
 
@@ -37,7 +36,7 @@ struct SessionBox {
 
 // The table of live sessions: handle value -> session.
 class Handles {
-public:
+  public:
     mcpt_session add(std::shared_ptr<SessionBox> box) {
         std::lock_guard<std::mutex> lock(mutex_);
         const uintptr_t id = next_;
@@ -59,7 +58,7 @@ public:
         return box;
     }
 
-private:
+  private:
     std::mutex mutex_;
     std::unordered_map<uintptr_t, std::shared_ptr<SessionBox>> boxes_;
     uintptr_t next_ = 0x6d637074000ull & ~uintptr_t(15);
@@ -70,8 +69,8 @@ Handles& handles() {
     return *h;
 }
 
-thread_local std::string t_thread_error;   // failures without a live session
-thread_local std::string t_returned_error; // what mcpt_last_error() handed out
+thread_local std::string t_thread_error;    // failures without a live session
+thread_local std::string t_returned_error;  // what mcpt_last_error() handed out
 
 mcpt_status thread_fail(mcpt_status status, const std::string& message) {
     t_thread_error = message;
@@ -108,22 +107,31 @@ mcpt_status guarded(mcpt_status context, std::string& message, Body&& body) {
     }
 }
 
+// The session's box, found (or taken out of the table when `remove`); null with the status
+// set (and the thread's message) when the handle is not a live session.
+std::shared_ptr<SessionBox> lookup(mcpt_session s, bool remove, mcpt_status& st) {
+    std::shared_ptr<SessionBox> box;
+    try {
+        box = remove ? handles().remove(s) : handles().find(s);
+    } catch (...) {
+        st = thread_fail(MCPT_ERROR_INTERNAL, "internal error: handle table");
+        return nullptr;
+    }
+    if (!box) {
+        st = thread_fail(MCPT_ERROR_INVALID_HANDLE,
+                         s == nullptr ? "NULL session handle"
+                                      : "invalid session handle (released or never created)");
+    }
+    return box;
+}
+
 // Looks up the session and runs body(Session&) under its lock.
 template <class Body>
 mcpt_status with_session(mcpt_session s, mcpt_status context, Body&& body) {
-    std::shared_ptr<SessionBox> box;
-    try {
-        box = handles().find(s);
-    } catch (...) {
-        return thread_fail(MCPT_ERROR_INTERNAL, "internal error: handle table");
-    }
-    if (!box) {
-        return thread_fail(MCPT_ERROR_INVALID_HANDLE,
-                           s == nullptr ? "NULL session handle"
-                                        : "invalid session handle (released or never created)");
-    }
+    mcpt_status st = MCPT_OK;
+    const std::shared_ptr<SessionBox> box = lookup(s, false, st);
+    if (!box) return st;
     std::string message;
-    mcpt_status st;
     {
         std::lock_guard<std::mutex> lock(box->mutex);
         if (!box->session) {
@@ -175,20 +183,32 @@ int mcpt_version(void) {
     return MCPT_VERSION_MAJOR * 10000 + MCPT_VERSION_MINOR * 100 + MCPT_VERSION_PATCH;
 }
 
-const char* mcpt_version_string(void) { return MCPT_VERSION_STRING; }
+const char* mcpt_version_string(void) {
+    return MCPT_VERSION_STRING;
+}
 
 const char* mcpt_status_name(mcpt_status status) {
     switch (status) {
-        case MCPT_OK: return "MCPT_OK";
-        case MCPT_CANCELLED: return "MCPT_CANCELLED";
-        case MCPT_ERROR_INVALID_ARGUMENT: return "MCPT_ERROR_INVALID_ARGUMENT";
-        case MCPT_ERROR_INVALID_HANDLE: return "MCPT_ERROR_INVALID_HANDLE";
-        case MCPT_ERROR_INVALID_STATE: return "MCPT_ERROR_INVALID_STATE";
-        case MCPT_ERROR_SCENE: return "MCPT_ERROR_SCENE";
-        case MCPT_ERROR_DEVICE: return "MCPT_ERROR_DEVICE";
-        case MCPT_ERROR_IO: return "MCPT_ERROR_IO";
-        case MCPT_ERROR_OUT_OF_MEMORY: return "MCPT_ERROR_OUT_OF_MEMORY";
-        case MCPT_ERROR_INTERNAL: return "MCPT_ERROR_INTERNAL";
+        case MCPT_OK:
+            return "MCPT_OK";
+        case MCPT_CANCELLED:
+            return "MCPT_CANCELLED";
+        case MCPT_ERROR_INVALID_ARGUMENT:
+            return "MCPT_ERROR_INVALID_ARGUMENT";
+        case MCPT_ERROR_INVALID_HANDLE:
+            return "MCPT_ERROR_INVALID_HANDLE";
+        case MCPT_ERROR_INVALID_STATE:
+            return "MCPT_ERROR_INVALID_STATE";
+        case MCPT_ERROR_SCENE:
+            return "MCPT_ERROR_SCENE";
+        case MCPT_ERROR_DEVICE:
+            return "MCPT_ERROR_DEVICE";
+        case MCPT_ERROR_IO:
+            return "MCPT_ERROR_IO";
+        case MCPT_ERROR_OUT_OF_MEMORY:
+            return "MCPT_ERROR_OUT_OF_MEMORY";
+        case MCPT_ERROR_INTERNAL:
+            return "MCPT_ERROR_INTERNAL";
     }
     return "unknown status";
 }
@@ -235,17 +255,9 @@ mcpt_status mcpt_session_create(const char* device, mcpt_session* out) {
 }
 
 mcpt_status mcpt_session_release(mcpt_session s) {
-    std::shared_ptr<SessionBox> box;
-    try {
-        box = handles().remove(s);
-    } catch (...) {
-        return thread_fail(MCPT_ERROR_INTERNAL, "internal error: handle table");
-    }
-    if (!box) {
-        return thread_fail(MCPT_ERROR_INVALID_HANDLE,
-                           s == nullptr ? "NULL session handle"
-                                        : "invalid session handle (released or never created)");
-    }
+    mcpt_status found = MCPT_OK;
+    const std::shared_ptr<SessionBox> box = lookup(s, true, found);
+    if (!box) return found;
     // Stop a render in progress, wait for it, then free the device.
     std::string message;
     const mcpt_status st = guarded(MCPT_ERROR_INTERNAL, message, [&] {
@@ -390,13 +402,10 @@ mcpt_status mcpt_session_render(mcpt_session s, double budget_ms, double target_
 
 mcpt_status mcpt_session_cancel(mcpt_session s) {
     // No session lock: a render holds it.
+    mcpt_status found = MCPT_OK;
+    const std::shared_ptr<SessionBox> box = lookup(s, false, found);
+    if (!box) return found;
     try {
-        std::shared_ptr<SessionBox> box = handles().find(s);
-        if (!box) {
-            return thread_fail(MCPT_ERROR_INVALID_HANDLE,
-                               s == nullptr ? "NULL session handle"
-                                            : "invalid session handle (released or never created)");
-        }
         std::lock_guard<std::mutex> lock(box->error_mutex);
         if (box->session) box->session->cancel();
         return MCPT_OK;

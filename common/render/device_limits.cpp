@@ -8,9 +8,12 @@ namespace mcpt {
 
 std::string human_bytes(uint64_t b) {
     std::ostringstream o;
-    if (b >= (1ull << 30)) o << double(b) / double(1ull << 30) << " GiB";
-    else if (b >= (1ull << 20)) o << double(b) / double(1ull << 20) << " MiB";
-    else o << b << " B";
+    if (b >= (1ull << 30))
+        o << double(b) / double(1ull << 30) << " GiB";
+    else if (b >= (1ull << 20))
+        o << double(b) / double(1ull << 20) << " MiB";
+    else
+        o << b << " B";
     return o.str();
 }
 

@@ -16,8 +16,8 @@ TreeOptions tree_options(const std::string& kind, int depth) {
     return o;
 }
 
-GpuScene prepare_scene(const Scene& scene, const DeviceInfo& device, TreeOptions tree,
-                       int width, int height) {
+GpuScene prepare_scene(const Scene& scene, const DeviceInfo& device, TreeOptions tree, int width,
+                       int height) {
     if (width <= 0 || height <= 0 || width > 16384 || height > 16384)
         throw Error("image size must be between 1x1 and 16384x16384");
     tree.auto_model = tree_cost_model(device);

@@ -17,8 +17,8 @@ TreeOptions tree_options(const std::string& kind, int depth = -1);
 // Builds the tree (TreeKind::Auto with `device`'s cost model), packs the scene and checks it
 // against `device`'s limits for a width x height image. GpuScene::tree_kind and tree_choice
 // record the tree it chose and why. Throws mcpt::Error.
-GpuScene prepare_scene(const Scene& scene, const DeviceInfo& device, TreeOptions tree,
-                       int width, int height);
+GpuScene prepare_scene(const Scene& scene, const DeviceInfo& device, TreeOptions tree, int width,
+                       int height);
 
 // "sah: 1234 nodes, 567 leaves, depth 19, 2.1 refs/leaf, 3.20 ms, 12345 bytes".
 std::string describe_tree(const GpuScene& scene);

@@ -13,7 +13,8 @@ std::vector<float> RenderResult::mean_image() const {
     std::vector<float> img(3 * n, 0.f);
     for (size_t i = 0; i < n; ++i) {
         const double count = double(spp) - nonfinite[i];
-        for (int c = 0; c < 3; ++c) img[3 * i + c] = count > 0 ? float(sum[3 * i + c] / count) : 0.f;
+        for (int c = 0; c < 3; ++c)
+            img[3 * i + c] = count > 0 ? float(sum[3 * i + c] / count) : 0.f;
     }
     return img;
 }
@@ -26,8 +27,8 @@ std::vector<float> RenderResult::std_error_image() const {
         if (count < 2) continue;
         for (int c = 0; c < 3; ++c) {
             const double mean = sum[3 * i + c] / count;
-            const double var = std::max(0.0, (sum_sq[3 * i + c] / count - mean * mean)) *
-                               count / (count - 1);
+            const double var =
+                std::max(0.0, (sum_sq[3 * i + c] / count - mean * mean)) * count / (count - 1);
             err[3 * i + c] = float(std::sqrt(var / count));
         }
     }
@@ -59,8 +60,8 @@ RenderResult render(Backend& backend, const GpuScene& scene, const Camera& camer
     return render_loaded(backend, scene, camera, opt, progress);
 }
 
-ProgressiveRender::ProgressiveRender(Backend& backend, const GpuScene& scene,
-                                     const Camera& camera, const RenderOptions& opt)
+ProgressiveRender::ProgressiveRender(Backend& backend, const GpuScene& scene, const Camera& camera,
+                                     const RenderOptions& opt)
     : backend_(backend), opt_(opt) {
     npix_ = uint32_t(opt.width) * uint32_t(opt.height);
     p_ = scene.params;

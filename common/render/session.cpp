@@ -52,8 +52,8 @@ void Session::commit() {
     progressive_.reset();
     dirty_ = true;
     // Tree, layout, limits; then compile and upload.
-    prepared_ = prepare_scene(scene_, device(), tree_options(s.tree, s.tree_depth), s.width,
-                              s.height);
+    prepared_ =
+        prepare_scene(scene_, device(), tree_options(s.tree, s.tree_depth), s.width, s.height);
     GpuScene to_load = prepared_;
     if (!s.specialize) to_load.features = FEATURE_ALL;
     backend_->load(to_load, s.width, s.height);
@@ -110,7 +110,9 @@ PassStats Session::render(double budget_ms, double target_error, uint64_t max_sp
     return st;
 }
 
-void Session::reset() { dirty_ = true; }
+void Session::reset() {
+    dirty_ = true;
+}
 
 const RenderResult& Session::result() const {
     return progressive_ ? progressive_->result() : empty_;
@@ -130,8 +132,7 @@ std::vector<float> Session::image_rgba32f() const {
 std::vector<uint8_t> Session::image_rgba8() const {
     const std::vector<float> rgba = image_rgba32f();
     std::vector<uint8_t> out(rgba.size());
-    for (size_t i = 0; i < rgba.size(); ++i)
-        out[i] = (i % 4 == 3) ? 255 : linear_to_srgb8(rgba[i]);
+    for (size_t i = 0; i < rgba.size(); ++i) out[i] = (i % 4 == 3) ? 255 : linear_to_srgb8(rgba[i]);
     return out;
 }
 

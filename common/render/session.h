@@ -24,12 +24,12 @@ struct SessionSettings {
     std::string tree = "auto";  // auto | sah | median | none
     int tree_depth = -1;        // tree depth limit; -1: the kind's default
     uint32_t seed = 0;
-    bool specialize = true;     // compile only the features the scene uses
+    bool specialize = true;  // compile only the features the scene uses
     // Every sample added to the double sums on its own, so the image depends only on the seed
     // and the sample count, not on how passes were timed (slower: one read-back per sample).
     bool reproducible = false;
-    double dispatch_ms = 30;    // target duration of one dispatch
-    float light_scale = 1.f;    // negative controls only
+    double dispatch_ms = 30;  // target duration of one dispatch
+    float light_scale = 1.f;  // negative controls only
 };
 
 // What one render() call did.
@@ -43,7 +43,7 @@ struct PassStats {
 };
 
 class Session {
-public:
+  public:
     // Opens the device of `spec` ("opencl", "vulkan:1", see device_registry.h).
     explicit Session(const std::string& device_spec, BackendOptions options = {});
     explicit Session(std::unique_ptr<Backend> backend);
@@ -92,7 +92,7 @@ public:
     std::vector<uint8_t> image_rgba8() const;
     void write_image(const std::string& path) const;
 
-private:
+  private:
     std::unique_ptr<Backend> backend_;
     Scene scene_;
     bool has_scene_ = false;

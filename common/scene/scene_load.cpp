@@ -32,7 +32,7 @@ Scene validated(Scene scene) {
 Scene load_scene(const std::string& arg) {
     // A file by extension, else a built-in name.
     return validated((ends_with(arg, ".gltf") || ends_with(arg, ".glb")) ? load_gltf(arg)
-                                                                          : make_builtin_scene(arg));
+                                                                         : make_builtin_scene(arg));
 }
 
 Scene load_scene_memory(const void* data, size_t size, const std::string& name,

@@ -57,16 +57,16 @@ MCPT_API const char* mcpt_version_string(void);
 
 typedef enum mcpt_status {
     MCPT_OK = 0,
-    MCPT_CANCELLED = 1,                 /* a render ended by mcpt_session_cancel(); the
-                                           samples it took are kept */
-    MCPT_ERROR_INVALID_ARGUMENT = -1,   /* NULL pointer, value out of range, buffer too small */
-    MCPT_ERROR_INVALID_HANDLE = -2,     /* NULL, released or unknown session */
-    MCPT_ERROR_INVALID_STATE = -3,      /* out of order: rendering before a scene is loaded,
-                                           reading an image before anything is rendered */
-    MCPT_ERROR_SCENE = -4,              /* a scene that cannot be read or rendered */
-    MCPT_ERROR_DEVICE = -5,             /* no such device, a driver failure, a scene or image
-                                           beyond the device's limits */
-    MCPT_ERROR_IO = -6,                 /* a file that cannot be written */
+    MCPT_CANCELLED = 1,               /* a render ended by mcpt_session_cancel(); the
+                                         samples it took are kept */
+    MCPT_ERROR_INVALID_ARGUMENT = -1, /* NULL pointer, value out of range, buffer too small */
+    MCPT_ERROR_INVALID_HANDLE = -2,   /* NULL, released or unknown session */
+    MCPT_ERROR_INVALID_STATE = -3,    /* out of order: rendering before a scene is loaded,
+                                         reading an image before anything is rendered */
+    MCPT_ERROR_SCENE = -4,            /* a scene that cannot be read or rendered */
+    MCPT_ERROR_DEVICE = -5,           /* no such device, a driver failure, a scene or image
+                                         beyond the device's limits */
+    MCPT_ERROR_IO = -6,               /* a file that cannot be written */
     MCPT_ERROR_OUT_OF_MEMORY = -7,
     MCPT_ERROR_INTERNAL = -8
 } mcpt_status;
@@ -85,12 +85,12 @@ MCPT_API const char* mcpt_last_error(mcpt_session session);
 /* ---- 3. Devices */
 
 typedef struct mcpt_device_info {
-    char api[16];        /* "opencl" | "vulkan" */
-    int index;           /* position in that API's device list */
-    char name[256];      /* device name */
-    char platform[256];  /* OpenCL platform or Vulkan driver */
-    char type[16];       /* "gpu" | "cpu" | "other" */
-    char spec[32];       /* what mcpt_session_create() takes for it, e.g. "vulkan:0" */
+    char api[16];       /* "opencl" | "vulkan" */
+    int index;          /* position in that API's device list */
+    char name[256];     /* device name */
+    char platform[256]; /* OpenCL platform or Vulkan driver */
+    char type[16];      /* "gpu" | "cpu" | "other" */
+    char spec[32];      /* what mcpt_session_create() takes for it, e.g. "vulkan:0" */
 } mcpt_device_info;
 
 /* Every device of every API this build has. Writes at most `capacity` entries to `devices`
@@ -119,8 +119,8 @@ MCPT_API mcpt_status mcpt_session_load_file(mcpt_session session, const char* pa
 /* A .glb or .gltf held in memory, e.g. read from an Android app's assets. External files
  * that a .gltf references are read from base_dir only; with base_dir NULL the file system is
  * never touched. The bytes are not kept after the call. */
-MCPT_API mcpt_status mcpt_session_load_memory(mcpt_session session, const void* data,
-                                              size_t size, const char* base_dir);
+MCPT_API mcpt_status mcpt_session_load_memory(mcpt_session session, const void* data, size_t size,
+                                              const char* base_dir);
 
 /* A built-in scene: "cornell" (the default scene), "furnace", "spheres". */
 MCPT_API mcpt_status mcpt_session_load_builtin(mcpt_session session, const char* name);
@@ -128,10 +128,10 @@ MCPT_API mcpt_status mcpt_session_load_builtin(mcpt_session session, const char*
 /* What the session renders, after the first render (or mcpt_session_commit()). */
 typedef struct mcpt_scene_info {
     uint64_t triangles, spheres, materials, lights;
-    char tree[16];           /* the k-d tree built: "sah" | "median" | "none" */
-    char tree_reason[512];   /* with tree "auto": why that tree ("" otherwise) */
-    char features[256];      /* the device features the scene uses, compiled in */
-    int max_bounces;         /* in effect */
+    char tree[16];         /* the k-d tree built: "sah" | "median" | "none" */
+    char tree_reason[512]; /* with tree "auto": why that tree ("" otherwise) */
+    char features[256];    /* the device features the scene uses, compiled in */
+    int max_bounces;       /* in effect */
 } mcpt_scene_info;
 MCPT_API mcpt_status mcpt_session_scene_info(mcpt_session session, mcpt_scene_info* out);
 
@@ -158,12 +158,12 @@ MCPT_API mcpt_status mcpt_session_commit(mcpt_session session);
 /* ---- 7. Rendering */
 
 typedef struct mcpt_render_stats {
-    uint64_t samples;        /* samples per pixel this call added */
-    uint64_t spp;            /* samples per pixel in the image */
-    double seconds;          /* wall time of this call */
-    double relative_error;   /* mean per-pixel standard error / mean radiance; -1 while
-                                unknown (fewer than 2 samples per pixel) */
-    int target_reached;      /* relative_error <= target_error */
+    uint64_t samples;      /* samples per pixel this call added */
+    uint64_t spp;          /* samples per pixel in the image */
+    double seconds;        /* wall time of this call */
+    double relative_error; /* mean per-pixel standard error / mean radiance; -1 while
+                              unknown (fewer than 2 samples per pixel) */
+    int target_reached;    /* relative_error <= target_error */
 } mcpt_render_stats;
 
 /* Adds samples to the image for about budget_ms milliseconds (at least one pass over the

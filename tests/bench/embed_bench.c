@@ -37,7 +37,8 @@ int main(int argc, char** argv) {
     const int passes = argc > 3 ? atoi(argv[3]) : 200;
     mcpt_session s = NULL;
     mcpt_render_stats st;
-    double *wall = malloc(sizeof(double) * (size_t)passes), *inside = malloc(sizeof(double) * (size_t)passes);
+    double *wall = malloc(sizeof(double) * (size_t)passes),
+           *inside = malloc(sizeof(double) * (size_t)passes);
     int i;
     if (argc < 2 || passes < 1 || !wall || !inside) {
         fprintf(stderr, "usage: mcpt_embed_bench DEVICE [SECONDS] [PASSES]\n");
