@@ -90,16 +90,14 @@ public:
         const uint64_t accum_bytes = uint64_t(width) * uint64_t(height) * ACCUM_VEC4_PER_PIXEL * 16;
         // Upload (empty arrays get one dummy element: OpenCL has no empty buffers).
         params_ = make_buffer(&scene.params, sizeof(gpu::GpuParams), CL_MEM_READ_ONLY);
-        nodes_ = upload(scene.nodes);
-        leaf_ = upload(scene.leaf_indices);
+        tree_ = upload(tree_buffer(scene));
         tris_ = upload(scene.triangles);
-        spheres_ = upload(scene.spheres);
-        materials_ = upload(scene.materials);
-        lights_ = upload(scene.lights);
+        shading_ = upload(shading_buffer(scene));
         accum_ = cl::Buffer(context_, CL_MEM_READ_WRITE, accum_bytes);
         accum_floats_ = size_t(accum_bytes / 4);
-        const cl::Buffer* args[] = {&params_, &nodes_, &leaf_, &tris_, &spheres_, &materials_,
-                                    &lights_, &accum_};
+        // Kernel arguments in BINDING_* order.
+        const cl::Buffer* args[] = {&params_, &tree_, &tris_, &shading_, &accum_};
+        static_assert(sizeof(args) / sizeof(args[0]) == BINDING_COUNT, "one argument per binding");
         for (cl_uint i = 0; i < BINDING_COUNT; ++i) kernel_.setArg(i, *args[i]);
     }
 
@@ -167,7 +165,7 @@ private:
     cl::Program program_;
     cl::Kernel kernel_;
     std::string built_options_;
-    cl::Buffer params_, nodes_, leaf_, tris_, spheres_, materials_, lights_, accum_;
+    cl::Buffer params_, tree_, tris_, shading_, accum_;
     size_t accum_floats_ = 0;
     size_t local_ = WORKGROUP_SIZE;
     double compile_seconds_ = 0;

@@ -33,7 +33,7 @@ struct VulkanBackend::Impl {
     std::vector<char> cache_data;  // as last read or written
 
     // Scene resources, replaced by each load().
-    Buffer params, nodes, leaf, tris, spheres, materials, lights, accum, readback;
+    Buffer params, tree, tris, shading, accum, readback;
     uint32_t pixels = 0;
 
     // Pipeline specialization, dispatch limit, timings.
@@ -155,9 +155,7 @@ struct VulkanBackend::Impl {
     }
 
     void release_scene() {
-        for (Buffer* b :
-             {&params, &nodes, &leaf, &tris, &spheres, &materials, &lights, &accum, &readback})
-            dev->free_buffer(*b);
+        for (Buffer* b : {&params, &tree, &tris, &shading, &accum, &readback}) dev->free_buffer(*b);
         pixels = 0;
     }
 
@@ -224,12 +222,9 @@ struct VulkanBackend::Impl {
         params = dev->create_buffer(sizeof(gpu::GpuParams), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
                                     vk::kHostMemory, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
         std::memcpy(params.mapped, &scene.params, sizeof(gpu::GpuParams));
-        nodes = upload(scene.nodes);
-        leaf = upload(scene.leaf_indices);
+        tree = upload(tree_buffer(scene));
         tris = upload(scene.triangles);
-        spheres = upload(scene.spheres);
-        materials = upload(scene.materials);
-        lights = upload(scene.lights);
+        shading = upload(shading_buffer(scene));
         accum = dev->create_buffer(accum_bytes,
                                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
                                        VK_BUFFER_USAGE_TRANSFER_SRC_BIT |
@@ -251,12 +246,9 @@ struct VulkanBackend::Impl {
         // Descriptor set: every buffer at its BINDING_* slot.
         const Buffer* by_slot[BINDING_COUNT] = {};
         by_slot[BINDING_PARAMS] = &params;
-        by_slot[BINDING_NODES] = &nodes;
-        by_slot[BINDING_LEAF_INDICES] = &leaf;
+        by_slot[BINDING_TREE] = &tree;
         by_slot[BINDING_TRIANGLES] = &tris;
-        by_slot[BINDING_SPHERES] = &spheres;
-        by_slot[BINDING_MATERIALS] = &materials;
-        by_slot[BINDING_LIGHTS] = &lights;
+        by_slot[BINDING_SHADING] = &shading;
         by_slot[BINDING_ACCUM] = &accum;
         VkDescriptorBufferInfo infos[BINDING_COUNT];
         VkWriteDescriptorSet writes[BINDING_COUNT]{};

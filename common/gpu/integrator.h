@@ -80,7 +80,7 @@ MCPT_FN float sphere_light_pdf(SCENE_PARAMS_ GpuSphere sph, vec3 x) {
     float r2 = sph.radius * sph.radius;
     float d2 = dot(to_c, to_c);
     if (d2 <= r2) return 0.0f;  // inside: never sampled from here
-    float pmf = 4.0f * MCPT_PI * r2 * emitter_area_pdf(SCENE_ARGS_ materials[sph.material]);
+    float pmf = 4.0f * MCPT_PI * r2 * emitter_area_pdf(SCENE_ARGS_ MATERIAL(sph.material));
     return pmf / (2.0f * MCPT_PI * one_minus_cos_cone(r2 / d2));
 }
 
@@ -98,8 +98,8 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
     uint count = PARAM(num_lights);
     float scaled = u.x * F32(count);
     uint slot = min(U32(scaled), count - 1u);
-    GpuLight light = lights[slot];
-    uint prim = (scaled - F32(slot)) < light.prob ? light.prim : lights[light.alias].prim;
+    GpuLight light = LIGHT(slot);
+    uint prim = (scaled - F32(slot)) < light.prob ? light.prim : LIGHT(light.alias).prim;
     if (HAS_FEATURE(FEATURE_SPHERE_LIGHTS) && (prim & LIGHT_SPHERE_BIT) != 0u) {
         // Sphere: uniform direction in the cone it subtends.
         GpuSphere sph = spheres[prim & ~LIGHT_SPHERE_BIT];
@@ -119,7 +119,7 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
         ls.n = on / length(on);
         ls.p = c + ls.n * sph.radius;
         ls.p_error = VABS(ls.n * sph.radius) * gamma_bound(5.0f) + VABS(ls.p) * gamma_bound(2.0f);
-        GpuMaterial m = materials[sph.material];
+        GpuMaterial m = MATERIAL(sph.material);
         ls.le = material_emission(m);
         ls.pdf = sphere_light_pdf(SCENE_ARGS_ sph, x);
         ls.valid = ls.pdf > 0.0f;
@@ -138,7 +138,7 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
         ls.wi = to_l * inversesqrt(dist2);
         float cos_l = -dot(ls.n, ls.wi);
         if (cos_l <= 0.0f || dist2 <= 0.0f) return ls;
-        GpuMaterial m = materials[tri.material];
+        GpuMaterial m = MATERIAL(tri.material);
         ls.le = material_emission(m);
         ls.pdf = emitter_area_pdf(SCENE_ARGS_ m) * dist2 / cos_l;
         ls.valid = true;
@@ -154,7 +154,7 @@ MCPT_FN float emitter_hit_pdf(SCENE_PARAMS_ vec3 x, Ray ray, Hit hit, SurfacePoi
     }
     float cos_l = -dot(s.ng, ray.d);
     vec3 to_l = s.p - x;
-    return emitter_area_pdf(SCENE_ARGS_ materials[s.material]) * dot(to_l, to_l) / cos_l;
+    return emitter_area_pdf(SCENE_ARGS_ MATERIAL(s.material)) * dot(to_l, to_l) / cos_l;
 }
 
 MCPT_FN PathResult path_result(vec3 radiance, uint rays) {
@@ -205,7 +205,7 @@ MCPT_FN PathResult trace_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
             break;
         }
         SurfacePoint s = surface_at(SCENE_ARGS_ ray, hit);
-        GpuMaterial m = materials[s.material];
+        GpuMaterial m = MATERIAL(s.material);
         vec3 wo = -ray.d;
         bool front = dot(s.ng, wo) > 0.0f;
         vec3 n = front ? s.ng : -s.ng;

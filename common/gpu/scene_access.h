@@ -27,13 +27,17 @@ MCPT_NAMESPACE_END
 
 #if defined(MCPT_GLSL)
 layout(std140, binding = BINDING_PARAMS) uniform ParamsBlock { GpuParams params; };
-layout(std430, binding = BINDING_NODES) readonly buffer NodesBlock { KdNode nodes[]; };
-layout(std430, binding = BINDING_LEAF_INDICES) readonly buffer LeafBlock { uint leaf_indices[]; };
+// The shared buffers of shared_types.h, each declared once per element type (aliases).
+layout(std430, binding = BINDING_TREE) readonly buffer NodesBlock { KdNode nodes[]; };
+layout(std430, binding = BINDING_TREE) readonly buffer TreeWordsBlock { uint tree_words[]; };
 // Triangles as 8-byte words (triangle_from_words).
 layout(std430, binding = BINDING_TRIANGLES) readonly buffer TriBlock { uvec2 triangle_words[]; };
-layout(std430, binding = BINDING_SPHERES) readonly buffer SphereBlock { GpuSphere spheres[]; };
-layout(std430, binding = BINDING_MATERIALS) readonly buffer MatBlock { GpuMaterial materials[]; };
-layout(std430, binding = BINDING_LIGHTS) readonly buffer LightBlock { GpuLight lights[]; };
+layout(std430, binding = BINDING_SHADING) readonly buffer SphereBlock { GpuSphere spheres[]; };
+layout(std430, binding = BINDING_SHADING) readonly buffer MatBlock { GpuMaterial shading_materials[]; };
+layout(std430, binding = BINDING_SHADING) readonly buffer LightBlock { GpuLight shading_lights[]; };
+#define LEAF_INDEX(i) tree_words[2u * params.num_nodes + (i)]
+#define MATERIAL(i) shading_materials[params.num_spheres + (i)]
+#define LIGHT(i) shading_lights[2u * (params.num_spheres + params.num_materials) + (i)]
 // Traversal stack entries, from the tree depth, and the scene's features (specialization
 // constants; id 1 is the workgroup size).
 layout(constant_id = 0) const uint KD_STACK_SIZE = 64u;
@@ -62,6 +66,9 @@ GpuTriangle load_triangle(uint i) {
         MCPT_UNUSED MCPT_CONST_BUF GpuLight *lights,
 #define SCENE_ARGS_ params, nodes, leaf_indices, triangles, spheres, materials, lights,
 #define PARAM(x) params->x
+#define LEAF_INDEX(i) leaf_indices[i]
+#define MATERIAL(i) materials[i]
+#define LIGHT(i) lights[i]
 // OpenCL on GPUs reads words too (-DMCPT_TRIANGLE_WORDS); PoCL's CPU code is 6-11% faster
 // with the plain struct read (measured with mcpt compare --b-defines).
 #if defined(MCPT_OPENCL) && defined(MCPT_TRIANGLE_WORDS)

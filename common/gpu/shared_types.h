@@ -35,15 +35,18 @@ MCPT_NAMESPACE_BEGIN
 #define KD_LEAF 3u
 
 // Binding slots, shared by the OpenCL kernel argument order and the Vulkan descriptor set.
+// Scene arrays share buffers so the shader binds 4 storage buffers, the minimum every Vulkan
+// device supports per stage: the tree buffer holds the k-d nodes, then the leaf index array
+// (from word 2 * num_nodes); the shading buffer holds the spheres, then the materials (from
+// 32-byte element num_spheres), then the lights (from 16-byte element
+// 2 * (num_spheres + num_materials)).
 #define BINDING_PARAMS 0
-#define BINDING_NODES 1
-#define BINDING_LEAF_INDICES 2
-#define BINDING_TRIANGLES 3
-#define BINDING_SPHERES 4
-#define BINDING_MATERIALS 5
-#define BINDING_LIGHTS 6
-#define BINDING_ACCUM 7
-#define BINDING_COUNT 8
+#define BINDING_TREE 1
+#define BINDING_TRIANGLES 2
+#define BINDING_SHADING 3
+#define BINDING_ACCUM 4
+#define BINDING_COUNT 5
+#define STORAGE_BUFFER_COUNT 4  // every binding but the parameters (a uniform buffer)
 
 // Default compute workgroup size along x (a device may lower it).
 #define WORKGROUP_SIZE 64
@@ -102,7 +105,8 @@ MCPT_STRUCT(GpuParams) {
     float cam_vx, cam_vy, cam_vz;  // up * tan(fov/2)
     float cam_wx, cam_wy, cam_wz;  // forward (unit)
     float light_scale;  // 1.0; negative-control tests scale every emitter
-    uint pad0, pad1;
+    uint num_materials;
+    uint pad1;
 };
 
 // Accumulation buffer: two vec4 per pixel.

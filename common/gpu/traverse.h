@@ -128,7 +128,7 @@ MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
             uint i = 0u;
             for (; i < count; ++i) {
                 float nearest = hit.t;
-                hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, leaf_indices[first_index + i], hit);
+                hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, LEAF_INDEX(first_index + i), hit);
                 if (any_hit && hit.t < nearest) return hit;
             }
             if (i < count) hit.status = TRACE_INCOMPLETE;

@@ -20,12 +20,13 @@ std::string human_bytes(uint64_t b) {
 std::vector<std::pair<std::string, uint64_t>> device_buffers(const GpuScene& scene, int width,
                                                              int height) {
     const uint64_t accum = uint64_t(width) * uint64_t(height) * ACCUM_VEC4_PER_PIXEL * 16;
-    return {{"k-d nodes", scene.nodes.size() * sizeof(gpu::KdNode)},
-            {"leaf indices", scene.leaf_indices.size() * 4},
+    const uint64_t tree = scene.nodes.size() * sizeof(gpu::KdNode) + scene.leaf_indices.size() * 4;
+    const uint64_t shading = scene.spheres.size() * sizeof(gpu::GpuSphere) +
+                             scene.materials.size() * sizeof(gpu::GpuMaterial) +
+                             scene.lights.size() * sizeof(gpu::GpuLight);
+    return {{"k-d tree (nodes and leaf indices)", tree},
             {"triangles", scene.triangles.size() * sizeof(gpu::GpuTriangle)},
-            {"spheres", scene.spheres.size() * sizeof(gpu::GpuSphere)},
-            {"materials", scene.materials.size() * sizeof(gpu::GpuMaterial)},
-            {"lights", scene.lights.size() * sizeof(gpu::GpuLight)},
+            {"shading data (spheres, materials, lights)", shading},
             {"accumulation buffer", accum},
             {"parameters", sizeof(gpu::GpuParams)}};
 }
@@ -37,7 +38,7 @@ void check_device_limits(const GpuScene& scene, int width, int height, const Dev
     for (const auto& [what, bytes] : device_buffers(scene, width, height)) {
         total += bytes;
         // "the accumulation buffer needs", "triangles need".
-        const std::string need = what + (what == "accumulation buffer" ? " needs " : " need ");
+        const std::string need = what + (what == "triangles" ? " need " : " needs ");
         if (m.max_buffer_bytes > 0 && bytes > m.max_buffer_bytes) {
             throw Error("scene too large for " + where + ": " + need + human_bytes(bytes) + ", " +
                         m.max_buffer_name + " is " + human_bytes(m.max_buffer_bytes) +

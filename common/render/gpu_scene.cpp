@@ -1,6 +1,7 @@
 #include "common/render/gpu_scene.h"
 
 #include <cmath>
+#include <cstring>
 #include <numeric>
 
 #include "common/error.h"
@@ -110,6 +111,7 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
     p.num_spheres = uint32_t(g.spheres.size());
     p.num_lights = uint32_t(g.lights.size());
     p.num_nodes = uint32_t(g.nodes.size());
+    p.num_materials = uint32_t(g.materials.size());
     p.light_power_total = float(total);
     p.scene_min_x = tree.bounds.min.x, p.scene_min_y = tree.bounds.min.y;
     p.scene_min_z = tree.bounds.min.z;
@@ -135,6 +137,34 @@ void set_camera(gpu::GpuParams& p, const Camera& c, int width, int height) {
     p.cam_ux = su.x, p.cam_uy = su.y, p.cam_uz = su.z;
     p.cam_vx = sv.x, p.cam_vy = sv.y, p.cam_vz = sv.z;
     p.cam_wx = w.x, p.cam_wy = w.y, p.cam_wz = w.z;
+}
+
+namespace {
+// Appends the raw words of a plain-data array.
+template <class T>
+void append_words(std::vector<uint32_t>& out, const std::vector<T>& v) {
+    static_assert(sizeof(T) % 4 == 0, "device structs are made of 32-bit words");
+    const size_t at = out.size();
+    out.resize(at + v.size() * sizeof(T) / 4);
+    if (!v.empty()) std::memcpy(out.data() + at, v.data(), v.size() * sizeof(T));
+}
+}  // namespace
+
+std::vector<uint32_t> tree_buffer(const GpuScene& s) {
+    std::vector<uint32_t> out;
+    append_words(out, s.nodes);
+    append_words(out, s.leaf_indices);
+    if (out.empty()) out.push_back(0);
+    return out;
+}
+
+std::vector<uint32_t> shading_buffer(const GpuScene& s) {
+    std::vector<uint32_t> out;
+    append_words(out, s.spheres);
+    append_words(out, s.materials);
+    append_words(out, s.lights);
+    if (out.empty()) out.push_back(0);
+    return out;
 }
 
 }  // namespace mcpt

@@ -29,6 +29,12 @@ struct GpuScene {
 // Packs a validated scene and its tree. Throws mcpt::Error if the scene has no emitter.
 GpuScene pack_scene(const Scene& scene, const KdTree& tree);
 
+// The shared device buffers of shared_types.h (what both backends upload): the tree buffer
+// (k-d nodes, then leaf indices) and the shading buffer (spheres, materials, lights), as
+// 32-bit words. Never empty: one zero word stands for no data.
+std::vector<uint32_t> tree_buffer(const GpuScene& scene);
+std::vector<uint32_t> shading_buffer(const GpuScene& scene);
+
 // Pinhole camera for a width x height image into params.
 void set_camera(gpu::GpuParams& params, const Camera& camera, int width, int height);
 
