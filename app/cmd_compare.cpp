@@ -143,8 +143,8 @@ void add_compare_command(CLI::App& app) {
     auto a = std::make_shared<CompareArgs>();
     CLI::App* sub = app.add_subcommand("compare", "A/B-test two backends on one scene");
     sub->add_option("scene", a->scene, "Built-in scene or .gltf/.glb file")->capture_default_str();
-    sub->add_option("--a", a->a, "Backend A: opencl|vulkan[:device]")->capture_default_str();
-    sub->add_option("--b", a->b, "Backend B: opencl|vulkan[:device]")->capture_default_str();
+    sub->add_option("--a", a->a, "Backend A: opencl|vulkan[:device][,limits=phone]")->capture_default_str();
+    sub->add_option("--b", a->b, "Backend B: opencl|vulkan[:device][,limits=phone]")->capture_default_str();
     sub->add_option("--width", a->width)->check(CLI::Range(1, 4096))->capture_default_str();
     sub->add_option("--height", a->height)->check(CLI::Range(1, 4096))->capture_default_str();
     sub->add_option("--batches", a->batches, "Independent batches per backend")

@@ -21,6 +21,7 @@ struct RenderArgs {
     std::string scene = "cornell";
     std::string backend = "opencl";
     std::string device;
+    std::string limits;
     uint64_t spp = 0;
     double seconds = 0;
     int width = 256, height = 256;
@@ -51,6 +52,7 @@ void run_render(const RenderArgs& a) {
     // Device, scene, settings: the engine's session does the rest.
     BackendOptions bo;
     bo.fast_math = a.fast_math;
+    bo.limits = a.limits;
     Session session(a.backend + (a.device.empty() ? "" : ":" + a.device), bo);
     Scene loaded = load_scene(a.scene);
     for (const std::string& w : loaded.warnings) std::cerr << "mcpt: warning: " << w << "\n";
@@ -102,6 +104,8 @@ void run_render(const RenderArgs& a) {
     std::printf("device: %s (kernel build %.2f s)\n", backend.description().c_str(),
                 backend.compile_seconds());
     if (a.verbose) {
+        std::printf("%s layout: %s, submission budget %.0f ms\n", backend.device().backend.c_str(),
+                    backend.layout().c_str(), s.dispatch_ms);
         std::printf("features used: %s\n", feature_names(g.features).c_str());
         std::printf("compiled for: %s; left out: %s\n",
                     feature_names(backend.compiled_features()).c_str(),
@@ -142,6 +146,10 @@ void add_render_command(CLI::App& app) {
         ->capture_default_str();
     sub->add_option("--backend", args->backend, "opencl or vulkan")->capture_default_str();
     sub->add_option("--device", args->device, "Device index or name substring (mcpt devices)");
+    sub->add_option("--limits", args->limits,
+                    "Vulkan limits: device (as reported) or phone (Vulkan 1.1 minimums); "
+                    "default $MCPT_VULKAN_LIMITS or device")
+        ->check(CLI::IsMember({"device", "phone"}));
     auto* spp = sub->add_option("--spp", args->spp, "Samples per pixel (default 64)");
     sub->add_option("--time", args->seconds, "Render for this many seconds instead")
         ->excludes(spp)

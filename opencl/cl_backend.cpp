@@ -82,6 +82,10 @@ public:
     uint32_t compiled_features() const override { return built_features_; }
     double device_seconds() const override { return device_seconds_; }
     uint32_t max_samples_per_dispatch() const override { return 1u << 30; }
+    std::string layout() const override {
+        return std::to_string(BINDING_COUNT) + " buffer arguments, workgroup " +
+               std::to_string(local_);
+    }
 
     void load(const GpuScene& scene, int width, int height) override {
         build(scene.stack_size, compile_features(options_, scene));
@@ -184,6 +188,10 @@ std::vector<DeviceInfo> list_opencl_devices() {
 const char* opencl_kernel_source() { return kPathtraceClSource; }
 
 std::unique_ptr<Backend> make_opencl_backend(const BackendOptions& options) {
+    if (!options.limits.empty() && options.limits != "device") {
+        throw Error("limits profile '" + options.limits +
+                    "' is Vulkan only (OpenCL has no per-stage buffer limits)");
+    }
     std::vector<ClDevice> devices = enumerate();
     if (devices.empty()) {
         throw Error("no OpenCL device found (install an ICD such as pocl-opencl-icd)");

@@ -34,6 +34,7 @@ public:
     void read_accum(std::vector<float>& out) override { out = accum_; }
     double compile_seconds() const override { return 0; }
     uint32_t compiled_features() const override { return FEATURE_ALL; }
+    std::string layout() const override { return "fake"; }
     double device_seconds() const override { return 0; }
     uint32_t max_samples_per_dispatch() const override { return cap; }
     size_t dispatches = 0;

@@ -7,6 +7,7 @@
 
 #include "common/error.h"
 #include "common/render/device_limits.h"
+#include "vulkan/vk_limits_profile.h"
 #include "common/render/device_registry.h"
 #include "pathtrace_comp_spv.h"
 #include "vulkan/vk_context.h"
@@ -47,7 +48,8 @@ struct VulkanBackend::Impl {
     ~Impl() { destroy(); }
 
     std::string description() const {
-        return "vulkan: " + pd.info.name + " (" + pd.info.platform + ")";
+        return "vulkan: " + pd.info.name + " (" + pd.info.platform + ")" +
+               (pd.limits_profile == "phone" ? ", phone limits" : "");
     }
 
     void init(std::shared_ptr<vk::Instance> inst, vk::PhysicalDevice chosen) {
@@ -55,6 +57,7 @@ struct VulkanBackend::Impl {
         messages_before = instance->messages();
         pd = std::move(chosen);
         const VkPhysicalDeviceLimits& l = pd.props.limits;
+        vk::check_layout(l, description());
         dev = std::make_unique<vk::Device>(*instance, pd, description());
         const vk::DeviceFns& f = dev->fn();
         const VkDevice device = dev->handle();
@@ -122,8 +125,7 @@ struct VulkanBackend::Impl {
         VK_CHECK(f.vkCreatePipelineCache, device, &ci, nullptr, &cache);
 
         // Workgroup size within the device's limits; dispatch size limit.
-        local = std::max(1u, std::min({uint32_t(WORKGROUP_SIZE), l.maxComputeWorkGroupSize[0],
-                                       l.maxComputeWorkGroupInvocations}));
+        local = vk::workgroup_size(l);
         max_groups =
             uint32_t(vk::env_limit("MCPT_VULKAN_MAX_GROUP_COUNT", l.maxComputeWorkGroupCount[0]));
     }
@@ -379,6 +381,9 @@ double VulkanBackend::gpu_seconds() const {
 size_t VulkanBackend::validation_messages() const {
     return impl_->instance->messages() - impl_->messages_before;
 }
+std::string VulkanBackend::layout() const {
+    return vk::layout_line(impl_->pd.props.limits);
+}
 uint32_t VulkanBackend::local_size() const {
     return impl_->local;
 }
@@ -405,7 +410,7 @@ std::unique_ptr<Backend> make_vulkan_backend(const BackendOptions& options) {
                     ") are OpenCL only: the Vulkan shader is SPIR-V compiled at build time");
     }
     std::shared_ptr<vk::Instance> instance = vk::shared_instance(vk::validation_requested());
-    std::vector<vk::PhysicalDevice> devices = instance->devices();
+    std::vector<vk::PhysicalDevice> devices = instance->devices(options.limits);
     if (devices.empty()) throw Error(vk::kNoDeviceMessage);
     std::vector<DeviceInfo> infos;
     for (const vk::PhysicalDevice& d : devices) infos.push_back(d.info);

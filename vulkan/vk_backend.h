@@ -7,6 +7,8 @@
 //                                     warnings and errors (printed to stderr)
 //   MCPT_VULKAN_MAX_BUFFER_BYTES=N    lower the effective maxStorageBufferRange to N bytes
 //                                     (tests of the "scene too large" path)
+//   MCPT_VULKAN_LIMITS=phone          the limits profile when BackendOptions::limits is ""
+//                                     (vk_limits_profile.h, docs/limits.md)
 //   MCPT_VULKAN_MAX_GROUP_COUNT=N     lower the effective maxComputeWorkGroupCount[0] to N
 //                                     (tests of dispatches split into pixel ranges)
 //   XDG_CACHE_HOME / HOME             the pipeline cache lives in $XDG_CACHE_HOME/mcpt or
@@ -46,6 +48,7 @@ class VulkanBackend final : public Backend {
     uint32_t compiled_features() const override;
     double device_seconds() const override { return gpu_seconds(); }
     uint32_t max_samples_per_dispatch() const override;
+    std::string layout() const override;
 
     // Whether the queue has timestamps (timestampValidBits > 0); gpu_seconds() is 0 if not.
     bool has_gpu_timer() const;

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "common/error.h"
+#include "vulkan/vk_limits_profile.h"
 
 namespace mcpt::vk {
 
@@ -183,8 +184,9 @@ Instance::Instance(bool validation) {
     messenger_info.sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT;
     messenger_info.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT |
                                      VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
-    messenger_info.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT |
-                                 VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
+    // Not GENERAL: the loader reports there about other drivers (an arm64 ICD listed on a
+    // multiarch system, layers added by the environment), nothing about mcpt's API use.
+    messenger_info.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
                                  VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
     messenger_info.pfnUserCallback = &Instance::on_message;
     messenger_info.pUserData = this;
@@ -286,7 +288,8 @@ VKAPI_ATTR VkBool32 VKAPI_CALL Instance::on_message(
     return VK_FALSE;
 }
 
-std::vector<PhysicalDevice> Instance::devices() const {
+std::vector<PhysicalDevice> Instance::devices(const std::string& profile_request) const {
+    const std::string profile = resolve_limits_profile(profile_request);
     std::vector<PhysicalDevice> out;
     uint32_t n = 0;
     VK_CHECK(fn_.vkEnumeratePhysicalDevices, instance_, &n, nullptr);
@@ -326,6 +329,8 @@ std::vector<PhysicalDevice> Instance::devices() const {
             if (has_driver_props) driver = drv.driverName, driver_info = drv.driverInfo;
         }
 
+        apply_limits_profile(d, profile);
+
         // First queue family with compute.
         uint32_t nq = 0;
         fn_.vkGetPhysicalDeviceQueueFamilyProperties(h, &nq, nullptr);
@@ -361,6 +366,8 @@ std::vector<PhysicalDevice> Instance::devices() const {
                    std::to_string(v[2]);
         };
         i.limits = {
+            {"limits profile", profile == "phone" ? "phone (Vulkan 1.1 required minimums)"
+                                                  : "device (as reported)"},
             {"apiVersion", version_string(d.props.apiVersion)},
             {"driver", driver.empty() ? "driverVersion " + std::to_string(d.props.driverVersion)
                                       : driver + " (" + driver_info + ")"},
@@ -371,6 +378,9 @@ std::vector<PhysicalDevice> Instance::devices() const {
             {"maxComputeWorkGroupSize", xyz(l.maxComputeWorkGroupSize)},
             {"maxComputeWorkGroupCount", xyz(l.maxComputeWorkGroupCount)},
             {"maxComputeSharedMemorySize", human_bytes(l.maxComputeSharedMemorySize)},
+            {"maxPerStageDescriptorStorageBuffers",
+             std::to_string(l.maxPerStageDescriptorStorageBuffers)},
+            {"layout", layout_line(l)},
         };
         i.memory = memory_limits(d);
         for (uint32_t hi = 0; hi < d.memory.memoryHeapCount; ++hi) {

@@ -117,6 +117,7 @@ struct PhysicalDevice {
     uint64_t max_allocation = 0;         // maxMemoryAllocationSize (maintenance3, core 1.1)
     uint32_t queue_family = UINT32_MAX;  // first family with compute, UINT32_MAX if none
     uint32_t timestamp_valid_bits = 0;   // of that family
+    std::string limits_profile = "device";  // vk_limits_profile.h: what props.limits hold
 };
 
 // The buffer limits of a device for check_device_limits(), with MCPT_VULKAN_MAX_BUFFER_BYTES
@@ -137,8 +138,9 @@ class Instance {
     VkInstance handle() const { return instance_; }
     const InstanceFns& fn() const { return fn_; }
     size_t messages() const { return messages_.load(); }
-    // Every physical device, in enumeration order (DeviceInfo::index).
-    std::vector<PhysicalDevice> devices() const;
+    // Every physical device, in enumeration order (DeviceInfo::index), with its limits
+    // clamped to the limits profile (vk_limits_profile.h; "" = $MCPT_VULKAN_LIMITS or device).
+    std::vector<PhysicalDevice> devices(const std::string& profile = "") const;
 
   private:
     static VKAPI_ATTR VkBool32 VKAPI_CALL on_message(

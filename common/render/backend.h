@@ -39,6 +39,9 @@ struct BackendOptions {
     uint32_t features = 0;
     // Non-zero: a build no driver or pipeline cache has seen (cold compile timings).
     uint32_t compile_nonce = 0;
+    // Vulkan limits profile: "device" or "phone" (the Vulkan 1.1 minimums); "" =
+    // $MCPT_VULKAN_LIMITS, else device. OpenCL takes only "" or "device".
+    std::string limits;
 };
 
 // The MCPT_FEATURES value a backend compiles `scene` with: the feature bits, and the compile
@@ -68,6 +71,9 @@ public:
     virtual uint32_t max_samples_per_dispatch() const = 0;
     // The FEATURE_* bits the loaded program was compiled with.
     virtual uint32_t compiled_features() const = 0;
+    // What the backend works within: "4 storage buffers per stage (device allows 4),
+    // workgroup 64" (the buffers bound and the workgroup size).
+    virtual std::string layout() const = 0;
 };
 
 }  // namespace mcpt

@@ -36,9 +36,27 @@ std::vector<std::string> device_apis() {
     return apis;
 }
 
-DeviceSpec parse_device_spec(const std::string& spec) {
+DeviceSpec parse_device_spec(const std::string& full) {
+    // Options after the first comma.
+    const size_t comma = full.find(',');
+    const std::string spec = full.substr(0, comma);
+    DeviceSpec s;
+    for (size_t at = comma; at != std::string::npos;) {
+        const size_t next = full.find(',', at + 1);
+        const std::string opt = full.substr(at + 1, next == std::string::npos ? next : next - at - 1);
+        if (opt.rfind("limits=", 0) != 0) {
+            throw Error("unknown device option '" + opt + "' in '" + full +
+                        "' (valid: limits=device, limits=phone)");
+        }
+        s.limits = opt.substr(7);
+        if (s.limits != "device" && s.limits != "phone") {
+            throw Error("unknown limits profile '" + s.limits + "' (valid: device, phone)");
+        }
+        at = next;
+    }
     const size_t colon = spec.find(':');
-    DeviceSpec s{spec.substr(0, colon), colon == std::string::npos ? "" : spec.substr(colon + 1)};
+    s.api = spec.substr(0, colon);
+    s.device = colon == std::string::npos ? "" : spec.substr(colon + 1);
     const std::vector<std::string> apis = device_apis();
     if (std::find(apis.begin(), apis.end(), s.api) == apis.end()) {
         throw Error("unknown backend '" + s.api + "' (available in this build: " + api_list() +
@@ -105,6 +123,7 @@ std::unique_ptr<Backend> open_device(const std::string& spec, BackendOptions opt
     }
     const DeviceSpec s = parse_device_spec(spec);
     if (!s.device.empty()) options.device = s.device;
+    if (!s.limits.empty()) options.limits = s.limits;
 #if MCPT_WITH_VULKAN
     if (s.api == "vulkan") return make_vulkan_backend(options);
 #endif

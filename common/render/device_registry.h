@@ -16,9 +16,10 @@ std::vector<std::string> device_apis();
 // Every device of `api` ("" = every API, in device_apis() order).
 std::vector<DeviceInfo> list_devices(const std::string& api = "");
 
-// "api" or "api:device" split; throws mcpt::Error for an unknown API.
+// "api", "api:device", each optionally followed by ",limits=phone|device" (the Vulkan limits
+// profile, vk_limits_profile.h), split; throws mcpt::Error for an unknown API or option.
 struct DeviceSpec {
-    std::string api, device;
+    std::string api, device, limits;
 };
 DeviceSpec parse_device_spec(const std::string& spec);
 
@@ -28,8 +29,9 @@ DeviceSpec parse_device_spec(const std::string& spec);
 size_t select_device(const std::vector<DeviceInfo>& devices, const std::string& selector,
                      const std::string& api);
 
-// Opens the device of `spec` ("opencl", "vulkan:1", "opencl:pthread"; "" = the first GPU of
-// any API, else the first device); a device given in `spec` overrides options.device.
+// Opens the device of `spec` ("opencl", "vulkan:1", "opencl:pthread", "vulkan,limits=phone";
+// "" = the first GPU of any API, else the first device); a device or limits profile given in
+// `spec` overrides options.device or options.limits.
 std::unique_ptr<Backend> open_device(const std::string& spec, BackendOptions options = {});
 
 }  // namespace mcpt
