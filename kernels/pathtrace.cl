@@ -1,5 +1,6 @@
 // OpenCL entry point of the path tracer: one work-item per pixel of this dispatch's range,
-// samples_per_dispatch paths each, sums written to (or added to) the accumulation buffer.
+// which continues the pixel's path for at most bounce_budget bounces (step_slot), adds the
+// samples that ended to the accumulation buffer and keeps the path for the next dispatch.
 // Everything else is the shared device code in common/gpu/ (the GLSL twin is
 // shaders/pathtrace.comp, with the same function names).
 #include "../common/gpu/integrator.h"
@@ -18,11 +19,30 @@ __kernel void pathtrace(__global const GpuParams* params, __global const uint* t
     uint gid = get_global_id(0);
     if (gid >= params->pixel_count) return;
     uint pixel = params->pixel_offset + gid;
-    PixelSums acc = render_pixel(SCENE_ARGS_ pixel);
-    if (params->accumulate != 0u) {
-        acc.sum += accum[2u * pixel];
-        acc.sum_sq += accum[2u * pixel + 1u];
+    uint npix = params->width * params->height;
+    __global float4* state = accum + ACCUM_VEC4_PER_PIXEL * npix +
+                             PATH_STATE_VEC4 * (pixel - params->state_base);
+    __global uint* pending = (__global uint*)(accum + ACCUM_VEC4_PER_PIXEL * npix +
+                                             PATH_STATE_VEC4 * params->state_slots);
+    // Start the pixel's samples of this round, or continue its path.
+    PathState st;
+    if (params->round_start != 0u) {
+        st = start_path(SCENE_ARGS_ pixel, params->sample_offset);
+        st.samples_left = params->samples_per_dispatch;
+        if (params->accumulate == 0u) {
+            accum[2u * pixel] = (float4)(0.0f);
+            accum[2u * pixel + 1u] = (float4)(0.0f);
+        }
+    } else {
+        PackedState p = {state[0], state[1], state[2], state[3], state[4], state[5]};
+        st = unpack_state(p);
+        if (st.samples_left == 0u) return;
     }
-    accum[2u * pixel] = acc.sum;
-    accum[2u * pixel + 1u] = acc.sum_sq;
+    SlotStep r = step_slot(SCENE_ARGS_ st, pixel);
+    accum[2u * pixel] += r.add.sum;
+    accum[2u * pixel + 1u] += r.add.sum_sq;
+    PackedState p = pack_state(r.st);
+    state[0] = p.a, state[1] = p.b, state[2] = p.c, state[3] = p.d, state[4] = p.e, state[5] = p.f;
+    // Some pixel still owes samples: the host dispatches again (a flag, not a count).
+    if (r.st.samples_left > 0u) *pending = 1u;
 }

@@ -81,7 +81,7 @@ public:
     double compile_seconds() const override { return compile_seconds_; }
     uint32_t compiled_features() const override { return built_features_; }
     double device_seconds() const override { return device_seconds_; }
-    uint32_t max_samples_per_dispatch() const override { return 1u << 30; }
+    uint32_t max_bounces_per_dispatch() const override { return 1u << 20; }
     std::string layout() const override {
         return std::to_string(BINDING_COUNT) + " buffer arguments, workgroup " +
                std::to_string(local_);
@@ -91,22 +91,28 @@ public:
         build(scene.stack_size, compile_features(options_, scene));
         // Check every buffer against the device limits before allocating.
         check_device_limits(scene, width, height, dev_.info, description());
-        const uint64_t accum_bytes = uint64_t(width) * uint64_t(height) * ACCUM_VEC4_PER_PIXEL * 16;
+        const uint64_t npix = uint64_t(width) * uint64_t(height);
+        const uint64_t accum_bytes = accum_buffer_bytes(npix);
+        sums_floats_ = size_t(npix * ACCUM_VEC4_PER_PIXEL * 4);
+        counter_offset_ = size_t((npix * ACCUM_VEC4_PER_PIXEL +
+                                  uint64_t(path_state_slots(npix)) * PATH_STATE_VEC4) * 16);
         // Upload (empty arrays get one dummy element: OpenCL has no empty buffers).
         params_ = make_buffer(&scene.params, sizeof(gpu::GpuParams), CL_MEM_READ_ONLY);
         tree_ = upload(tree_buffer(scene));
         tris_ = upload(scene.triangles);
         shading_ = upload(shading_buffer(scene));
         accum_ = cl::Buffer(context_, CL_MEM_READ_WRITE, accum_bytes);
-        accum_floats_ = size_t(accum_bytes / 4);
         // Kernel arguments in BINDING_* order.
         const cl::Buffer* args[] = {&params_, &tree_, &tris_, &shading_, &accum_};
         static_assert(sizeof(args) / sizeof(args[0]) == BINDING_COUNT, "one argument per binding");
         for (cl_uint i = 0; i < BINDING_COUNT; ++i) kernel_.setArg(i, *args[i]);
     }
 
-    void dispatch(const gpu::GpuParams& p) override {
+    uint32_t dispatch(const gpu::GpuParams& p) override {
+        if (p.pixel_count == 0) return 0;
         queue_.enqueueWriteBuffer(params_, CL_FALSE, 0, sizeof(p), &p);
+        const cl_uint zero = 0;
+        queue_.enqueueFillBuffer(accum_, zero, counter_offset_, sizeof(zero));
         const size_t global = (p.pixel_count + local_ - 1) / local_ * local_;
         cl::Event done;
         queue_.enqueueNDRangeKernel(kernel_, cl::NullRange, cl::NDRange(global), cl::NDRange(local_),
@@ -116,11 +122,14 @@ public:
         const cl_ulong t0 = done.getProfilingInfo<CL_PROFILING_COMMAND_START>();
         const cl_ulong t1 = done.getProfilingInfo<CL_PROFILING_COMMAND_END>();
         if (t1 > t0) device_seconds_ += double(t1 - t0) * 1e-9;
+        cl_uint active = 0;
+        queue_.enqueueReadBuffer(accum_, CL_TRUE, counter_offset_, sizeof(active), &active);
+        return active;
     }
 
     void read_accum(std::vector<float>& out) override {
-        out.resize(accum_floats_);
-        queue_.enqueueReadBuffer(accum_, CL_TRUE, 0, accum_floats_ * 4, out.data());
+        out.resize(sums_floats_);  // the sums only; the path state stays on the device
+        queue_.enqueueReadBuffer(accum_, CL_TRUE, 0, sums_floats_ * 4, out.data());
     }
 
 private:
@@ -170,7 +179,7 @@ private:
     cl::Kernel kernel_;
     std::string built_options_;
     cl::Buffer params_, tree_, tris_, shading_, accum_;
-    size_t accum_floats_ = 0;
+    size_t sums_floats_ = 0, counter_offset_ = 0;
     size_t local_ = WORKGROUP_SIZE;
     double compile_seconds_ = 0;
     uint32_t built_features_ = 0;

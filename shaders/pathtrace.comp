@@ -1,5 +1,6 @@
 // Vulkan entry point of the path tracer: one invocation per pixel of this dispatch's range,
-// samples_per_dispatch paths each, sums written to (or added to) the accumulation buffer.
+// which continues the pixel's path for at most bounce_budget bounces (step_slot), adds the
+// samples that ended to the accumulation buffer and keeps the path for the next dispatch.
 // Everything else is the shared device code in common/gpu/ (the OpenCL twin is
 // kernels/pathtrace.cl, with the same function names).
 #version 450
@@ -9,16 +10,40 @@
 
 layout(local_size_x_id = 1) in;
 layout(std430, binding = BINDING_ACCUM) buffer AccumBlock { vec4 accum[]; };
+layout(std430, binding = BINDING_ACCUM) buffer ActiveBlock { uint accum_words[]; };
 
 void main() {
     uint gid = gl_GlobalInvocationID.x;
     if (gid >= params.pixel_count) return;
     uint pixel = params.pixel_offset + gid;
-    PixelSums acc = render_pixel(SCENE_ARGS_ pixel);
-    if (params.accumulate != 0u) {
-        acc.sum += accum[2u * pixel];
-        acc.sum_sq += accum[2u * pixel + 1u];
+    uint npix = params.width * params.height;
+    uint state = ACCUM_VEC4_PER_PIXEL * npix + PATH_STATE_VEC4 * (pixel - params.state_base);
+    uint pending = 4u * (ACCUM_VEC4_PER_PIXEL * npix + PATH_STATE_VEC4 * params.state_slots);
+    // Start the pixel's samples of this round, or continue its path.
+    PathState st;
+    if (params.round_start != 0u) {
+        st = start_path(pixel, params.sample_offset);
+        st.samples_left = params.samples_per_dispatch;
+        if (params.accumulate == 0u) {
+            accum[2u * pixel] = vec4(0.0f);
+            accum[2u * pixel + 1u] = vec4(0.0f);
+        }
+    } else {
+        PackedState p = PackedState(accum[state], accum[state + 1u], accum[state + 2u],
+                                    accum[state + 3u], accum[state + 4u], accum[state + 5u]);
+        st = unpack_state(p);
+        if (st.samples_left == 0u) return;
     }
-    accum[2u * pixel] = acc.sum;
-    accum[2u * pixel + 1u] = acc.sum_sq;
+    SlotStep r = step_slot(st, pixel);
+    accum[2u * pixel] += r.add.sum;
+    accum[2u * pixel + 1u] += r.add.sum_sq;
+    PackedState p = pack_state(r.st);
+    accum[state] = p.a;
+    accum[state + 1u] = p.b;
+    accum[state + 2u] = p.c;
+    accum[state + 3u] = p.d;
+    accum[state + 4u] = p.e;
+    accum[state + 5u] = p.f;
+    // Some pixel still owes samples: the host dispatches again (a flag, not a count).
+    if (r.st.samples_left > 0u) accum_words[pending] = 1u;
 }

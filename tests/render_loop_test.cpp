@@ -13,37 +13,58 @@ namespace {
 // Sample i of any pixel has radiance value(i); the device sums in float per dispatch.
 float value(uint64_t i) { return 0.1f + 0.05f * float((i * 2654435761u) % 1000u) / 1000.f; }
 
+// Each sample takes `bounces` bounces; dispatches carry unfinished samples across, like the
+// kernels' step_slot().
 class FakeBackend final : public Backend {
 public:
     std::string description() const override { return "fake"; }
     const DeviceInfo& device() const override { return info_; }
-    void load(const GpuScene&, int w, int h) override { accum_.assign(size_t(w) * h * 8, 0.f); }
-    void dispatch(const gpu::GpuParams& p) override {
+    void load(const GpuScene&, int w, int h) override {
+        accum_.assign(size_t(w) * h * 8, 0.f);
+        slots_.assign(path_state_slots(uint64_t(w) * h), Slot{});
+    }
+    uint32_t dispatch(const gpu::GpuParams& p) override {
         ++dispatches;
-        most_samples_per_dispatch = std::max(most_samples_per_dispatch, p.samples_per_dispatch);
+        most_samples_per_round = std::max(most_samples_per_round, p.samples_per_dispatch);
+        most_bounces_per_dispatch = std::max(most_bounces_per_dispatch, p.bounce_budget);
+        uint32_t active = 0;
         for (uint32_t k = 0; k < p.pixel_count; ++k) {
             float* a = &accum_[8 * size_t(p.pixel_offset + k)];
-            if (!p.accumulate) std::fill(a, a + 8, 0.f);
-            for (uint32_t s = 0; s < p.samples_per_dispatch; ++s) {
-                const float v = value(uint64_t(p.sample_offset) + s);
+            Slot& slot = slots_.at(p.pixel_offset + k - p.state_base);
+            if (p.round_start) {
+                slot = Slot{p.sample_offset, p.samples_per_dispatch, 0};
+                if (!p.accumulate) std::fill(a, a + 8, 0.f);
+            }
+            for (uint32_t budget = p.bounce_budget; slot.left > 0 && budget > 0;) {
+                const uint32_t run = std::min(budget, bounces - slot.done);
+                slot.done += run, budget -= run;
+                if (slot.done < bounces) break;
+                const float v = value(slot.sample);
                 for (int c = 0; c < 3; ++c) a[c] += v, a[4 + c] += v * v;
                 a[7] += 1.f;
+                slot = Slot{slot.sample + 1, slot.left - 1, 0};
             }
+            active += slot.left > 0;
         }
+        return active;
     }
     void read_accum(std::vector<float>& out) override { out = accum_; }
     double compile_seconds() const override { return 0; }
     uint32_t compiled_features() const override { return FEATURE_ALL; }
     std::string layout() const override { return "fake"; }
     double device_seconds() const override { return 0; }
-    uint32_t max_samples_per_dispatch() const override { return cap; }
+    uint32_t max_bounces_per_dispatch() const override { return cap; }
     size_t dispatches = 0;
-    uint32_t most_samples_per_dispatch = 0;
-    uint32_t cap = 1u << 30;
+    uint32_t most_samples_per_round = 0, most_bounces_per_dispatch = 0;
+    uint32_t cap = 1u << 20, bounces = 1;
 
 private:
+    struct Slot {
+        uint32_t sample = 0, left = 0, done = 0;
+    };
     DeviceInfo info_;
     std::vector<float> accum_;
+    std::vector<Slot> slots_;
 };
 
 TEST(RenderLoop, TenMillionSamplesDoNotDrift) {
@@ -63,7 +84,7 @@ TEST(RenderLoop, TenMillionSamplesDoNotDrift) {
     EXPECT_NEAR(mean / exact, 1.0, 1e-6);
     EXPECT_GT(std::abs(double(naive) / double(o.spp) / exact - 1.0), 5e-5)
         << "negative control: a float running sum should drift";
-    EXPECT_LE(backend.most_samples_per_dispatch, o.flush_spp);
+    EXPECT_LE(backend.most_samples_per_round, o.flush_spp);
     EXPECT_DOUBLE_EQ(r.rays, double(o.spp));
 }
 
@@ -82,19 +103,26 @@ TEST(RenderLoop, EveryPixelGetsEverySample) {
     EXPECT_DOUBLE_EQ(r.rays, double(o.spp) * o.width * o.height);
 }
 
-// A backend that takes one sample per dispatch (CPU Vulkan drivers) gets exactly that,
-// and every sample still arrives.
-TEST(RenderLoop, KeepsTheBackendsSamplesPerDispatchCap) {
+// Paths far longer than a backend's bounce budget per dispatch (CPU Vulkan drivers) continue
+// across dispatches: the budget is kept, and every sample still arrives, exactly once.
+TEST(RenderLoop, PathsLongerThanTheBounceBudgetContinue) {
     FakeBackend backend;
-    backend.cap = 1;
+    backend.cap = 7;
+    backend.bounces = 50;
     GpuScene scene;
     RenderOptions o;
     o.width = 7, o.height = 5;
     o.spp = 40;
     const RenderResult r = render(backend, scene, Camera{}, o);
-    EXPECT_EQ(backend.most_samples_per_dispatch, 1u);
+    EXPECT_LE(backend.most_bounces_per_dispatch, 7u);
+    EXPECT_GE(backend.dispatches, size_t(o.spp) * 50 / 7);
     EXPECT_EQ(r.spp, o.spp);
     EXPECT_DOUBLE_EQ(r.rays, double(o.spp) * o.width * o.height);
+    for (size_t i = 0; i < size_t(o.width) * o.height; ++i) {
+        double exact = 0;
+        for (uint64_t s = 0; s < o.spp; ++s) exact += value(s);
+        ASSERT_NEAR(r.sum[3 * i], exact, 1e-4 * exact) << "pixel " << i;
+    }
 }
 
 TEST(RenderLoop, RejectsBadSizes) {

@@ -36,6 +36,7 @@ struct VulkanBackend::Impl {
     // Scene resources, replaced by each load().
     Buffer params, tree, tris, shading, accum, readback;
     uint32_t pixels = 0;
+    uint64_t counter_offset = 0;  // bytes: the active-slot counter in the accumulation buffer
 
     // Pipeline specialization, dispatch limit, timings.
     uint32_t local = WORKGROUP_SIZE;
@@ -210,7 +211,7 @@ struct VulkanBackend::Impl {
     void load(const GpuScene& scene, int width, int height) {
         // Check every buffer against the device limits before allocating or compiling.
         const uint64_t npix = uint64_t(width) * uint64_t(height);
-        const uint64_t accum_bytes = npix * ACCUM_VEC4_PER_PIXEL * 16;
+        const uint64_t accum_bytes = accum_buffer_bytes(npix);
         pd.info.memory = vk::memory_limits(pd);
         check_device_limits(scene, width, height, pd.info, description());
         dev->wait_idle();
@@ -244,6 +245,7 @@ struct VulkanBackend::Impl {
             VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT);
         dev->submit_and_wait();
         pixels = uint32_t(npix);
+        counter_offset = (npix * ACCUM_VEC4_PER_PIXEL + uint64_t(path_state_slots(npix)) * PATH_STATE_VEC4) * 16;
 
         // Descriptor set: every buffer at its BINDING_* slot.
         const Buffer* by_slot[BINDING_COUNT] = {};
@@ -267,25 +269,26 @@ struct VulkanBackend::Impl {
         dev->fn().vkUpdateDescriptorSets(dev->handle(), BINDING_COUNT, writes, 0, nullptr);
     }
 
-    void dispatch(const gpu::GpuParams& p) {
+    uint32_t dispatch(const gpu::GpuParams& p) {
         if (!pipeline || pixels == 0) throw Error("vulkan: dispatch() before load()");
         if (uint64_t(p.pixel_offset) + p.pixel_count > pixels) {
             throw Error("vulkan: dispatch of pixels [" + std::to_string(p.pixel_offset) + ", " +
                         std::to_string(uint64_t(p.pixel_offset) + p.pixel_count) +
                         ") outside the " + std::to_string(pixels) + " loaded");
         }
-        if (p.pixel_count == 0) return;
+        if (p.pixel_count == 0) return 0;
         // More workgroups than the device allows in one dispatch: consecutive dispatches
         // over pixel ranges (vkCmdDispatchBase gave wrong pixels on NVIDIA's driver).
         const uint64_t max_pixels = uint64_t(max_groups) * local;
         if (p.pixel_count > max_pixels) {
+            uint32_t active = 0;
             for (uint64_t done = 0; done < p.pixel_count; done += max_pixels) {
                 gpu::GpuParams part = p;
                 part.pixel_offset = uint32_t(p.pixel_offset + done);
                 part.pixel_count = uint32_t(std::min<uint64_t>(max_pixels, p.pixel_count - done));
-                dispatch(part);
+                active += dispatch(part);
             }
-            return;
+            return active;
         }
         // Parameters: the previous dispatch has finished, so the mapped UBO is free.
         std::memcpy(params.mapped, &p, sizeof(p));
@@ -294,7 +297,10 @@ struct VulkanBackend::Impl {
         const vk::DeviceFns& f = dev->fn();
         const VkCommandBuffer cmd = dev->cmd();
         dev->begin_commands();
-        dev->barrier(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+        // The active-slot counter (after the sums and the path state) starts at zero.
+        f.vkCmdFillBuffer(cmd, accum.buffer, counter_offset, 16, 0);
+        dev->barrier(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                     VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
                      VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
         if (timer) {
@@ -309,6 +315,13 @@ struct VulkanBackend::Impl {
         dev->barrier(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
                      VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
                      VK_ACCESS_HOST_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT);
+        if (!accum.mapped) {
+            // The counter into the readback buffer.
+            const VkBufferCopy region{counter_offset, 0, 4};
+            f.vkCmdCopyBuffer(cmd, accum.buffer, readback.buffer, 1, &region);
+            dev->barrier(VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                         VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
+        }
 
         // Submit, wait, add the device time.
         dev->submit_and_wait();
@@ -321,23 +334,31 @@ struct VulkanBackend::Impl {
             gpu_seconds +=
                 double((t[1] - t[0]) & mask) * double(pd.props.limits.timestampPeriod) * 1e-9;
         }
+        uint32_t active = 0;
+        std::memcpy(&active,
+                    accum.mapped ? static_cast<const char*>(accum.mapped) + counter_offset
+                                 : readback.mapped,
+                    4);
+        return active;
     }
 
     void read_accum(std::vector<float>& out) {
         if (pixels == 0) throw Error("vulkan: read_accum() before load()");
-        out.resize(size_t(accum.size / 4));
+        // The sums only (the path state after them stays on the device).
+        const uint64_t bytes = uint64_t(pixels) * ACCUM_VEC4_PER_PIXEL * 16;
+        out.resize(size_t(bytes / 4));
         if (accum.mapped) {
-            std::memcpy(out.data(), accum.mapped, size_t(accum.size));
+            std::memcpy(out.data(), accum.mapped, size_t(bytes));
             return;
         }
         // Not host-visible: copy into the readback buffer first.
         dev->begin_commands();
-        const VkBufferCopy region{0, 0, accum.size};
+        const VkBufferCopy region{0, 0, bytes};
         dev->fn().vkCmdCopyBuffer(dev->cmd(), accum.buffer, readback.buffer, 1, &region);
         dev->barrier(VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
                      VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
         dev->submit_and_wait();
-        std::memcpy(out.data(), readback.mapped, size_t(accum.size));
+        std::memcpy(out.data(), readback.mapped, size_t(bytes));
     }
 };
 
@@ -354,8 +375,8 @@ const DeviceInfo& VulkanBackend::device() const {
 void VulkanBackend::load(const GpuScene& scene, int width, int height) {
     impl_->load(scene, width, height);
 }
-void VulkanBackend::dispatch(const gpu::GpuParams& params) {
-    impl_->dispatch(params);
+uint32_t VulkanBackend::dispatch(const gpu::GpuParams& params) {
+    return impl_->dispatch(params);
 }
 void VulkanBackend::read_accum(std::vector<float>& out) {
     impl_->read_accum(out);
@@ -363,11 +384,11 @@ void VulkanBackend::read_accum(std::vector<float>& out) {
 double VulkanBackend::compile_seconds() const {
     return impl_->compile_seconds;
 }
-uint32_t VulkanBackend::max_samples_per_dispatch() const {
+uint32_t VulkanBackend::max_bounces_per_dispatch() const {
     // llvmpipe (lavapipe) ends every loop of an invocation once 65,535 iterations have run
-    // in all of them together (gallivm's LP_MAX_TGSI_LOOP_ITERATIONS): one sample per
-    // dispatch keeps ordinary paths far below it; longer ones are detected and counted.
-    return impl_->pd.props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? 1u : (1u << 30);
+    // in all of them together (gallivm's LP_MAX_TGSI_LOOP_ITERATIONS): 16 bounces, each a few
+    // hundred traversal steps at most, stay far below it.
+    return impl_->pd.props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? 64u : (1u << 20);
 }
 uint32_t VulkanBackend::compiled_features() const {
     return impl_->built_features & FEATURE_BITS;

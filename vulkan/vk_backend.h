@@ -41,13 +41,13 @@ class VulkanBackend final : public Backend {
     std::string description() const override;
     const DeviceInfo& device() const override;
     void load(const GpuScene& scene, int width, int height) override;
-    void dispatch(const gpu::GpuParams& params) override;
+    uint32_t dispatch(const gpu::GpuParams& params) override;
     void read_accum(std::vector<float>& out) override;
     // Seconds spent creating the compute pipeline in load().
     double compile_seconds() const override;
     uint32_t compiled_features() const override;
     double device_seconds() const override { return gpu_seconds(); }
-    uint32_t max_samples_per_dispatch() const override;
+    uint32_t max_bounces_per_dispatch() const override;
     std::string layout() const override;
 
     // Whether the queue has timestamps (timestampValidBits > 0); gpu_seconds() is 0 if not.

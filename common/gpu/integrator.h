@@ -175,33 +175,68 @@ MCPT_FN Ray camera_ray(SCENE_PARAMS_ float fx, float fy) {
     return ray;
 }
 
-// One path's radiance estimate for `pixel`, sample `sample_index`.
-MCPT_FN PathResult trace_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
-    uint seed = PARAM(seed);
-    float light_scale = PARAM(light_scale);
-    // Camera ray through a jittered point of the pixel.
-    vec4 u_cam = rng4(pixel, sample_index, 0u, seed);
+// A path between bounces, and between dispatches: everything the bounce loop carries.
+#define PATH_RUNNING 0u
+#define PATH_ENDED 1u    // radiance is the sample
+#define PATH_INVALID 2u  // a traversal the device cut short: the sample is counted, never added
+MCPT_STRUCT(PathState) {
+    vec3 o, d;  // the next ray (tmax infinite)
+    vec3 beta, radiance, prev_p;
+    float eta_scale, prev_pdf;
+    uint depth, rays, status;
+    bool specular;
+    uint sample_index, samples_left;  // this sample, and the samples this pixel still owes
+    uint steps;                       // bounces advance_path() ran in its last call
+};
+
+// The camera ray of `pixel`'s sample `sample_index` through a jittered point of the pixel.
+MCPT_FN PathState start_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
+    vec4 u_cam = rng4(pixel, sample_index, 0u, PARAM(seed));
     uint px = pixel % PARAM(width), py = pixel / PARAM(width);
     float fx = (F32(px) + u_cam.x) / F32(PARAM(width)) * 2.0f - 1.0f;
     float fy = 1.0f - (F32(py) + u_cam.y) / F32(PARAM(height)) * 2.0f;
     Ray ray = camera_ray(SCENE_ARGS_ fx, fy);
+    PathState st;
+    st.o = ray.o;
+    st.d = ray.d;
+    st.beta = V3S(1.0f);
+    st.radiance = V3S(0.0f);
+    st.prev_p = ray.o;
+    st.eta_scale = 1.0f;
+    st.prev_pdf = 0.0f;
+    st.depth = 0u;
+    st.rays = 0u;
+    st.status = PATH_RUNNING;
+    st.specular = true;
+    st.sample_index = sample_index;
+    st.samples_left = 1u;
+    st.steps = 0u;
+    return st;
+}
 
-    vec3 radiance = V3S(0.0f);
-    vec3 beta = V3S(1.0f);
-    float eta_scale = 1.0f;
-    bool specular = true;
-    float prev_pdf = 0.0f;
-    vec3 prev_p = ray.o;
-    uint rays = 0u;
-    bool ended = false;  // set at every real exit of the loop (see TRACE_INCOMPLETE)
-    for (uint depth = 0u;; ++depth) {
+// Runs at most max_bounces bounces of the path (each: the next vertex, its emission,
+// next-event estimation, the BSDF sample, Russian roulette); a path still running afterwards
+// continues from the returned state.
+MCPT_FN PathState advance_path(SCENE_PARAMS_ PathState st, uint pixel, uint max_bounces) {
+    uint seed = PARAM(seed);
+    float light_scale = PARAM(light_scale);
+    Ray ray;
+    ray.o = st.o;
+    ray.d = st.d;
+    ray.tmax = MCPT_FLT_MAX;
+    uint k = 0u;
+    for (; k < max_bounces; ++k) {
+        uint depth = st.depth;
         // Find the next vertex.
         Hit hit = trace_ray(SCENE_ARGS_ ray, false);
-        rays += 1u;
+        st.rays += 1u;
         MCPT_COUNT_RAY(hit);
-        if (hit.status != 0u) return path_result(V3S(quiet_nan()), rays);
+        if (hit.status != 0u) {
+            st.status = PATH_INVALID;
+            break;
+        }
         if (hit.prim == NO_HIT) {
-            ended = true;
+            st.status = PATH_ENDED;
             break;
         }
         SurfacePoint s = surface_at(SCENE_ARGS_ ray, hit);
@@ -214,18 +249,18 @@ MCPT_FN PathResult trace_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
         vec3 le = material_emission(m) * light_scale;
         if (front && max_component(le) > 0.0f) {
             float w = 1.0f;
-            if (!specular) {
-                w = power_heuristic(prev_pdf, emitter_hit_pdf(SCENE_ARGS_ prev_p, ray, hit, s));
+            if (!st.specular) {
+                w = power_heuristic(st.prev_pdf, emitter_hit_pdf(SCENE_ARGS_ st.prev_p, ray, hit, s));
             }
-            radiance += beta * le * w;
+            st.radiance += st.beta * le * w;
         }
         if (depth >= PARAM(max_depth)) {
-            ended = true;
+            st.status = PATH_ENDED;
             break;
         }
 
-        vec4 ua = rng4(pixel, sample_index, 2u * depth + 1u, seed);
-        vec4 ub = rng4(pixel, sample_index, 2u * depth + 2u, seed);
+        vec4 ua = rng4(pixel, st.sample_index, 2u * depth + 1u, seed);
+        vec4 ub = rng4(pixel, st.sample_index, 2u * depth + 2u, seed);
 
         // Next-event estimation at diffuse vertices.
         if (HAS_FEATURE(FEATURE_DIFFUSE) && m.type == MAT_DIFFUSE && PARAM(num_lights) > 0u) {
@@ -237,13 +272,16 @@ MCPT_FN PathResult trace_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
                 shadow.d = offset_ray_origin(ls.p, ls.p_error, ls.n, -ls.wi) - shadow.o;
                 shadow.tmax = 1.0f - SHADOW_EPSILON;
                 Hit blocker = trace_ray(SCENE_ARGS_ shadow, true);
-                rays += 1u;
+                st.rays += 1u;
                 MCPT_COUNT_RAY(blocker);
-                if (blocker.status != 0u) return path_result(V3S(quiet_nan()), rays);
+                if (blocker.status != 0u) {
+                    st.status = PATH_INVALID;
+                    break;
+                }
                 if (blocker.prim == NO_HIT) {
                     float w = power_heuristic(ls.pdf, diffuse_pdf(n, ls.wi));
-                    radiance += beta * diffuse_eval(m, n, ls.wi) * ls.le *
-                                (light_scale * cos_x * w / ls.pdf);
+                    st.radiance += st.beta * diffuse_eval(m, n, ls.wi) * ls.le *
+                                   (light_scale * cos_x * w / ls.pdf);
                 }
             }
         }
@@ -251,34 +289,47 @@ MCPT_FN PathResult trace_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
         // Sample the BSDF for the next direction.
         BsdfSample bs = sample_bsdf(m, n, wo, front, V3(ub.x, ub.y, ub.z));
         if (!bs.valid) {
-            ended = true;
+            st.status = PATH_ENDED;
             break;
         }
-        beta = beta * bs.weight;
-        eta_scale *= bs.eta2;
-        specular = bs.specular;
-        prev_pdf = bs.pdf;
-        prev_p = s.p;
+        st.beta = st.beta * bs.weight;
+        st.eta_scale *= bs.eta2;
+        st.specular = bs.specular;
+        st.prev_pdf = bs.pdf;
+        st.prev_p = s.p;
         ray.o = offset_ray_origin(s.p, s.p_error, s.ng, bs.wi);
         ray.d = bs.wi;
         ray.tmax = MCPT_FLT_MAX;
+        st.depth = depth + 1u;
 
         // Russian roulette on the throughput (with the IOR scaling undone). Tests build a biased
         // variant that forgets to reweight survivors (MCPT_NEGATIVE_CONTROL_RR).
         if (depth + 1u >= PARAM(rr_depth)) {
-            float survive = MINF(1.0f, max_component(beta * eta_scale));
+            float survive = MINF(1.0f, max_component(st.beta * st.eta_scale));
             if (ua.w >= survive) {
-                ended = true;
+                st.status = PATH_ENDED;
                 break;
             }
 #ifndef MCPT_NEGATIVE_CONTROL_RR
-            beta = beta / survive;
+            st.beta = st.beta / survive;
 #endif
         }
     }
-    // A loop the device cut short: an invalid sample, counted and left out like a NaN.
-    if (!ended) return path_result(V3S(quiet_nan()), rays);
-    return path_result(radiance, rays);
+    // A loop the device cut short (neither ended nor out of budget): an invalid sample.
+    if (st.status == PATH_RUNNING && k < max_bounces) st.status = PATH_INVALID;
+    st.steps = st.status == PATH_RUNNING ? k : k + 1u;
+    st.o = ray.o;
+    st.d = ray.d;
+    return st;
+}
+
+// One path's radiance estimate for `pixel`, sample `sample_index`, traced to its end (the
+// C++ build's oracle; devices run the same functions through step_slot()).
+MCPT_FN PathResult trace_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
+    PathState st = start_path(SCENE_ARGS_ pixel, sample_index);
+    st = advance_path(SCENE_ARGS_ st, pixel, 0xffffffffu);
+    if (st.status != PATH_ENDED) return path_result(V3S(quiet_nan()), st.rays);
+    return path_result(st.radiance, st.rays);
 }
 
 // Per-pixel sums of one dispatch: radiance, squared radiance, and sample counts.
@@ -287,29 +338,80 @@ MCPT_STRUCT(PixelSums) {
     vec4 sum_sq; // rgb: sum of squares; w: number of rays traced
 };
 
-MCPT_FN PixelSums render_pixel(SCENE_PARAMS_ uint pixel) {
-    PixelSums acc;
-    acc.sum = V4S(0.0f);
-    acc.sum_sq = V4S(0.0f);
-    uint i = 0u;
-    for (; i < PARAM(samples_per_dispatch); ++i) {
-        PathResult r = trace_path(SCENE_ARGS_ pixel, PARAM(sample_offset) + i);
-        vec3 l = r.radiance;
+// What one dispatch did for one pixel's slot: the path state to keep, the sums to add.
+MCPT_STRUCT(SlotStep) {
+    PathState st;
+    PixelSums add;
+};
+
+// One dispatch's work for the slot of `pixel`: continues its path within the bounce budget;
+// each path that ends adds its sample (non-finite ones counted, never added) and starts the
+// pixel's next sample while the pixel owes samples.
+MCPT_FN SlotStep step_slot(SCENE_PARAMS_ PathState st, uint pixel) {
+    SlotStep step;
+    step.add.sum = V4S(0.0f);
+    step.add.sum_sq = V4S(0.0f);
+    uint budget = PARAM(bounce_budget);
+    while (st.samples_left > 0u && budget > 0u) {
+        st = advance_path(SCENE_ARGS_ st, pixel, budget);
+        budget -= st.steps;
+        if (st.status == PATH_RUNNING) break;
+        vec3 l = st.status == PATH_ENDED ? st.radiance : V3S(quiet_nan());
         // Tests: poison every 4th sample of pixel 0 (NaN) and of pixel 1 (+Inf).
-        if (HAS_FEATURE(FEATURE_TEST_NAN) && pixel <= 1u && ((PARAM(sample_offset) + i) & 3u) == 0u)
+        if (HAS_FEATURE(FEATURE_TEST_NAN) && pixel <= 1u && (st.sample_index & 3u) == 0u)
             l.x = pixel == 0u ? quiet_nan() : uint_as_float(0x7f800000u);
-        acc.sum_sq.w += F32(r.rays);
-        // Non-finite samples are counted, never added.
+        step.add.sum_sq.w += F32(st.rays);
         if (is_nonfinite3(l)) {
-            acc.sum.w += 1.0f;
+            step.add.sum.w += 1.0f;
         } else {
-            acc.sum = acc.sum + V4(l.x, l.y, l.z, 0.0f);
-            acc.sum_sq = acc.sum_sq + V4(l.x * l.x, l.y * l.y, l.z * l.z, 0.0f);
+            step.add.sum = step.add.sum + V4(l.x, l.y, l.z, 0.0f);
+            step.add.sum_sq = step.add.sum_sq + V4(l.x * l.x, l.y * l.y, l.z * l.z, 0.0f);
         }
+        // The pixel's next sample, if it owes one.
+        uint left = st.samples_left - 1u;
+        uint next = st.sample_index + 1u;
+        st = start_path(SCENE_ARGS_ pixel, next);
+        st.samples_left = left;
     }
-    // Samples a device loop limit never ran count as invalid too.
-    if (i < PARAM(samples_per_dispatch)) acc.sum.w += F32(PARAM(samples_per_dispatch) - i);
-    return acc;
+    step.st = st;
+    return step;
+}
+
+// Path state in storage: PATH_STATE_VEC4 vec4 per slot (shared_types.h).
+MCPT_STRUCT(PackedState) {
+    vec4 a, b, c, d, e, f;
+};
+
+MCPT_FN PackedState pack_state(PathState st) {
+    PackedState p;
+    p.a = V4(st.o.x, st.o.y, st.o.z, st.eta_scale);
+    p.b = V4(st.d.x, st.d.y, st.d.z, st.prev_pdf);
+    p.c = V4(st.beta.x, st.beta.y, st.beta.z, uint_as_float(st.depth));
+    p.d = V4(st.radiance.x, st.radiance.y, st.radiance.z, uint_as_float(st.rays));
+    p.e = V4(st.prev_p.x, st.prev_p.y, st.prev_p.z,
+             uint_as_float(st.status | (st.specular ? 4u : 0u)));
+    p.f = V4(uint_as_float(st.sample_index), uint_as_float(st.samples_left), 0.0f, 0.0f);
+    return p;
+}
+
+MCPT_FN PathState unpack_state(PackedState p) {
+    PathState st;
+    st.o = V3(p.a.x, p.a.y, p.a.z);
+    st.eta_scale = p.a.w;
+    st.d = V3(p.b.x, p.b.y, p.b.z);
+    st.prev_pdf = p.b.w;
+    st.beta = V3(p.c.x, p.c.y, p.c.z);
+    st.depth = float_as_uint(p.c.w);
+    st.radiance = V3(p.d.x, p.d.y, p.d.z);
+    st.rays = float_as_uint(p.d.w);
+    st.prev_p = V3(p.e.x, p.e.y, p.e.z);
+    uint flags = float_as_uint(p.e.w);
+    st.status = flags & 3u;
+    st.specular = (flags & 4u) != 0u;
+    st.sample_index = float_as_uint(p.f.x);
+    st.samples_left = float_as_uint(p.f.y);
+    st.steps = 0u;
+    return st;
 }
 
 MCPT_NAMESPACE_END

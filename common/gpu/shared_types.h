@@ -106,13 +106,23 @@ MCPT_STRUCT(GpuParams) {
     float cam_wx, cam_wy, cam_wz;  // forward (unit)
     float light_scale;  // 1.0; negative-control tests scale every emitter
     uint num_materials;
-    uint pad1;
+    // Paths carried across dispatches: a round gives each pixel of [pixel_offset,
+    // pixel_offset + pixel_count) samples_per_dispatch samples; its first dispatch starts them
+    // (round_start), each dispatch runs at most bounce_budget bounces per pixel, and the host
+    // repeats it until no pixel owes samples. Pixel i keeps its path in slot i - state_base.
+    uint round_start, bounce_budget;
+    uint state_base, state_slots;  // state_slots: slots after the accumulation sums
+    uint pad0;
 };
 
 // Accumulation buffer: two vec4 per pixel.
 //   [2*i]   = sum of radiance (rgb), number of non-finite samples (w)
 //   [2*i+1] = sum of squared radiance (rgb), number of rays traced (w)
+// then the path state of state_slots slots (PATH_STATE_VEC4 vec4 each, integrator.h), then
+// one vec4 whose first word is set when a pixel still owes samples after a dispatch.
 #define ACCUM_VEC4_PER_PIXEL 2u
+#define PATH_STATE_VEC4 6u
+#define MAX_STATE_SLOTS 262144u  // 24 MiB of path state at most
 
 MCPT_NAMESPACE_END
 
@@ -123,7 +133,7 @@ static_assert(sizeof(mcpt::gpu::GpuTriangle) % 8 == 0, "GLSL reads triangles as 
 static_assert(sizeof(mcpt::gpu::GpuSphere) == 32, "GpuSphere must be 32 bytes");
 static_assert(sizeof(mcpt::gpu::GpuMaterial) == 32, "GpuMaterial must be 32 bytes");
 static_assert(sizeof(mcpt::gpu::GpuLight) == 16, "GpuLight must be 16 bytes");
-static_assert(sizeof(mcpt::gpu::GpuParams) == 36 * 4, "GpuParams must be 36 words");
+static_assert(sizeof(mcpt::gpu::GpuParams) == 40 * 4, "GpuParams must be 40 words");
 static_assert(offsetof(mcpt::gpu::GpuParams, light_power_total) == 14 * 4, "GpuParams layout");
 static_assert(offsetof(mcpt::gpu::GpuParams, cam_px) == 21 * 4, "GpuParams layout");
 static_assert(offsetof(mcpt::gpu::GpuParams, light_scale) == 33 * 4, "GpuParams layout");

@@ -57,18 +57,20 @@ public:
     // Compiles the program for this scene (stack size), uploads its arrays and allocates the
     // accumulation buffer for width*height pixels. Throws mcpt::Error on device limits.
     virtual void load(const GpuScene& scene, int width, int height) = 0;
-    // Runs one dispatch and waits for it.
-    virtual void dispatch(const gpu::GpuParams& params) = 0;
-    // The accumulation buffer: ACCUM_VEC4_PER_PIXEL * 4 floats per pixel.
+    // Runs one dispatch and waits for it; returns non-zero while some of its pixels still owe
+    // samples of the round (their paths continue in the next dispatch, round_start = 0).
+    virtual uint32_t dispatch(const gpu::GpuParams& params) = 0;
+    // The accumulation sums: ACCUM_VEC4_PER_PIXEL * 4 floats per pixel.
     virtual void read_accum(std::vector<float>& out) = 0;
     // Seconds spent compiling in load().
     virtual double compile_seconds() const = 0;
     // Device time spent in dispatches so far (OpenCL profiling events, Vulkan timestamps);
     // 0 where the device cannot time itself.
     virtual double device_seconds() const = 0;
-    // Most samples per pixel one dispatch may take: CPU Vulkan drivers cap the loop
-    // iterations of an invocation (llvmpipe: 65,535 over all loops), so they get 1.
-    virtual uint32_t max_samples_per_dispatch() const = 0;
+    // Most bounces one dispatch may run per pixel: CPU Vulkan drivers end the loops of an
+    // invocation after a fixed number of iterations (llvmpipe: 65,535 over all loops), so
+    // they get a budget far below that; longer paths continue in the next dispatch.
+    virtual uint32_t max_bounces_per_dispatch() const = 0;
     // The FEATURE_* bits the loaded program was compiled with.
     virtual uint32_t compiled_features() const = 0;
     // What the backend works within: "4 storage buffers per stage (device allows 4),

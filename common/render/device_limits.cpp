@@ -19,7 +19,7 @@ std::string human_bytes(uint64_t b) {
 
 std::vector<std::pair<std::string, uint64_t>> device_buffers(const GpuScene& scene, int width,
                                                              int height) {
-    const uint64_t accum = uint64_t(width) * uint64_t(height) * ACCUM_VEC4_PER_PIXEL * 16;
+    const uint64_t accum = accum_buffer_bytes(uint64_t(width) * uint64_t(height));
     const uint64_t tree = scene.nodes.size() * sizeof(gpu::KdNode) + scene.leaf_indices.size() * 4;
     const uint64_t shading = scene.spheres.size() * sizeof(gpu::GpuSphere) +
                              scene.materials.size() * sizeof(gpu::GpuMaterial) +

@@ -1,5 +1,6 @@
 #include "common/render/gpu_scene.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <numeric>
@@ -149,6 +150,15 @@ void append_words(std::vector<uint32_t>& out, const std::vector<T>& v) {
     if (!v.empty()) std::memcpy(out.data() + at, v.data(), v.size() * sizeof(T));
 }
 }  // namespace
+
+uint32_t path_state_slots(uint64_t npix) {
+    return uint32_t(std::min<uint64_t>(npix, MAX_STATE_SLOTS));
+}
+
+uint64_t accum_buffer_bytes(uint64_t npix) {
+    return (npix * ACCUM_VEC4_PER_PIXEL + uint64_t(path_state_slots(npix)) * PATH_STATE_VEC4 + 1) *
+           16;
+}
 
 std::vector<uint32_t> tree_buffer(const GpuScene& s) {
     std::vector<uint32_t> out;

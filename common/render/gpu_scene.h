@@ -35,6 +35,11 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree);
 std::vector<uint32_t> tree_buffer(const GpuScene& scene);
 std::vector<uint32_t> shading_buffer(const GpuScene& scene);
 
+// Path-state slots for an image of npix pixels (one per pixel of a round's tile), and the
+// bytes of its accumulation buffer: sums, path state and the active-slot counter.
+uint32_t path_state_slots(uint64_t npix);
+uint64_t accum_buffer_bytes(uint64_t npix);
+
 // Pinhole camera for a width x height image into params.
 void set_camera(gpu::GpuParams& params, const Camera& camera, int width, int height);
 

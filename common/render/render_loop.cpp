@@ -96,19 +96,38 @@ void ProgressiveRender::flush() {
 
 uint32_t ProgressiveRender::pass(uint64_t max_spp) {
     using clock = std::chrono::steady_clock;
-    // Every pixel gets `spp` more samples, in tiles of at most `work` pixel-samples.
+    // Every pixel gets `spp` more samples, in tiles of at most `work` pixel-samples (and at
+    // most the path-state slots).
     uint32_t spp = uint32_t(std::max(1.0, std::floor(work_ / npix_)));
-    spp = std::min({spp, opt_.flush_spp - unflushed_, backend_.max_samples_per_dispatch()});
+    spp = std::min(spp, opt_.flush_spp - unflushed_);
     spp = uint32_t(std::max<uint64_t>(1, std::min<uint64_t>(spp, max_spp)));
-    const uint32_t tile = uint32_t(std::clamp(work_ / spp, 64.0, double(npix_)));
+    const uint32_t slots = path_state_slots(npix_);
+    const uint32_t tile =
+        uint32_t(std::clamp(work_ / spp, 64.0, double(std::min(npix_, slots))));
+    const uint32_t cap = std::max(1u, backend_.max_bounces_per_dispatch());
+    const double target_s = opt_.dispatch_ms * 1e-3;
     p_.sample_offset = uint32_t(r_.spp);
     p_.samples_per_dispatch = spp;
     p_.accumulate = unflushed_ > 0 ? 1u : 0u;
+    p_.state_slots = slots;
     const auto start = clock::now();
     for (uint32_t offset = 0; offset < npix_; offset += tile) {
-        p_.pixel_offset = offset;
+        p_.pixel_offset = p_.state_base = offset;
         p_.pixel_count = std::min(tile, npix_ - offset);
-        backend_.dispatch(p_);
+        // A round: start the tile's samples, continue their paths until none is left.
+        p_.round_start = 1;
+        for (uint32_t active = 1; active > 0; p_.round_start = 0) {
+            p_.bounce_budget = std::min(bounce_budget_, cap);
+            const auto t0 = clock::now();
+            active = backend_.dispatch(p_);
+            const double t = std::chrono::duration<double>(clock::now() - t0).count();
+            dispatch_s_.push_back(float(t));
+            longest_dispatch_s_ = std::max(longest_dispatch_s_, t);
+            // Halve the budget after a dispatch over the target; double it while dispatches
+            // that ran out of budget stay well under it.
+            if (t > target_s && bounce_budget_ > 1) bounce_budget_ /= 2;
+            else if (active > 0 && t < 0.4 * target_s && bounce_budget_ < cap) bounce_budget_ *= 2;
+        }
     }
     last_pass_s_ = std::chrono::duration<double>(clock::now() - start).count();
     r_.spp += spp;
@@ -118,6 +137,13 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
     work_ = std::clamp(rate * opt_.dispatch_ms * 1e-3, 64.0, 64.0 * npix_);
     if (unflushed_ >= opt_.flush_spp) flush();
     return spp;
+}
+
+double ProgressiveRender::median_dispatch_seconds() const {
+    if (dispatch_s_.empty()) return 0;
+    std::vector<float> v = dispatch_s_;
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
 }
 
 RenderResult render_loaded(Backend& backend, const GpuScene& scene, const Camera& camera,

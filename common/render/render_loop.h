@@ -45,9 +45,13 @@ struct RenderResult {
     double relative_error() const;
 };
 
-// The render loop as a resumable object: passes of a few dispatches each (sized to
-// options.dispatch_ms from the measured rate), device sums flushed into double precision
-// every options.flush_spp samples. Sessions keep one across calls; render_loaded() runs one.
+// The render loop as a resumable object: passes of a few rounds each, device sums flushed into
+// double precision every options.flush_spp samples. A round gives every pixel of a tile some
+// samples; its dispatches each run at most `bounce budget` bounces per pixel and are repeated
+// (paths carried across them on the device) until no pixel owes samples, so no dispatch
+// outlasts options.dispatch_ms by much, whatever the path lengths. Tile size, samples per
+// round and the bounce budget adapt to measured times. Sessions keep one across calls;
+// render_loaded() runs one.
 class ProgressiveRender {
 public:
     // The backend must hold the scene at options' size (Backend::load done).
@@ -59,8 +63,11 @@ public:
     uint32_t pass(uint64_t max_spp = UINT64_MAX);
     // Adds the device sums into result().
     void flush();
-    // Seconds the last pass took.
+    // Seconds the last pass took, and the longest and the median dispatch so far.
     double last_pass_seconds() const { return last_pass_s_; }
+    double longest_dispatch_seconds() const { return longest_dispatch_s_; }
+    double median_dispatch_seconds() const;
+    uint64_t dispatches() const { return dispatch_s_.size(); }
     RenderResult& result() { return r_; }
     const RenderResult& result() const { return r_; }
 
@@ -70,7 +77,9 @@ private:
     gpu::GpuParams p_{};
     RenderResult r_;
     uint32_t npix_ = 0, unflushed_ = 0;
-    double work_ = 0, last_pass_s_ = 0;
+    double work_ = 0, last_pass_s_ = 0, longest_dispatch_s_ = 0;
+    uint32_t bounce_budget_ = 16;
+    std::vector<float> dispatch_s_;  // every dispatch's wall time
     std::vector<float> device_sums_;
 };
 

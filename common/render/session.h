@@ -84,6 +84,8 @@ class Session {
     bool committed() const { return !dirty_; }
     // The accumulated result (sums, spp, rays, seconds of render() calls); empty before.
     const RenderResult& result() const;
+    // The render loop of the current accumulation (dispatch timings); null before render().
+    const ProgressiveRender* loop() const { return progressive_.get(); }
     uint64_t spp() const { return result().spp; }
 
     // The image: linear radiance RGBA (alpha 1), or 8-bit sRGB RGBA (exposure 1, clamped),
