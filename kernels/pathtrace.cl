@@ -41,8 +41,14 @@ __kernel void pathtrace(__global const GpuParams* params, __global const uint* t
     SlotStep r = step_slot(SCENE_ARGS_ st, pixel);
     accum[2u * pixel] += r.add.sum;
     accum[2u * pixel + 1u] += r.add.sum_sq;
-    PackedState p = pack_state(r.st);
-    state[0] = p.a, state[1] = p.b, state[2] = p.c, state[3] = p.d, state[4] = p.e, state[5] = p.f;
-    // Some pixel still owes samples: the host dispatches again (a flag, not a count).
-    if (r.st.samples_left > 0u) *pending = 1u;
+    // A pixel that still owes samples keeps its path, and the host dispatches again (the
+    // pending word is a flag, not a count).
+    if (r.st.samples_left > 0u) {
+        PackedState p = pack_state(r.st);
+        state[0] = p.a, state[1] = p.b, state[2] = p.c;
+        state[3] = p.d, state[4] = p.e, state[5] = p.f;
+        *pending = 1u;
+    } else {
+        state[5] = (float4)(0.0f);  // samples_left = 0: later dispatches skip the pixel
+    }
 }

@@ -37,13 +37,18 @@ void main() {
     SlotStep r = step_slot(st, pixel);
     accum[2u * pixel] += r.add.sum;
     accum[2u * pixel + 1u] += r.add.sum_sq;
-    PackedState p = pack_state(r.st);
-    accum[state] = p.a;
-    accum[state + 1u] = p.b;
-    accum[state + 2u] = p.c;
-    accum[state + 3u] = p.d;
-    accum[state + 4u] = p.e;
-    accum[state + 5u] = p.f;
-    // Some pixel still owes samples: the host dispatches again (a flag, not a count).
-    if (r.st.samples_left > 0u) accum_words[pending] = 1u;
+    // A pixel that still owes samples keeps its path, and the host dispatches again (the
+    // pending word is a flag, not a count).
+    if (r.st.samples_left > 0u) {
+        PackedState p = pack_state(r.st);
+        accum[state] = p.a;
+        accum[state + 1u] = p.b;
+        accum[state + 2u] = p.c;
+        accum[state + 3u] = p.d;
+        accum[state + 4u] = p.e;
+        accum[state + 5u] = p.f;
+        accum_words[pending] = 1u;
+    } else {
+        accum[state + 5u] = vec4(0.0f);  // samples_left = 0: later dispatches skip the pixel
+    }
 }
