@@ -8,6 +8,7 @@
 #include <memory>
 
 #include "app/commands.h"
+#include "common/error.h"
 #include "common/render/prepare.h"
 #include "common/render/scene_features.h"
 #include "common/render/session.h"
@@ -82,14 +83,25 @@ void run_render(const RenderArgs& a) {
     PassStats st;
     while (true) {
         const double step_ms = seconds > 0 ? std::min(250.0, (seconds - elapsed) * 1e3) : 250.0;
-        st = session.render(std::max(step_ms, 0.0), a.target_error, spp);
+        try {
+            st = session.render(std::max(step_ms, 0.0), a.target_error, spp);
+        } catch (const Error& e) {
+            // The device failed mid-render: the samples taken before are kept; write them.
+            if (bar) std::fprintf(stderr, "\n");
+            if (r.spp == 0) throw;
+            session.write_image(a.output);
+            throw Error(std::string(e.what()) + "\nwrote the " + std::to_string(r.spp) +
+                        " spp rendered before the failure to " + a.output);
+        }
         elapsed += st.seconds;
         if (bar) {
-            double frac = spp > 0 ? double(r.spp) / double(spp)
-                                  : seconds > 0 ? std::min(1.0, elapsed / seconds) : 0.0;
+            double frac = spp > 0       ? double(r.spp) / double(spp)
+                          : seconds > 0 ? std::min(1.0, elapsed / seconds)
+                                        : 0.0;
             // With a target error, progress is also the fraction of the samples it needs.
             if (a.target_error > 0 && st.relative_error < HUGE_VAL)
-                frac = std::max(frac, std::min(1.0, std::pow(a.target_error / st.relative_error, 2)));
+                frac =
+                    std::max(frac, std::min(1.0, std::pow(a.target_error / st.relative_error, 2)));
             print_progress(frac, r);
         }
         if (st.target_reached || (spp > 0 && r.spp >= spp) || (seconds > 0 && elapsed >= seconds))
@@ -117,25 +129,28 @@ void run_render(const RenderArgs& a) {
                     feature_names(backend.compiled_features()).c_str(),
                     features_left_out(backend.compiled_features()).c_str());
     }
-    std::printf("rendered %dx%d, %llu spp, max depth %d in %.3f s: %.3f M samples/s, %.2f M rays/s\n",
-                r.width, r.height, (unsigned long long)r.spp, session.max_depth(), r.seconds,
-                paths / r.seconds * 1e-6, r.rays / r.seconds * 1e-6);
+    std::printf(
+        "rendered %dx%d, %llu spp, max depth %d in %.3f s: %.3f M samples/s, %.2f M rays/s\n",
+        r.width, r.height, (unsigned long long)r.spp, session.max_depth(), r.seconds,
+        paths / r.seconds * 1e-6, r.rays / r.seconds * 1e-6);
     const std::vector<float> err = r.std_error_image();
     double mean_err = 0, max_err = 0;
     for (float e : err) mean_err += e, max_err = std::max<double>(max_err, e);
     mean_err /= double(err.size());
     const double mean_l = r.mean_radiance();
-    std::printf("standard error per pixel and channel (sample variance): mean %.4g, max %.4g; "
-                "relative to mean radiance %.4g: %.2f%%\n",
-                mean_err, max_err, mean_l, mean_l > 0 ? 100.0 * mean_err / mean_l : 0.0);
+    std::printf(
+        "standard error per pixel and channel (sample variance): mean %.4g, max %.4g; "
+        "relative to mean radiance %.4g: %.2f%%\n",
+        mean_err, max_err, mean_l, mean_l > 0 ? 100.0 * mean_err / mean_l : 0.0);
     if (a.target_error > 0) {
         std::printf("target relative error %.2f%%: %s\n", 100 * a.target_error,
                     st.target_reached ? "reached" : "not reached (stopped by --time or --spp)");
     }
     if (r.nonfinite_total > 0) {
-        std::printf("WARNING: %llu invalid samples (NaN/Inf, or paths a device loop limit cut "
-                    "short) were counted and left out\n",
-                    (unsigned long long)r.nonfinite_total);
+        std::printf(
+            "WARNING: %llu invalid samples (NaN/Inf, or paths a device loop limit cut "
+            "short) were counted and left out\n",
+            (unsigned long long)r.nonfinite_total);
     } else {
         std::printf("non-finite samples: 0\n");
     }
@@ -163,9 +178,11 @@ void add_render_command(CLI::App& app) {
     sub->add_option("--target-error", args->target_error,
                     "Stop once mean standard error / mean radiance is below this (e.g. 0.05)")
         ->check(CLI::Range(1e-6, 1.0));
-    sub->add_option("--width", args->width, "Image width")->check(CLI::Range(1, 16384))
+    sub->add_option("--width", args->width, "Image width")
+        ->check(CLI::Range(1, 16384))
         ->capture_default_str();
-    sub->add_option("--height", args->height, "Image height")->check(CLI::Range(1, 16384))
+    sub->add_option("--height", args->height, "Image height")
+        ->check(CLI::Range(1, 16384))
         ->capture_default_str();
     sub->add_option("-o,--output", args->output, "Output image (.exr linear, .png sRGB)")
         ->capture_default_str();

@@ -67,7 +67,7 @@ std::vector<ClDevice> enumerate() {
 }
 
 class OpenClBackend final : public Backend {
-public:
+  public:
     OpenClBackend(ClDevice dev, BackendOptions options)
         : dev_(std::move(dev)), options_(std::move(options)) {
         context_ = cl::Context(dev_.device);
@@ -94,8 +94,9 @@ public:
         const uint64_t npix = uint64_t(width) * uint64_t(height);
         const uint64_t accum_bytes = accum_buffer_bytes(npix);
         sums_floats_ = size_t(npix * ACCUM_VEC4_PER_PIXEL * 4);
-        counter_offset_ = size_t((npix * ACCUM_VEC4_PER_PIXEL +
-                                  uint64_t(path_state_slots(npix)) * PATH_STATE_VEC4) * 16);
+        counter_offset_ = size_t(
+            (npix * ACCUM_VEC4_PER_PIXEL + uint64_t(path_state_slots(npix)) * PATH_STATE_VEC4) *
+            16);
         // Upload (empty arrays get one dummy element: OpenCL has no empty buffers).
         params_ = make_buffer(&scene.params, sizeof(gpu::GpuParams), CL_MEM_READ_ONLY);
         tree_ = upload(tree_buffer(scene));
@@ -109,14 +110,47 @@ public:
     }
 
     uint32_t dispatch(const gpu::GpuParams& p) override {
+        try {
+            return run_dispatch(p);
+        } catch (const cl::Error& e) {
+            stopped(e.err(), e.what());
+        }
+    }
+
+    void read_accum(std::vector<float>& out) override {
+        out.resize(sums_floats_);  // the sums only; the path state stays on the device
+        try {
+            queue_.enqueueReadBuffer(accum_, CL_TRUE, 0, sums_floats_ * 4, out.data());
+        } catch (const cl::Error& e) {
+            stopped(e.err(), e.what());
+        }
+    }
+
+  private:
+    // The error for a command that failed while the device worked: OpenCL has no "device
+    // lost"; drivers report a killed or faulted kernel as CL_OUT_OF_RESOURCES (NVIDIA) or an
+    // execution-status error, and the queue is unusable afterwards.
+    [[noreturn]] void stopped(cl_int err, const char* call) const {
+        const std::string what = std::string(call) + " failed: OpenCL error " + std::to_string(err);
+        if (err == CL_OUT_OF_RESOURCES || err == CL_OUT_OF_HOST_MEMORY ||
+            err == CL_MEM_OBJECT_ALLOCATION_FAILURE || err == CL_INVALID_COMMAND_QUEUE ||
+            err == CL_EXEC_STATUS_ERROR_FOR_EVENTS_IN_WAIT_LIST) {
+            throw DeviceLost(what + " on " + description() +
+                             ": the device stopped (a kernel killed by a watchdog or a fault, "
+                             "or out of resources)");
+        }
+        throw Error(what + " on " + description());
+    }
+
+    uint32_t run_dispatch(const gpu::GpuParams& p) {
         if (p.pixel_count == 0) return 0;
         queue_.enqueueWriteBuffer(params_, CL_FALSE, 0, sizeof(p), &p);
         const cl_uint zero = 0;
         queue_.enqueueFillBuffer(accum_, zero, counter_offset_, sizeof(zero));
         const size_t global = (p.pixel_count + local_ - 1) / local_ * local_;
         cl::Event done;
-        queue_.enqueueNDRangeKernel(kernel_, cl::NullRange, cl::NDRange(global), cl::NDRange(local_),
-                                    nullptr, &done);
+        queue_.enqueueNDRangeKernel(kernel_, cl::NullRange, cl::NDRange(global),
+                                    cl::NDRange(local_), nullptr, &done);
         queue_.finish();
         // Kernel time from the profiling event (nanoseconds).
         const cl_ulong t0 = done.getProfilingInfo<CL_PROFILING_COMMAND_START>();
@@ -124,15 +158,11 @@ public:
         if (t1 > t0) device_seconds_ += double(t1 - t0) * 1e-9;
         cl_uint active = 0;
         queue_.enqueueReadBuffer(accum_, CL_TRUE, counter_offset_, sizeof(active), &active);
+        if (options_.lose_device_after != 0 && ++dispatches_ >= options_.lose_device_after)
+            throw cl::Error(CL_OUT_OF_RESOURCES, "clFinish (injected by lose_device_after)");
         return active;
     }
 
-    void read_accum(std::vector<float>& out) override {
-        out.resize(sums_floats_);  // the sums only; the path state stays on the device
-        queue_.enqueueReadBuffer(accum_, CL_TRUE, 0, sums_floats_ * 4, out.data());
-    }
-
-private:
     void build(uint32_t stack_size, uint32_t features) {
         std::string opts = "-cl-std=CL1.2 -DKD_STACK_SIZE=" + std::to_string(stack_size) +
                            "u -DMCPT_FEATURES=" + std::to_string(features) + "u";
@@ -184,6 +214,7 @@ private:
     double compile_seconds_ = 0;
     uint32_t built_features_ = 0;
     double device_seconds_ = 0;
+    uint32_t dispatches_ = 0;  // counted for options_.lose_device_after
 };
 
 }  // namespace
@@ -194,7 +225,9 @@ std::vector<DeviceInfo> list_opencl_devices() {
     return out;
 }
 
-const char* opencl_kernel_source() { return kPathtraceClSource; }
+const char* opencl_kernel_source() {
+    return kPathtraceClSource;
+}
 
 std::unique_ptr<Backend> make_opencl_backend(const BackendOptions& options) {
     if (!options.limits.empty() && options.limits != "device") {

@@ -11,6 +11,7 @@ TEST(CApiMisuse, Version) {
               MCPT_VERSION_MAJOR * 10000 + MCPT_VERSION_MINOR * 100 + MCPT_VERSION_PATCH);
     EXPECT_STREQ(mcpt_version_string(), MCPT_VERSION_STRING);
     EXPECT_STREQ(mcpt_status_name(MCPT_ERROR_SCENE), "MCPT_ERROR_SCENE");
+    EXPECT_STREQ(mcpt_status_name(MCPT_ERROR_DEVICE_LOST), "MCPT_ERROR_DEVICE_LOST");
     EXPECT_STREQ(mcpt_status_name(mcpt_status(42)), "unknown status");
 }
 

@@ -371,3 +371,36 @@ TEST(CApi, Rgba8IsSrgbOfRgba32f) {
         EXPECT_NEAR(b[i], srgb * 255, 0.51) << i;
     }
 }
+
+// A device lost mid-render (injected: MCPT_LOSE_DEVICE_AFTER): MCPT_ERROR_DEVICE_LOST with a
+// message, the samples taken before stay readable and writable, and the session renders no
+// more.
+TEST(CApi, DeviceLostKeepsTheImage) {
+    for (const std::string& api : mcpt::test::test_apis()) {
+        setenv("MCPT_LOSE_DEVICE_AFTER", "40", 1);
+        Session s(spec_of(api));
+        unsetenv("MCPT_LOSE_DEVICE_AFTER");
+        ASSERT_EQ(mcpt_session_load_builtin(s.s, "cornell"), MCPT_OK);
+        ASSERT_EQ(mcpt_session_set_size(s.s, 16, 16), MCPT_OK);
+        mcpt_render_stats st{};
+        mcpt_status status = MCPT_OK;
+        uint64_t spp_before = 0;
+        for (int call = 0; call < 1000 && status == MCPT_OK; ++call) {
+            status = mcpt_session_render(s.s, 20, 0, 0, &st);
+            if (status == MCPT_OK) spp_before = st.spp;
+        }
+        ASSERT_EQ(status, MCPT_ERROR_DEVICE_LOST) << api << ": " << s.error();
+        EXPECT_NE(s.error().find("lose_device_after"), std::string::npos) << s.error();
+        // Every sample of the calls before is in the image, none of the failed call's.
+        const std::vector<float> px = rgba32f(s.s);
+        ASSERT_GT(spp_before, 0u) << api;
+        double sum = 0;
+        for (float v : px) sum += v;
+        EXPECT_GT(sum, double(px.size() / 4)) << api;  // radiance beyond the alphas of 1
+        const std::string out = testing::TempDir() + "/lost_" + api + ".exr";
+        EXPECT_EQ(mcpt_session_write_image(s.s, out.c_str()), MCPT_OK) << s.error();
+        EXPECT_GT(std::filesystem::file_size(out), 0u);
+        EXPECT_EQ(mcpt_session_render(s.s, 20, 0, 0, &st), MCPT_ERROR_DEVICE_LOST) << api;
+        EXPECT_NE(s.error().find("open a new session"), std::string::npos) << s.error();
+    }
+}

@@ -18,8 +18,9 @@ std::unique_ptr<Backend> test_backend(const std::string& api, BackendOptions opt
     return open_device(api, options);
 }
 
-CliRun run_mcpt(const std::string& args) {
-    const std::string cmd = std::string(MCPT_BINARY) + " " + args + " 2>&1";
+CliRun run_mcpt(const std::string& args, const std::string& env) {
+    const std::string cmd =
+        (env.empty() ? "" : "env " + env + " ") + std::string(MCPT_BINARY) + " " + args + " 2>&1";
     CliRun r;
     FILE* pipe = popen(cmd.c_str(), "r");
     if (!pipe) return r;

@@ -42,13 +42,13 @@ inline std::vector<std::string> test_apis() {
 #endif
 }
 
-// The mcpt binary run with `args` (stderr into stdout): its exit status (-1 if killed by a
-// signal) and output.
+// The mcpt binary run with `args` (stderr into stdout), with `env` ("NAME=value ...") added
+// to its environment: its exit status (-1 if killed by a signal) and output.
 struct CliRun {
     int status = -1;
     std::string output;
 };
-CliRun run_mcpt(const std::string& args);
+CliRun run_mcpt(const std::string& args, const std::string& env = "");
 
 // Mean radiance over all pixels, channels and samples, with its standard error (samples are
 // independent across pixels, so the pooled variance applies).

@@ -7,11 +7,11 @@
 
 #include "common/error.h"
 #include "common/render/device_limits.h"
-#include "vulkan/vk_limits_profile.h"
 #include "common/render/device_registry.h"
 #include "pathtrace_comp_spv.h"
 #include "vulkan/vk_context.h"
 #include "vulkan/vk_device.h"
+#include "vulkan/vk_limits_profile.h"
 
 namespace mcpt {
 
@@ -43,6 +43,7 @@ struct VulkanBackend::Impl {
     uint32_t max_groups = 1;
     uint32_t built_stack = 0, built_features = 0;
     BackendOptions options;
+    uint32_t dispatches = 0;  // counted for options.lose_device_after
     double compile_seconds = 0;
     double gpu_seconds = 0;
 
@@ -245,7 +246,8 @@ struct VulkanBackend::Impl {
             VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT);
         dev->submit_and_wait();
         pixels = uint32_t(npix);
-        counter_offset = (npix * ACCUM_VEC4_PER_PIXEL + uint64_t(path_state_slots(npix)) * PATH_STATE_VEC4) * 16;
+        counter_offset =
+            (npix * ACCUM_VEC4_PER_PIXEL + uint64_t(path_state_slots(npix)) * PATH_STATE_VEC4) * 16;
 
         // Descriptor set: every buffer at its BINDING_* slot.
         const Buffer* by_slot[BINDING_COUNT] = {};
@@ -325,6 +327,8 @@ struct VulkanBackend::Impl {
 
         // Submit, wait, add the device time.
         dev->submit_and_wait();
+        if (options.lose_device_after != 0 && ++dispatches >= options.lose_device_after)
+            vk::check(VK_ERROR_DEVICE_LOST, "vkWaitForFences (injected by lose_device_after)");
         if (timer) {
             uint64_t t[2] = {0, 0};
             VK_CHECK(f.vkGetQueryPoolResults, dev->handle(), timer, 0, 2, sizeof(t), t,

@@ -112,8 +112,14 @@ const char* result_name(VkResult r) {
 
 void check(VkResult r, const char* call) {
     if (r == VK_SUCCESS || r == VK_INCOMPLETE) return;
-    throw Error(std::string(call) + " failed: " + result_name(r) + " (" + std::to_string(int(r)) +
-                ")");
+    const std::string what =
+        std::string(call) + " failed: " + result_name(r) + " (" + std::to_string(int(r)) + ")";
+    if (r == VK_ERROR_DEVICE_LOST) {
+        throw DeviceLost(what +
+                         ": the device was lost (a driver reset, or a watchdog ended a "
+                         "submission that ran too long)");
+    }
+    throw Error(what);
 }
 
 const char* call_name(const char* expr) {
@@ -122,7 +128,6 @@ const char* call_name(const char* expr) {
     const char* last = std::max(dot ? dot : expr - 1, arrow ? arrow : expr - 1);
     return last + 1;
 }
-
 
 std::string lower(std::string s) {
     std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
@@ -145,7 +150,8 @@ MemoryLimits memory_limits(const PhysicalDevice& d) {
     const uint64_t range = d.props.limits.maxStorageBufferRange;
     m.max_buffer_bytes = env_limit("MCPT_VULKAN_MAX_BUFFER_BYTES", range);
     m.max_buffer_name = "maxStorageBufferRange";
-    if (m.max_buffer_bytes < range) m.max_buffer_note = " (lowered by MCPT_VULKAN_MAX_BUFFER_BYTES)";
+    if (m.max_buffer_bytes < range)
+        m.max_buffer_note = " (lowered by MCPT_VULKAN_MAX_BUFFER_BYTES)";
     m.max_allocation_bytes = d.max_allocation;
     m.max_allocation_name = "maxMemoryAllocationSize";
     for (uint32_t t = 0; t < d.memory.memoryTypeCount; ++t) {
@@ -366,8 +372,8 @@ std::vector<PhysicalDevice> Instance::devices(const std::string& profile_request
                    std::to_string(v[2]);
         };
         i.limits = {
-            {"limits profile", profile == "phone" ? "phone (Vulkan 1.1 required minimums)"
-                                                  : "device (as reported)"},
+            {"limits profile",
+             profile == "phone" ? "phone (Vulkan 1.1 required minimums)" : "device (as reported)"},
             {"apiVersion", version_string(d.props.apiVersion)},
             {"driver", driver.empty() ? "driverVersion " + std::to_string(d.props.driverVersion)
                                       : driver + " (" + driver_info + ")"},

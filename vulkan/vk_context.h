@@ -99,7 +99,8 @@ inline constexpr const char* kNoDeviceMessage =
 
 // "VK_ERROR_OUT_OF_DEVICE_MEMORY".
 const char* result_name(VkResult r);
-// Throws mcpt::Error("<call> failed: <result>") unless r is VK_SUCCESS (or VK_INCOMPLETE).
+// Throws mcpt::Error("<call> failed: <result>") unless r is VK_SUCCESS (or VK_INCOMPLETE);
+// mcpt::DeviceLost for VK_ERROR_DEVICE_LOST.
 void check(VkResult r, const char* call);
 // check() with the call's name taken from the expression: VK_CHECK(f.vkCreateBuffer, ...).
 #define VK_CHECK(fn, ...) ::mcpt::vk::check(fn(__VA_ARGS__), ::mcpt::vk::call_name(#fn))

@@ -92,6 +92,9 @@ mcpt_status guarded(mcpt_status context, std::string& message, Body&& body) {
     } catch (const CError& e) {
         message = e.message;
         return e.status;
+    } catch (const mcpt::DeviceLost& e) {
+        message = e.what();
+        return MCPT_ERROR_DEVICE_LOST;
     } catch (const mcpt::Error& e) {
         message = e.what();
         return context;
@@ -209,6 +212,8 @@ const char* mcpt_status_name(mcpt_status status) {
             return "MCPT_ERROR_OUT_OF_MEMORY";
         case MCPT_ERROR_INTERNAL:
             return "MCPT_ERROR_INTERNAL";
+        case MCPT_ERROR_DEVICE_LOST:
+            return "MCPT_ERROR_DEVICE_LOST";
     }
     return "unknown status";
 }

@@ -42,6 +42,9 @@ struct BackendOptions {
     // Vulkan limits profile: "device" or "phone" (the Vulkan 1.1 minimums); "" =
     // $MCPT_VULKAN_LIMITS, else device. OpenCL takes only "" or "device".
     std::string limits;
+    // Fault injection for tests: the device reports itself lost at this dispatch (counted from
+    // 1; 0 = never); open_device() takes $MCPT_LOSE_DEVICE_AFTER when 0.
+    uint32_t lose_device_after = 0;
 };
 
 // The MCPT_FEATURES value a backend compiles `scene` with: the feature bits, and the compile
@@ -59,6 +62,7 @@ public:
     virtual void load(const GpuScene& scene, int width, int height) = 0;
     // Runs one dispatch and waits for it; returns non-zero while some of its pixels still owe
     // samples of the round (their paths continue in the next dispatch, round_start = 0).
+    // Throws mcpt::DeviceLost when the device stops (lost, or out of resources executing).
     virtual uint32_t dispatch(const gpu::GpuParams& params) = 0;
     // The accumulation sums: ACCUM_VEC4_PER_PIXEL * 4 floats per pixel.
     virtual void read_accum(std::vector<float>& out) = 0;

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdint>
+#include <cstdlib>
 
 #include "common/error.h"
 #if MCPT_WITH_OPENCL
@@ -43,7 +45,8 @@ DeviceSpec parse_device_spec(const std::string& full) {
     DeviceSpec s;
     for (size_t at = comma; at != std::string::npos;) {
         const size_t next = full.find(',', at + 1);
-        const std::string opt = full.substr(at + 1, next == std::string::npos ? next : next - at - 1);
+        const std::string opt =
+            full.substr(at + 1, next == std::string::npos ? next : next - at - 1);
         if (opt.rfind("limits=", 0) != 0) {
             throw Error("unknown device option '" + opt + "' in '" + full +
                         "' (valid: limits=device, limits=phone)");
@@ -123,6 +126,16 @@ std::unique_ptr<Backend> open_device(const std::string& spec, BackendOptions opt
     }
     const DeviceSpec s = parse_device_spec(spec);
     if (!s.device.empty()) options.device = s.device;
+    if (options.lose_device_after == 0) {
+        if (const char* e = std::getenv("MCPT_LOSE_DEVICE_AFTER")) {
+            char* end = nullptr;
+            const unsigned long n = std::strtoul(e, &end, 10);
+            if (*e == '\0' || *end != '\0' || n > UINT32_MAX)
+                throw Error(std::string("MCPT_LOSE_DEVICE_AFTER must be a dispatch count, not '") +
+                            e + "'");
+            options.lose_device_after = uint32_t(n);
+        }
+    }
     if (!s.limits.empty()) options.limits = s.limits;
 #if MCPT_WITH_VULKAN
     if (s.api == "vulkan") return make_vulkan_backend(options);

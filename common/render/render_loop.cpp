@@ -94,6 +94,11 @@ void ProgressiveRender::flush() {
     unflushed_ = 0;
 }
 
+void ProgressiveRender::discard_unflushed() {
+    r_.spp -= unflushed_;
+    unflushed_ = 0;
+}
+
 uint32_t ProgressiveRender::pass(uint64_t max_spp) {
     using clock = std::chrono::steady_clock;
     // Every pixel gets `spp` more samples, in tiles of at most `work` pixel-samples (and at
@@ -102,8 +107,7 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
     spp = std::min(spp, opt_.flush_spp - unflushed_);
     spp = uint32_t(std::max<uint64_t>(1, std::min<uint64_t>(spp, max_spp)));
     const uint32_t slots = path_state_slots(npix_);
-    const uint32_t tile =
-        uint32_t(std::clamp(work_ / spp, 64.0, double(std::min(npix_, slots))));
+    const uint32_t tile = uint32_t(std::clamp(work_ / spp, 64.0, double(std::min(npix_, slots))));
     const uint32_t cap = std::max(1u, backend_.max_bounces_per_dispatch());
     const double target_s = opt_.dispatch_ms * 1e-3;
     p_.sample_offset = uint32_t(r_.spp);
@@ -125,8 +129,10 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
             longest_dispatch_s_ = std::max(longest_dispatch_s_, t);
             // Halve the budget after a dispatch over the target; double it while dispatches
             // that ran out of budget stay well under it.
-            if (t > target_s && bounce_budget_ > 1) bounce_budget_ /= 2;
-            else if (active > 0 && t < 0.4 * target_s && bounce_budget_ < cap) bounce_budget_ *= 2;
+            if (t > target_s && bounce_budget_ > 1)
+                bounce_budget_ /= 2;
+            else if (active > 0 && t < 0.4 * target_s && bounce_budget_ < cap)
+                bounce_budget_ *= 2;
         }
     }
     last_pass_s_ = std::chrono::duration<double>(clock::now() - start).count();

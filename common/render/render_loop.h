@@ -63,6 +63,9 @@ public:
     uint32_t pass(uint64_t max_spp = UINT64_MAX);
     // Adds the device sums into result().
     void flush();
+    // Forgets the samples not yet flushed (the device stopped: its sums are gone), so
+    // result() holds exactly the samples flushed before.
+    void discard_unflushed();
     // Seconds the last pass took, and the longest and the median dispatch so far.
     double last_pass_seconds() const { return last_pass_s_; }
     double longest_dispatch_seconds() const { return longest_dispatch_s_; }

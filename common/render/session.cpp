@@ -75,6 +75,9 @@ PassStats Session::render(double budget_ms, double target_error, uint64_t max_sp
         throw Error("the time budget must be a finite number of milliseconds >= 0");
     if (!(target_error >= 0) || !std::isfinite(target_error))
         throw Error("the target error must be finite and >= 0");
+    if (!lost_.empty())
+        throw DeviceLost("the device stopped earlier (" + lost_ +
+                         "); open a new session to render more");
     if (dirty_ || !same(settings_, committed_settings_)) commit();
     cancel_.store(false);
     const auto start = clock::now();
@@ -83,23 +86,40 @@ PassStats Session::render(double budget_ms, double target_error, uint64_t max_sp
     PassStats st;
     const uint64_t spp_before = r.spp;
     const double budget_s = budget_ms * 1e-3;
-    while (true) {
-        if (max_spp > 0 && r.spp >= max_spp) break;
-        if (cancel_.load()) {
-            st.cancelled = true;
-            break;
+    double flushed_at = -HUGE_VAL;  // the first pass's samples reach the host at once
+    try {
+        while (true) {
+            if (max_spp > 0 && r.spp >= max_spp) break;
+            if (cancel_.load()) {
+                st.cancelled = true;
+                break;
+            }
+            progressive_->pass(max_spp > 0 ? max_spp - r.spp : UINT64_MAX);
+            // Samples to the host at least once a second (a device lost loses no more), and
+            // after every pass when the error is checked.
+            const double t = elapsed();
+            if (target_error > 0 || t - flushed_at > 1.0) {
+                progressive_->flush();
+                flushed_at = t;
+                if (target_error > 0 && r.spp >= 2 && r.relative_error() <= target_error) break;
+            }
+            // Stop when the next pass would overrun the budget.
+            if (t + progressive_->last_pass_seconds() > budget_s) break;
         }
-        progressive_->pass(max_spp > 0 ? max_spp - r.spp : UINT64_MAX);
-        if (target_error > 0) {
-            // Check the error after every pass (it needs the sums on the host).
-            progressive_->flush();
-            if (r.spp >= 2 && r.relative_error() <= target_error) break;
-        }
-        // Stop when the next pass would overrun the budget.
-        const double t = elapsed();
-        if (t + progressive_->last_pass_seconds() > budget_s) break;
+        progressive_->flush();
+    } catch (const DeviceLost& e) {
+        // The device's sums are gone: keep what was read back, render no more.
+        progressive_->discard_unflushed();
+        r.seconds += elapsed();
+        lost_ = e.what();
+        throw;
+    } catch (...) {
+        // Another failure (out of memory, a driver error): keep what was read back; the next
+        // render() starts a new round over it (the device sums are overwritten, not added).
+        progressive_->discard_unflushed();
+        r.seconds += elapsed();
+        throw;
     }
-    progressive_->flush();
     st.samples = r.spp - spp_before;
     st.spp = r.spp;
     st.relative_error = r.relative_error();

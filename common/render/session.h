@@ -70,6 +70,9 @@ class Session {
     // Renders passes for about budget_ms (at least one pass; a pass is never split), stopping
     // early at max_spp samples per pixel in the image (0: no cap), when the relative error
     // reaches target_error (0: none), or on cancel(). The image is current afterwards.
+    // Samples reach the host at least once a second; if the device fails meanwhile, render()
+    // throws (mcpt::DeviceLost when it stopped) and the image keeps every sample read back
+    // before: it can still be read and written. After DeviceLost the session renders no more.
     PassStats render(double budget_ms, double target_error = 0, uint64_t max_spp = 0);
 
     // Ends a running render() after its current pass; any thread. A render() that starts
@@ -105,6 +108,7 @@ class Session {
     std::unique_ptr<ProgressiveRender> progressive_;
     RenderResult empty_;
     std::atomic<bool> cancel_{false};
+    std::string lost_;  // why the device stopped; empty while it works
 };
 
 }  // namespace mcpt

@@ -68,7 +68,10 @@ typedef enum mcpt_status {
                                          beyond the device's limits */
     MCPT_ERROR_IO = -6,               /* a file that cannot be written */
     MCPT_ERROR_OUT_OF_MEMORY = -7,
-    MCPT_ERROR_INTERNAL = -8
+    MCPT_ERROR_INTERNAL = -8,
+    MCPT_ERROR_DEVICE_LOST = -9 /* the device stopped mid-render (a driver reset, a watchdog,
+                                   out of resources); the image keeps the samples taken
+                                   before, and the session renders no more */
 } mcpt_status;
 
 /* "MCPT_ERROR_SCENE" for a status; "unknown status" otherwise. Any thread. */
@@ -170,7 +173,9 @@ typedef struct mcpt_render_stats {
  * image; the budget is not exceeded by more than one pass), stopping early once the image
  * has max_spp samples per pixel (0: no cap) or its relative error is at most target_error
  * (0: no target). Returns MCPT_CANCELLED when mcpt_session_cancel() ended it. `stats` may be
- * NULL. */
+ * NULL. Samples reach the image at least once a second; when the device fails meanwhile
+ * (MCPT_ERROR_DEVICE_LOST, or another error), the image keeps every sample taken before and
+ * can still be read and written. */
 MCPT_API mcpt_status mcpt_session_render(mcpt_session session, double budget_ms,
                                          double target_error, uint64_t max_spp,
                                          mcpt_render_stats* stats);

@@ -1,0 +1,149 @@
+// A device that fails mid-render: the session keeps exactly the samples it had read back
+// (none of the failed pass), the image stays readable, a lost device is never used again, and
+// `mcpt render` writes what it has and exits non-zero. Failures are injected: a backend
+// wrapper that throws at the start of a chosen pass, and the backends' own
+// lose_device_after (MCPT_LOSE_DEVICE_AFTER), which fails the way a lost device does.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "common/error.h"
+#include "common/render/session.h"
+#include "common/scene/scene_load.h"
+#include "test_util.h"
+
+namespace mcpt {
+namespace {
+
+// A backend that fails when the `fail_at_pass`-th pass after arming starts (a pass starts
+// with a round at pixel 0), after the passes before it completed on the device; it records
+// each pass's samples per pixel and counts read-backs.
+class FailingBackend final : public Backend {
+  public:
+    explicit FailingBackend(std::unique_ptr<Backend> inner) : inner_(std::move(inner)) {}
+    void arm(int fail_at_pass, bool lost) {
+        fail_at_ = fail_at_pass, lost_ = lost, reads_ = 0;
+        pass_spp_.clear();
+    }
+    int reads_since_armed() const { return reads_; }
+    const std::vector<uint32_t>& pass_spp() const { return pass_spp_; }
+
+    std::string description() const override { return inner_->description(); }
+    const DeviceInfo& device() const override { return inner_->device(); }
+    void load(const GpuScene& s, int w, int h) override { inner_->load(s, w, h); }
+    uint32_t dispatch(const gpu::GpuParams& p) override {
+        const bool pass_starts = p.round_start && p.pixel_offset == 0;
+        if (pass_starts) pass_spp_.push_back(p.samples_per_dispatch);
+        if (fail_at_ > 0 && pass_starts && int(pass_spp_.size()) == fail_at_) {
+            fail_at_ = 0;
+            if (lost_) throw DeviceLost("injected: device lost");
+            throw Error("injected: out of device memory");
+        }
+        return inner_->dispatch(p);
+    }
+    void read_accum(std::vector<float>& out) override {
+        ++reads_;
+        inner_->read_accum(out);
+    }
+    double compile_seconds() const override { return inner_->compile_seconds(); }
+    double device_seconds() const override { return inner_->device_seconds(); }
+    uint32_t max_bounces_per_dispatch() const override {
+        return inner_->max_bounces_per_dispatch();
+    }
+    uint32_t compiled_features() const override { return inner_->compiled_features(); }
+    std::string layout() const override { return inner_->layout(); }
+
+  private:
+    std::unique_ptr<Backend> inner_;
+    int fail_at_ = 0, reads_ = 0;
+    std::vector<uint32_t> pass_spp_;
+    bool lost_ = true;
+};
+
+class DeviceFailure : public ::testing::TestWithParam<std::string> {
+  protected:
+    // A session on the wrapped test device with 4 spp of the Cornell box read back.
+    void start() {
+        auto wrapped = std::make_unique<FailingBackend>(test::test_backend(GetParam()));
+        fb_ = wrapped.get();
+        session_ = std::make_unique<Session>(std::move(wrapped));
+        session_->set_scene(load_scene("cornell"));
+        session_->settings().width = session_->settings().height = 32;
+        ASSERT_EQ(session_->render(1e6, 0, 4).spp, 4u);
+        before_ = session_->image_rgba32f();
+    }
+    FailingBackend* fb_ = nullptr;
+    std::unique_ptr<Session> session_;
+    std::vector<float> before_;
+};
+
+double mean(const std::vector<float>& v) {
+    double sum = 0;
+    for (float x : v) sum += x;
+    return sum / double(v.size());
+}
+
+// The first pass of a render() is read back at once, the second completes on the device, the
+// third fails: the image holds the samples read back and none of the second pass's (its sums
+// are on the lost device; counting its samples would darken the image).
+TEST_P(DeviceFailure, LostDeviceKeepsExactlyTheSamplesReadBack) {
+    start();
+    fb_->arm(3, true);
+    EXPECT_THROW(session_->render(1e6, 0, 100000), DeviceLost);
+    ASSERT_EQ(fb_->pass_spp().size(), 3u);
+    ASSERT_EQ(fb_->reads_since_armed(), 1) << "one read-back, after the first pass";
+    EXPECT_EQ(session_->spp(), 4u + fb_->pass_spp()[0]);
+    EXPECT_NEAR(mean(session_->image_rgba32f()), mean(before_), 0.1 * mean(before_));
+    const std::string out = testing::TempDir() + "/device_lost_" + GetParam() + ".exr";
+    session_->write_image(out);
+    EXPECT_GT(std::filesystem::file_size(out), 0u);
+    // Never again on this device.
+    try {
+        session_->render(1e6, 0, 8);
+        ADD_FAILURE() << "rendered on a lost device";
+    } catch (const DeviceLost& e) {
+        EXPECT_NE(std::string(e.what()).find("open a new session"), std::string::npos);
+    }
+}
+
+// Another failure (out of memory, a driver error) at the first pass keeps the image as it
+// was, and rendering goes on.
+TEST_P(DeviceFailure, OtherFailureKeepsTheImageAndRenderingGoesOn) {
+    start();
+    fb_->arm(1, false);
+    try {
+        session_->render(1e6, 0, 1000);
+        ADD_FAILURE() << "the injected failure did not reach the caller";
+    } catch (const DeviceLost&) {
+        ADD_FAILURE() << "an ordinary failure reported as a lost device";
+    } catch (const Error&) {
+    }
+    EXPECT_EQ(session_->spp(), 4u);
+    EXPECT_EQ(session_->image_rgba32f(), before_);
+    EXPECT_EQ(session_->render(1e6, 0, 12).spp, 12u);
+    EXPECT_NE(session_->image_rgba32f(), before_);
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, DeviceFailure, ::testing::ValuesIn(test::test_apis()),
+                         [](const auto& info) { return info.param; });
+
+// The backends' own injection fails like a lost device; `mcpt render` says so, writes the
+// samples taken before and exits non-zero.
+TEST(DeviceFailureCli, RenderWritesTheImageSoFarAndFails) {
+    for (const std::string& api : test::test_apis()) {
+        const std::string out = testing::TempDir() + "/lost_cli_" + api + ".exr";
+        std::filesystem::remove(out);
+        const test::CliRun r = test::run_mcpt(
+            "render --backend " + api + " --width 16 --height 16 --spp 1000000 -q -o " + out,
+            "MCPT_LOSE_DEVICE_AFTER=50");
+        EXPECT_NE(r.status, 0) << r.output;
+        EXPECT_NE(r.output.find("injected by lose_device_after"), std::string::npos) << r.output;
+        EXPECT_NE(r.output.find("rendered before the failure to " + out), std::string::npos)
+            << r.output;
+        ASSERT_TRUE(std::filesystem::exists(out)) << r.output;
+        EXPECT_GT(std::filesystem::file_size(out), 0u);
+    }
+}
+
+}  // namespace
+}  // namespace mcpt
