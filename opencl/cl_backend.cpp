@@ -92,11 +92,12 @@ class OpenClBackend final : public Backend {
         // Check every buffer against the device limits before allocating.
         check_device_limits(scene, width, height, dev_.info, description());
         const uint64_t npix = uint64_t(width) * uint64_t(height);
-        const uint64_t accum_bytes = accum_buffer_bytes(npix);
+        const uint64_t max_bytes = dev_.info.memory.max_buffer_bytes;
+        const uint64_t accum_bytes = accum_buffer_bytes(npix, max_bytes);
         sums_floats_ = size_t(npix * ACCUM_VEC4_PER_PIXEL * 4);
-        counter_offset_ = size_t(
-            (npix * ACCUM_VEC4_PER_PIXEL + uint64_t(path_state_slots(npix)) * PATH_STATE_VEC4) *
-            16);
+        counter_offset_ = size_t((npix * ACCUM_VEC4_PER_PIXEL +
+                                  uint64_t(path_state_slots(npix, max_bytes)) * PATH_STATE_VEC4) *
+                                 16);
         // Upload (empty arrays get one dummy element: OpenCL has no empty buffers).
         params_ = make_buffer(&scene.params, sizeof(gpu::GpuParams), CL_MEM_READ_ONLY);
         tree_ = upload(tree_buffer(scene));

@@ -59,7 +59,7 @@ TEST(PhoneProfile, SceneBeyondTheProfileNamesBufferSizeAndLimit) {
         b->load(g, 4096, 2048);  // 256 MiB of sums and 24 MiB of path state
         FAIL() << "an accumulation buffer over 128 MiB was accepted";
     } catch (const Error& e) {
-        EXPECT_NE(std::string(e.what()).find("accumulation buffer needs 280 MiB, "
+        EXPECT_NE(std::string(e.what()).find("accumulation buffer needs 256.375 MiB, "
                                              "maxStorageBufferRange is 128 MiB"),
                   std::string::npos)
             << e.what();

@@ -21,7 +21,7 @@ public:
     const DeviceInfo& device() const override { return info_; }
     void load(const GpuScene&, int w, int h) override {
         accum_.assign(size_t(w) * h * 8, 0.f);
-        slots_.assign(path_state_slots(uint64_t(w) * h), Slot{});
+        slots_.assign(path_state_slots(uint64_t(w) * h, 0), Slot{});
     }
     uint32_t dispatch(const gpu::GpuParams& p) override {
         ++dispatches;

@@ -3,6 +3,8 @@
 // non-finite samples that must be counted, also under -cl-fast-relaxed-math.
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 #include "common/scene/builtin_scenes.h"
 #include "common/analysis/compare.h"
 #include "test_util.h"
@@ -35,12 +37,11 @@ void expect_furnace_exact(const std::string& api, const Scene& scene, double exa
                           uint64_t spp, uint32_t max_depth = 0) {
     const RenderResult r = render_on(api, scene, spp, 16, 0, false, max_depth);
     const test::MeanEstimate e = test::pooled_mean(r);
-    if (r.nonfinite_total > 0 && api == "vulkan") {
-        // A CPU Vulkan driver's loop limit cut the longest paths: counted, so not silent
-        // (VulkanLoopLimit in vulkan_test.cpp); the mean of the rest is biased low.
-        GTEST_SKIP() << r.nonfinite_total << " paths cut short by the device's loop limit";
-    }
-    EXPECT_EQ(r.nonfinite_total, 0u);
+    std::printf("%s: mean %.4g, standard error %.3g, exact %.4g, invalid samples %llu\n",
+                api.c_str(), e.mean, e.std_error, exact, (unsigned long long)r.nonfinite_total);
+    // No path is cut short: not by a dispatch boundary, nor by a CPU Vulkan driver's loop
+    // limit (paths are carried across dispatches, a few bounces per dispatch there).
+    EXPECT_EQ(r.nonfinite_total, 0u) << api;
     EXPECT_LT(std::abs(e.z(exact)), kZLimit)
         << api << ": mean " << e.mean << " exact " << exact << " std error " << e.std_error;
     EXPECT_LT(e.std_error / exact, 0.01) << "too noisy to mean anything";
@@ -50,7 +51,7 @@ class StiffTransport : public ::testing::TestWithParam<std::string> {};
 class StiffTransportHeavy : public ::testing::TestWithParam<std::string> {};
 
 // Paths of up to 300 bounces (mean about 95): every vertex d <= D adds rho^d Le, so the exact
-// answer is Le (1 - rho^(D+1)) / (1 - rho). Short enough for llvmpipe's loop limit.
+// answer is Le (1 - rho^(D+1)) / (1 - rho).
 TEST_P(StiffTransport, FurnaceAlbedo099To300BouncesIsUnbiased) {
     const double rho = double(0.99f), depth = 300;
     expect_furnace_exact(GetParam(), make_furnace_scene(0.99f, 1.f),

@@ -212,8 +212,9 @@ struct VulkanBackend::Impl {
     void load(const GpuScene& scene, int width, int height) {
         // Check every buffer against the device limits before allocating or compiling.
         const uint64_t npix = uint64_t(width) * uint64_t(height);
-        const uint64_t accum_bytes = accum_buffer_bytes(npix);
         pd.info.memory = vk::memory_limits(pd);
+        const uint64_t max_bytes = pd.info.memory.max_buffer_bytes;
+        const uint64_t accum_bytes = accum_buffer_bytes(npix, max_bytes);
         check_device_limits(scene, width, height, pd.info, description());
         dev->wait_idle();
         release_scene();
@@ -235,7 +236,9 @@ struct VulkanBackend::Impl {
                                        VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                    0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
         if (!accum.mapped) {
-            readback = dev->create_buffer(accum_bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+            // The sums (read_accum), or the pending word (dispatch), never the path state.
+            const uint64_t sums_bytes = npix * ACCUM_VEC4_PER_PIXEL * 16;
+            readback = dev->create_buffer(sums_bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                           vk::kHostMemory, VK_MEMORY_PROPERTY_HOST_CACHED_BIT);
         }
         dev->begin_commands();
@@ -246,8 +249,9 @@ struct VulkanBackend::Impl {
             VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT);
         dev->submit_and_wait();
         pixels = uint32_t(npix);
-        counter_offset =
-            (npix * ACCUM_VEC4_PER_PIXEL + uint64_t(path_state_slots(npix)) * PATH_STATE_VEC4) * 16;
+        counter_offset = (npix * ACCUM_VEC4_PER_PIXEL +
+                          uint64_t(path_state_slots(npix, max_bytes)) * PATH_STATE_VEC4) *
+                         16;
 
         // Descriptor set: every buffer at its BINDING_* slot.
         const Buffer* by_slot[BINDING_COUNT] = {};

@@ -122,7 +122,7 @@ MCPT_STRUCT(GpuParams) {
 // one vec4 whose first word is set when a pixel still owes samples after a dispatch.
 #define ACCUM_VEC4_PER_PIXEL 2u
 #define PATH_STATE_VEC4 6u
-#define MAX_STATE_SLOTS 262144u  // 24 MiB of path state at most
+#define MAX_STATE_SLOTS 1048576u  // 96 MiB of path state at most
 
 MCPT_NAMESPACE_END
 

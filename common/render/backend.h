@@ -17,7 +17,7 @@ struct MemoryLimits {
     std::string max_buffer_note;        // why it is lower than the device says, if it is
     uint64_t max_allocation_bytes = 0;  // largest allocation when a separate limit; 0: none
     std::string max_allocation_name;
-    uint64_t device_memory_bytes = 0;   // memory buffers come from; 0: unknown
+    uint64_t device_memory_bytes = 0;  // memory buffers come from; 0: unknown
 };
 
 struct DeviceInfo {
@@ -31,9 +31,9 @@ struct DeviceInfo {
 };
 
 struct BackendOptions {
-    std::string device;          // "" (best), an index, or a name substring
-    bool fast_math = false;      // -cl-fast-relaxed-math / equivalent
-    std::string extra_defines;   // extra -D options for test variants (e.g. "-DMCPT_COUNTERS")
+    std::string device;         // "" (best), an index, or a name substring
+    bool fast_math = false;     // -cl-fast-relaxed-math / equivalent
+    std::string extra_defines;  // extra -D options for test variants (e.g. "-DMCPT_COUNTERS")
     // Device features to compile for (FEATURE_* bits): 0 = the scene's own (the default),
     // FEATURE_ALL = the full kernel; another mask only in tests' negative controls.
     uint32_t features = 0;
@@ -52,7 +52,7 @@ struct BackendOptions {
 uint32_t compile_features(const BackendOptions& options, const GpuScene& scene);
 
 class Backend {
-public:
+  public:
     virtual ~Backend() = default;
     // "opencl: NVIDIA H100 (NVIDIA CUDA)".
     virtual std::string description() const = 0;

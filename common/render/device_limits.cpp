@@ -18,8 +18,9 @@ std::string human_bytes(uint64_t b) {
 }
 
 std::vector<std::pair<std::string, uint64_t>> device_buffers(const GpuScene& scene, int width,
-                                                             int height) {
-    const uint64_t accum = accum_buffer_bytes(uint64_t(width) * uint64_t(height));
+                                                             int height,
+                                                             uint64_t max_buffer_bytes) {
+    const uint64_t accum = accum_buffer_bytes(uint64_t(width) * uint64_t(height), max_buffer_bytes);
     const uint64_t tree = scene.nodes.size() * sizeof(gpu::KdNode) + scene.leaf_indices.size() * 4;
     const uint64_t shading = scene.spheres.size() * sizeof(gpu::GpuSphere) +
                              scene.materials.size() * sizeof(gpu::GpuMaterial) +
@@ -35,7 +36,7 @@ void check_device_limits(const GpuScene& scene, int width, int height, const Dev
                          const std::string& where) {
     const MemoryLimits& m = device.memory;
     uint64_t total = 0;
-    for (const auto& [what, bytes] : device_buffers(scene, width, height)) {
+    for (const auto& [what, bytes] : device_buffers(scene, width, height, m.max_buffer_bytes)) {
         total += bytes;
         // "the accumulation buffer needs", "triangles need".
         const std::string need = what + (what == "triangles" ? " need " : " needs ");

@@ -15,9 +15,11 @@ namespace mcpt {
 // "1.5 GiB", "12 MiB", "256 B".
 std::string human_bytes(uint64_t bytes);
 
-// The device buffers of a scene rendered at width x height, named as messages name them.
+// The device buffers of a scene rendered at width x height on a device whose largest buffer
+// is max_buffer_bytes (0 = unknown; the path state fits itself in), named as messages name
+// them.
 std::vector<std::pair<std::string, uint64_t>> device_buffers(const GpuScene& scene, int width,
-                                                             int height);
+                                                             int height, uint64_t max_buffer_bytes);
 
 // Throws mcpt::Error "scene too large for <where>: <buffer> need(s) <size>, <limit> is <size>"
 // naming the first buffer over a limit, or the total over the device's memory.

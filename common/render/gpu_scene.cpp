@@ -75,8 +75,8 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
     // Geometry and materials.
     g.triangles.reserve(scene.triangles.size());
     for (const Triangle& t : scene.triangles) {
-        g.triangles.push_back({t.v0.x, t.v0.y, t.v0.z, t.v1.x, t.v1.y, t.v1.z, t.v2.x, t.v2.y,
-                               t.v2.z, t.material});
+        g.triangles.push_back(
+            {t.v0.x, t.v0.y, t.v0.z, t.v1.x, t.v1.y, t.v1.z, t.v2.x, t.v2.y, t.v2.z, t.material});
     }
     for (const Sphere& s : scene.spheres) {
         g.spheres.push_back({s.center.x, s.center.y, s.center.z, s.radius, s.material, 0, 0, 0});
@@ -89,7 +89,8 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
         const Triangle& t = scene.triangles[i];
         const Material& m = scene.materials.at(t.material);
         if (!m.is_emissive()) continue;
-        glm::dvec3 e1 = glm::dvec3(t.v1) - glm::dvec3(t.v0), e2 = glm::dvec3(t.v2) - glm::dvec3(t.v0);
+        glm::dvec3 e1 = glm::dvec3(t.v1) - glm::dvec3(t.v0),
+                   e2 = glm::dvec3(t.v2) - glm::dvec3(t.v0);
         weights.push_back(0.5 * glm::length(glm::cross(e1, e2)) * mean_emission(m));
         prims.push_back(uint32_t(i));
     }
@@ -151,13 +152,22 @@ void append_words(std::vector<uint32_t>& out, const std::vector<T>& v) {
 }
 }  // namespace
 
-uint32_t path_state_slots(uint64_t npix) {
-    return uint32_t(std::min<uint64_t>(npix, MAX_STATE_SLOTS));
+uint32_t path_state_slots(uint64_t npix, uint64_t max_buffer_bytes) {
+    uint64_t slots = std::min<uint64_t>(npix, MAX_STATE_SLOTS);
+    // Within the device's largest buffer, after the sums and the pending word (at least a
+    // few thousand slots: a buffer too small for those is refused by check_device_limits).
+    const uint64_t vec4s = max_buffer_bytes / 16;
+    const uint64_t sums = npix * ACCUM_VEC4_PER_PIXEL + 1;
+    if (max_buffer_bytes > 0) {
+        const uint64_t fit = vec4s > sums ? (vec4s - sums) / PATH_STATE_VEC4 : 0;
+        slots = std::min(slots, std::max<uint64_t>(fit, std::min<uint64_t>(npix, 4096)));
+    }
+    return uint32_t(slots);
 }
 
-uint64_t accum_buffer_bytes(uint64_t npix) {
-    return (npix * ACCUM_VEC4_PER_PIXEL + uint64_t(path_state_slots(npix)) * PATH_STATE_VEC4 + 1) *
-           16;
+uint64_t accum_buffer_bytes(uint64_t npix, uint64_t max_buffer_bytes) {
+    const uint64_t slots = path_state_slots(npix, max_buffer_bytes);
+    return (npix * ACCUM_VEC4_PER_PIXEL + slots * PATH_STATE_VEC4 + 1) * 16;
 }
 
 std::vector<uint32_t> tree_buffer(const GpuScene& s) {

@@ -4,8 +4,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "common/gpu/shared_types.h"
 #include "common/accel/kdtree.h"
+#include "common/gpu/shared_types.h"
 #include "common/scene/scene.h"
 
 namespace mcpt {
@@ -22,8 +22,8 @@ struct GpuScene {
     uint32_t features = FEATURE_ALL;    // FEATURE_* bits the scene uses (scene_features.h)
     TreeStats tree_stats;
     TreeKind tree_kind = TreeKind::None;  // the tree packed (never Auto)
-    std::string tree_choice;             // TreeKind::Auto: what it chose and why
-    size_t device_bytes() const;        // total of all arrays
+    std::string tree_choice;              // TreeKind::Auto: what it chose and why
+    size_t device_bytes() const;          // total of all arrays
 };
 
 // Packs a validated scene and its tree. Throws mcpt::Error if the scene has no emitter.
@@ -35,10 +35,12 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree);
 std::vector<uint32_t> tree_buffer(const GpuScene& scene);
 std::vector<uint32_t> shading_buffer(const GpuScene& scene);
 
-// Path-state slots for an image of npix pixels (one per pixel of a round's tile), and the
-// bytes of its accumulation buffer: sums, path state and the active-slot counter.
-uint32_t path_state_slots(uint64_t npix);
-uint64_t accum_buffer_bytes(uint64_t npix);
+// Path-state slots for an image of npix pixels (one per pixel of a round's tile: the whole
+// image up to MAX_STATE_SLOTS, within a device's largest buffer, MemoryLimits::
+// max_buffer_bytes, 0 = unknown), and the bytes of its accumulation buffer: sums, path state
+// and the active-slot counter.
+uint32_t path_state_slots(uint64_t npix, uint64_t max_buffer_bytes);
+uint64_t accum_buffer_bytes(uint64_t npix, uint64_t max_buffer_bytes);
 
 // Pinhole camera for a width x height image into params.
 void set_camera(gpu::GpuParams& params, const Camera& camera, int width, int height);

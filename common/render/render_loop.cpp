@@ -106,8 +106,11 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
     uint32_t spp = uint32_t(std::max(1.0, std::floor(work_ / npix_)));
     spp = std::min(spp, opt_.flush_spp - unflushed_);
     spp = uint32_t(std::max<uint64_t>(1, std::min<uint64_t>(spp, max_spp)));
-    const uint32_t slots = path_state_slots(npix_);
-    const uint32_t tile = uint32_t(std::clamp(work_ / spp, 64.0, double(std::min(npix_, slots))));
+    const uint32_t slots = path_state_slots(npix_, backend_.device().memory.max_buffer_bytes);
+    uint32_t tile = uint32_t(std::clamp(work_ / spp, 64.0, double(std::min(npix_, slots))));
+    // Tiles of equal size (no sliver at the end).
+    const uint32_t tiles = (npix_ + tile - 1) / tile;
+    tile = (npix_ + tiles - 1) / tiles;
     const uint32_t cap = std::max(1u, backend_.max_bounces_per_dispatch());
     const double target_s = opt_.dispatch_ms * 1e-3;
     p_.sample_offset = uint32_t(r_.spp);
@@ -121,17 +124,19 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
         // A round: start the tile's samples, continue their paths until none is left.
         p_.round_start = 1;
         for (uint32_t active = 1; active > 0; p_.round_start = 0) {
-            p_.bounce_budget = std::min(bounce_budget_, cap);
+            // Per pixel: the budget per sample times the samples, within the device's cap.
+            p_.bounce_budget = uint32_t(std::min<uint64_t>(uint64_t(bounce_budget_) * spp, cap));
             const auto t0 = clock::now();
             active = backend_.dispatch(p_);
             const double t = std::chrono::duration<double>(clock::now() - t0).count();
             dispatch_s_.push_back(float(t));
             longest_dispatch_s_ = std::max(longest_dispatch_s_, t);
-            // Halve the budget after a dispatch over the target; double it while dispatches
-            // that ran out of budget stay well under it.
-            if (t > target_s && bounce_budget_ > 1)
+            // The budget bounds dispatches whose paths outlast it: halve it after such a dispatch
+            // over the target, double it while they stay well under. (A dispatch that finished
+            // its paths and still overran has too many pixels: the tile shrinks after the pass.)
+            if (active > 0 && t > target_s && bounce_budget_ > 1)
                 bounce_budget_ /= 2;
-            else if (active > 0 && t < 0.4 * target_s && bounce_budget_ < cap)
+            else if (active > 0 && t < 0.4 * target_s && uint64_t(bounce_budget_) * spp < cap)
                 bounce_budget_ *= 2;
         }
     }

@@ -13,10 +13,10 @@ struct RenderResult;
 
 struct RenderOptions {
     int width = 256, height = 256;
-    uint64_t spp = 0;          // samples per pixel; 0: run for `seconds`
-    double seconds = 0;        // time budget when spp == 0
-    uint32_t max_depth = 8;    // bounces
-    uint32_t rr_depth = 3;     // Russian roulette from this bounce on
+    uint64_t spp = 0;        // samples per pixel; 0: run for `seconds`
+    double seconds = 0;      // time budget when spp == 0
+    uint32_t max_depth = 8;  // bounces
+    uint32_t rr_depth = 3;   // Russian roulette from this bounce on
     uint32_t seed = 0;
     float light_scale = 1.f;   // negative controls only
     double dispatch_ms = 30;   // target duration of one dispatch
@@ -27,12 +27,12 @@ struct RenderOptions {
 
 struct RenderResult {
     int width = 0, height = 0;
-    uint64_t spp = 0;             // samples per pixel taken
-    double seconds = 0;           // wall time of the dispatch loop
-    std::vector<double> sum;      // 3 per pixel: sum of finite samples
-    std::vector<double> sum_sq;   // 3 per pixel: sum of squared finite samples
+    uint64_t spp = 0;               // samples per pixel taken
+    double seconds = 0;             // wall time of the dispatch loop
+    std::vector<double> sum;        // 3 per pixel: sum of finite samples
+    std::vector<double> sum_sq;     // 3 per pixel: sum of squared finite samples
     std::vector<double> nonfinite;  // per pixel: non-finite samples (counted, not added)
-    double rays = 0;              // rays traced
+    double rays = 0;                // rays traced
     uint64_t nonfinite_total = 0;
 
     // Mean radiance per pixel (3 floats), the image.
@@ -53,7 +53,7 @@ struct RenderResult {
 // round and the bounce budget adapt to measured times. Sessions keep one across calls;
 // render_loaded() runs one.
 class ProgressiveRender {
-public:
+  public:
     // The backend must hold the scene at options' size (Backend::load done).
     ProgressiveRender(Backend& backend, const GpuScene& scene, const Camera& camera,
                       const RenderOptions& options);
@@ -74,14 +74,14 @@ public:
     RenderResult& result() { return r_; }
     const RenderResult& result() const { return r_; }
 
-private:
+  private:
     Backend& backend_;
     RenderOptions opt_;
     gpu::GpuParams p_{};
     RenderResult r_;
     uint32_t npix_ = 0, unflushed_ = 0;
     double work_ = 0, last_pass_s_ = 0, longest_dispatch_s_ = 0;
-    uint32_t bounce_budget_ = 16;
+    uint32_t bounce_budget_ = 16;    // bounces per sample in one dispatch
     std::vector<float> dispatch_s_;  // every dispatch's wall time
     std::vector<float> device_sums_;
 };
