@@ -13,4 +13,8 @@ struct Error : std::runtime_error {
 struct DeviceLost : Error {
     explicit DeviceLost(const std::string& what) : Error(what) {}
 };
+// Not enough memory for what was asked (the C API's MCPT_ERROR_OUT_OF_MEMORY).
+struct OutOfMemory : Error {
+    explicit OutOfMemory(const std::string& what) : Error(what) {}
+};
 }  // namespace mcpt

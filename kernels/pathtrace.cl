@@ -19,10 +19,14 @@ __kernel void pathtrace(__global const GpuParams* params, __global const uint* t
     uint gid = get_global_id(0);
     if (gid >= params->pixel_count) return;
     uint pixel = params->pixel_offset + gid;
-    uint npix = params->width * params->height;
-    __global float4* state = accum + ACCUM_VEC4_PER_PIXEL * npix +
+    // The pixel's sums (in the window when the buffer holds only the tile's), path state and
+    // the pending word (layout in shared_types.h).
+    bool window = params->accum_window != 0u;
+    uint sum_pixels = window ? params->state_slots : params->width * params->height;
+    uint sum = ACCUM_VEC4_PER_PIXEL * (pixel - (window ? params->state_base : 0u));
+    __global float4* state = accum + ACCUM_VEC4_PER_PIXEL * sum_pixels +
                              PATH_STATE_VEC4 * (pixel - params->state_base);
-    __global uint* pending = (__global uint*)(accum + ACCUM_VEC4_PER_PIXEL * npix +
+    __global uint* pending = (__global uint*)(accum + ACCUM_VEC4_PER_PIXEL * sum_pixels +
                                              PATH_STATE_VEC4 * params->state_slots);
     // Start the pixel's samples of this round, or continue its path.
     PathState st;
@@ -30,8 +34,8 @@ __kernel void pathtrace(__global const GpuParams* params, __global const uint* t
         st = start_path(SCENE_ARGS_ pixel, params->sample_offset);
         st.samples_left = params->samples_per_dispatch;
         if (params->accumulate == 0u) {
-            accum[2u * pixel] = (float4)(0.0f);
-            accum[2u * pixel + 1u] = (float4)(0.0f);
+            accum[sum] = (float4)(0.0f);
+            accum[sum + 1u] = (float4)(0.0f);
         }
     } else {
         PackedState p = {state[0], state[1], state[2], state[3], state[4], state[5]};
@@ -39,8 +43,8 @@ __kernel void pathtrace(__global const GpuParams* params, __global const uint* t
         if (st.samples_left == 0u) return;
     }
     SlotStep r = step_slot(SCENE_ARGS_ st, pixel);
-    accum[2u * pixel] += r.add.sum;
-    accum[2u * pixel + 1u] += r.add.sum_sq;
+    accum[sum] += r.add.sum;
+    accum[sum + 1u] += r.add.sum_sq;
     // A pixel that still owes samples keeps its path, and the host dispatches again (the
     // pending word is a flag, not a count).
     if (r.st.samples_left > 0u) {

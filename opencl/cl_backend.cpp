@@ -70,6 +70,7 @@ class OpenClBackend final : public Backend {
   public:
     OpenClBackend(ClDevice dev, BackendOptions options)
         : dev_(std::move(dev)), options_(std::move(options)) {
+        limit_buffers(dev_.info.memory, options_.max_buffer_bytes);
         context_ = cl::Context(dev_.device);
         queue_ = cl::CommandQueue(context_, dev_.device, CL_QUEUE_PROFILING_ENABLE);
     }
@@ -84,7 +85,7 @@ class OpenClBackend final : public Backend {
     uint32_t max_bounces_per_dispatch() const override { return 1u << 20; }
     std::string layout() const override {
         return std::to_string(BINDING_COUNT) + " buffer arguments, workgroup " +
-               std::to_string(local_);
+               std::to_string(local_) + window_note(accum_shape_);
     }
 
     void load(const GpuScene& scene, int width, int height) override {
@@ -92,12 +93,11 @@ class OpenClBackend final : public Backend {
         // Check every buffer against the device limits before allocating.
         check_device_limits(scene, width, height, dev_.info, description());
         const uint64_t npix = uint64_t(width) * uint64_t(height);
-        const uint64_t max_bytes = dev_.info.memory.max_buffer_bytes;
-        const uint64_t accum_bytes = accum_buffer_bytes(npix, max_bytes);
-        sums_floats_ = size_t(npix * ACCUM_VEC4_PER_PIXEL * 4);
-        counter_offset_ = size_t((npix * ACCUM_VEC4_PER_PIXEL +
-                                  uint64_t(path_state_slots(npix, max_bytes)) * PATH_STATE_VEC4) *
-                                 16);
+        const AccumLayout layout = accum_layout(npix, dev_.info.memory.max_buffer_bytes);
+        const uint64_t accum_bytes = layout.bytes;
+        sums_floats_ = size_t(layout.sums_bytes() / 4);
+        counter_offset_ = size_t(layout.pending_offset());
+        accum_shape_ = layout;
         // Upload (empty arrays get one dummy element: OpenCL has no empty buffers).
         params_ = make_buffer(&scene.params, sizeof(gpu::GpuParams), CL_MEM_READ_ONLY);
         tree_ = upload(tree_buffer(scene));
@@ -211,6 +211,7 @@ class OpenClBackend final : public Backend {
     std::string built_options_;
     cl::Buffer params_, tree_, tris_, shading_, accum_;
     size_t sums_floats_ = 0, counter_offset_ = 0;
+    AccumLayout accum_shape_;
     size_t local_ = WORKGROUP_SIZE;
     double compile_seconds_ = 0;
     uint32_t built_features_ = 0;

@@ -16,17 +16,21 @@ void main() {
     uint gid = gl_GlobalInvocationID.x;
     if (gid >= params.pixel_count) return;
     uint pixel = params.pixel_offset + gid;
-    uint npix = params.width * params.height;
-    uint state = ACCUM_VEC4_PER_PIXEL * npix + PATH_STATE_VEC4 * (pixel - params.state_base);
-    uint pending = 4u * (ACCUM_VEC4_PER_PIXEL * npix + PATH_STATE_VEC4 * params.state_slots);
+    // The pixel's sums (in the window when the buffer holds only the tile's), path state and
+    // the pending word (layout in shared_types.h).
+    bool window = params.accum_window != 0u;
+    uint sum_pixels = window ? params.state_slots : params.width * params.height;
+    uint sum = ACCUM_VEC4_PER_PIXEL * (pixel - (window ? params.state_base : 0u));
+    uint state = ACCUM_VEC4_PER_PIXEL * sum_pixels + PATH_STATE_VEC4 * (pixel - params.state_base);
+    uint pending = 4u * (ACCUM_VEC4_PER_PIXEL * sum_pixels + PATH_STATE_VEC4 * params.state_slots);
     // Start the pixel's samples of this round, or continue its path.
     PathState st;
     if (params.round_start != 0u) {
         st = start_path(pixel, params.sample_offset);
         st.samples_left = params.samples_per_dispatch;
         if (params.accumulate == 0u) {
-            accum[2u * pixel] = vec4(0.0f);
-            accum[2u * pixel + 1u] = vec4(0.0f);
+            accum[sum] = vec4(0.0f);
+            accum[sum + 1u] = vec4(0.0f);
         }
     } else {
         PackedState p = PackedState(accum[state], accum[state + 1u], accum[state + 2u],
@@ -35,8 +39,8 @@ void main() {
         if (st.samples_left == 0u) return;
     }
     SlotStep r = step_slot(st, pixel);
-    accum[2u * pixel] += r.add.sum;
-    accum[2u * pixel + 1u] += r.add.sum_sq;
+    accum[sum] += r.add.sum;
+    accum[sum + 1u] += r.add.sum_sq;
     // A pixel that still owes samples keeps its path, and the host dispatches again (the
     // pending word is a flag, not a count).
     if (r.st.samples_left > 0u) {

@@ -70,13 +70,14 @@ TEST(BenchCli, SpecializeTableHasEveryScene) {
     std::filesystem::remove_all(dir);
     std::filesystem::create_directories(dir / "no-models");
     const std::string prefix = (dir / "spec").string();
-    const CliRun r = run_mcpt("bench --specialize --quick --frames 1 --models " +
-                              (dir / "no-models").string() + " --backend opencl:" +
-                              test::test_opencl_device() + " -o " + prefix);
+    const CliRun r =
+        run_mcpt("bench --specialize --quick --frames 1 --models " + (dir / "no-models").string() +
+                 " --backend opencl:" + test::test_opencl_device() + " -o " + prefix);
     ASSERT_EQ(r.status, 0) << r.output;
-    const char* expected[][2] = {{"walls only (diffuse mesh)", "spheres, mirror, glass, sphere lights"},
-                                 {"cornell", "sphere lights"},
-                                 {"spheres", "triangles, triangle lights, k-d tree"}};
+    const char* expected[][2] = {
+        {"walls only (diffuse mesh)", "spheres, mirror, glass, sphere lights"},
+        {"cornell", "sphere lights"},
+        {"spheres", "triangles, triangle lights, k-d tree"}};
     for (const auto& [scene, left_out] : expected) {
         const std::string head = std::string("| ") + scene + " | opencl: ";
         const size_t at = r.output.find(head);

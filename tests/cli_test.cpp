@@ -22,12 +22,17 @@ void expect_error(const std::string& args, const std::string& message) {
     const CliRun r = run_mcpt(args);
     EXPECT_EQ(r.status, 1) << args << "\n" << r.output;
     EXPECT_NE(r.output.find(message), std::string::npos)
-        << "expected '" << message << "' for: " << args << "\n" << r.output;
+        << "expected '" << message << "' for: " << args << "\n"
+        << r.output;
 }
 
-TEST(Cli, MissingFile) { expect_error("render /nonexistent/scene.glb -q", "/nonexistent/scene.glb"); }
+TEST(Cli, MissingFile) {
+    expect_error("render /nonexistent/scene.glb -q", "/nonexistent/scene.glb");
+}
 
-TEST(Cli, UnknownBuiltinScene) { expect_error("render nosuchscene -q", "cornell"); }
+TEST(Cli, UnknownBuiltinScene) {
+    expect_error("render nosuchscene -q", "cornell");
+}
 
 TEST(Cli, MalformedGltf) {
     const std::string path = temp_file("bad.gltf", "{ \"asset\": { \"version\": \"2.0\" ");
@@ -53,7 +58,9 @@ TEST(Cli, BadOptionsAreRejected) {
     EXPECT_NE(run_mcpt("frobnicate").status, 0);
 }
 
-TEST(Cli, UnknownDevice) { expect_error("render --spp 1 -q --device no-such-device", "no-such-device"); }
+TEST(Cli, UnknownDevice) {
+    expect_error("render --spp 1 -q --device no-such-device", "no-such-device");
+}
 
 TEST(Cli, UnsupportedImageFormat) {
     const std::string out = (std::filesystem::temp_directory_path() / "mcpt_cli.bmp").string();

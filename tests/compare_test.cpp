@@ -1,10 +1,11 @@
 // OpenCL (PoCL in CI) against Vulkan (lavapipe in CI): the images agree statistically on
 // scenes with glass and mirrors, the furnace and a deep mesh tree; the same test rejects a
 // light 2% brighter in one backend and a variant that drops refraction through glass.
+#include "common/analysis/compare.h"
+
 #include <gtest/gtest.h>
 
 #include "common/render/device_registry.h"
-#include "common/analysis/compare.h"
 #include "test_scenes.h"
 #include "test_util.h"
 
@@ -26,7 +27,9 @@ Case make_case(Scene scene) {
 }
 
 // Vulkan is part of the build: a missing device fails the test (install-deps brings lavapipe).
-std::unique_ptr<Backend> vulkan_backend() { return open_device("vulkan", BackendOptions{}); }
+std::unique_ptr<Backend> vulkan_backend() {
+    return open_device("vulkan", BackendOptions{});
+}
 
 // A on OpenCL, B on Vulkan, independent seeds; returns the agreement.
 Agreement compare(const Case& c, const std::string& a_defines = "", float b_light_scale = 1.f) {
@@ -43,7 +46,8 @@ Agreement compare(const Case& c, const std::string& a_defines = "", float b_ligh
     const BatchSet sb = render_batches(*b, c.gpu, c.scene.camera, ob, bo);
     const Agreement g = test_agreement(sa, sb, 0.01);
     std::printf("%s\n", g.verdict().c_str());
-    ::testing::Test::RecordProperty("detectable_bias_percent", std::to_string(100 * g.detectable_bias));
+    ::testing::Test::RecordProperty("detectable_bias_percent",
+                                    std::to_string(100 * g.detectable_bias));
     return g;
 }
 

@@ -21,7 +21,7 @@ std::pair<std::vector<float>, int> round_sums(Backend& b, const Scene& scene, co
     p.max_depth = 8, p.rr_depth = 3, p.seed = 11, p.light_scale = 1.f;
     p.pixel_offset = 0, p.pixel_count = uint32_t(size * size);
     p.sample_offset = 0, p.samples_per_dispatch = spp, p.accumulate = 0;
-    p.state_base = 0, p.state_slots = path_state_slots(uint64_t(size) * size, 0);
+    p.state_base = 0, p.state_slots = accum_layout(uint64_t(size) * size, 0).slots;
     p.bounce_budget = budget;
     p.round_start = 1;
     int dispatches = 1;

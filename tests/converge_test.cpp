@@ -10,9 +10,9 @@
 #include <fstream>
 #include <sstream>
 
-#include "common/scene/builtin_scenes.h"
 #include "common/analysis/convergence.h"
 #include "common/render/gpu_scene.h"
+#include "common/scene/builtin_scenes.h"
 #include "test_util.h"
 
 namespace mcpt {

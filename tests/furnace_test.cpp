@@ -3,8 +3,8 @@
 // interval, and the same check must reject a 2% brighter light and a biased kernel build.
 #include <gtest/gtest.h>
 
-#include "common/scene/builtin_scenes.h"
 #include "common/render/gpu_scene.h"
+#include "common/scene/builtin_scenes.h"
 #include "test_util.h"
 
 namespace mcpt {

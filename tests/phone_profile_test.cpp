@@ -54,12 +54,17 @@ TEST(PhoneProfile, BadProfilesAndOptionsAreRefused) {
 TEST(PhoneProfile, SceneBeyondTheProfileNamesBufferSizeAndLimit) {
     auto b = open_device("vulkan,limits=phone");
     Scene scene = make_builtin_scene("cornell");
-    const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, TreeOptions{}));
+    GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, TreeOptions{}));
+    // An image whose sums exceed 128 MiB (256 MiB) loads, accumulating through a window.
+    b->load(g, 4096, 2048);
+    EXPECT_NE(b->layout().find("accumulation in windows of"), std::string::npos) << b->layout();
+    // A scene array over 128 MiB is refused with its name, size and the limit.
+    g.triangles.resize((129u << 20) / sizeof(gpu::GpuTriangle) + 1);
     try {
-        b->load(g, 4096, 2048);  // 256 MiB of sums and 24 MiB of path state
-        FAIL() << "an accumulation buffer over 128 MiB was accepted";
+        b->load(g, 64, 64);
+        FAIL() << "a triangle buffer over 128 MiB was accepted";
     } catch (const Error& e) {
-        EXPECT_NE(std::string(e.what()).find("accumulation buffer needs 256.375 MiB, "
+        EXPECT_NE(std::string(e.what()).find("triangles need 129 MiB, "
                                              "maxStorageBufferRange is 128 MiB"),
                   std::string::npos)
             << e.what();

@@ -1,27 +1,29 @@
 // The progressive render loop on a fake device that accumulates in float like the kernels:
 // 10^7 samples per pixel stay within float rounding of the exact mean (the host adds device
 // sums in double), while a float running sum — the negative control — drifts far beyond it.
+#include "common/render/render_loop.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
-
-#include "common/render/render_loop.h"
 
 namespace mcpt {
 namespace {
 
 // Sample i of any pixel has radiance value(i); the device sums in float per dispatch.
-float value(uint64_t i) { return 0.1f + 0.05f * float((i * 2654435761u) % 1000u) / 1000.f; }
+float value(uint64_t i) {
+    return 0.1f + 0.05f * float((i * 2654435761u) % 1000u) / 1000.f;
+}
 
 // Each sample takes `bounces` bounces; dispatches carry unfinished samples across, like the
 // kernels' step_slot().
 class FakeBackend final : public Backend {
-public:
+  public:
     std::string description() const override { return "fake"; }
     const DeviceInfo& device() const override { return info_; }
     void load(const GpuScene&, int w, int h) override {
         accum_.assign(size_t(w) * h * 8, 0.f);
-        slots_.assign(path_state_slots(uint64_t(w) * h, 0), Slot{});
+        slots_.assign(accum_layout(uint64_t(w) * h, 0).slots, Slot{});
     }
     uint32_t dispatch(const gpu::GpuParams& p) override {
         ++dispatches;
@@ -58,7 +60,7 @@ public:
     uint32_t most_samples_per_round = 0, most_bounces_per_dispatch = 0;
     uint32_t cap = 1u << 20, bounces = 1;
 
-private:
+  private:
     struct Slot {
         uint32_t sample = 0, left = 0, done = 0;
     };
@@ -137,4 +139,36 @@ TEST(RenderLoop, RejectsBadSizes) {
 }
 
 }  // namespace
+}  // namespace mcpt
+
+namespace mcpt {
+
+// The accumulation buffer holds every pixel's sums while they fit in the largest buffer, and
+// a window of pixels with their sums and path state when they do not; it never exceeds it.
+TEST(AccumLayout, WholeImageOrAWindowWithinTheLargestBuffer) {
+    const uint64_t mib = 1ull << 20;
+    const AccumLayout small = accum_layout(100, 0);
+    EXPECT_FALSE(small.window);
+    EXPECT_EQ(small.sum_pixels, 100u);
+    EXPECT_EQ(small.slots, 100u);
+    EXPECT_EQ(small.bytes, (100u * 2 + 100u * 6 + 1) * 16);
+    // 1024^2 under 128 MiB: all sums (32 MiB), the path state fitted beside them.
+    const AccumLayout k1 = accum_layout(1024 * 1024, 128 * mib);
+    EXPECT_FALSE(k1.window);
+    EXPECT_EQ(k1.sum_pixels, 1024u * 1024u);
+    EXPECT_LE(k1.bytes, 128 * mib);
+    EXPECT_GT(k1.slots, 1000000u);
+    // 2048^2: the sums alone are 128 MiB: a window.
+    const AccumLayout k2 = accum_layout(2048 * 2048, 128 * mib);
+    EXPECT_TRUE(k2.window);
+    EXPECT_EQ(k2.sum_pixels, k2.slots);
+    EXPECT_LE(k2.bytes, 128 * mib);
+    EXPECT_GT(k2.bytes, 127 * mib);
+    EXPECT_EQ(k2.pending_offset(), k2.bytes - 16);
+    // Unknown limit: everything, state capped at MAX_STATE_SLOTS.
+    const AccumLayout big = accum_layout(4096 * 4096, 0);
+    EXPECT_FALSE(big.window);
+    EXPECT_EQ(big.slots, MAX_STATE_SLOTS);
+}
+
 }  // namespace mcpt

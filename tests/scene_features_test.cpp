@@ -6,9 +6,9 @@
 
 #include <gtest/gtest.h>
 
+#include "common/analysis/compare.h"
 #include "common/render/device_registry.h"
 #include "common/scene/builtin_scenes.h"
-#include "common/analysis/compare.h"
 #include "test_scenes.h"
 #include "test_util.h"
 

@@ -8,8 +8,8 @@
 #include <limits>
 #include <string>
 
-#include "common/scene/builtin_scenes.h"
 #include "common/error.h"
+#include "common/scene/builtin_scenes.h"
 
 namespace mcpt {
 namespace {

@@ -1,11 +1,12 @@
 // The statistics behind `mcpt compare`: distributions against known values, and the tests'
 // false-alarm rate and power on synthetic data with a known answer.
+#include "common/analysis/stats.h"
+
 #include <gtest/gtest.h>
 
 #include <random>
 
 #include "common/analysis/compare.h"
-#include "common/analysis/stats.h"
 
 namespace mcpt::stats {
 namespace {

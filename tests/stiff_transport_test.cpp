@@ -5,8 +5,8 @@
 
 #include <cstdio>
 
-#include "common/scene/builtin_scenes.h"
 #include "common/analysis/compare.h"
+#include "common/scene/builtin_scenes.h"
 #include "test_util.h"
 
 namespace mcpt {
@@ -26,15 +26,15 @@ RenderResult render_on(const std::string& api, Scene scene, uint64_t spp, int si
     RenderOptions o;
     o.width = size, o.height = size;
     o.spp = spp;
-    o.max_depth = max_depth > 0                ? max_depth
+    o.max_depth = max_depth > 0              ? max_depth
                   : scene.max_depth_hint > 0 ? uint32_t(scene.max_depth_hint)
                                              : 8u;
     o.seed = 3;
     return render(*backend, g, scene.camera, o);
 }
 
-void expect_furnace_exact(const std::string& api, const Scene& scene, double exact,
-                          uint64_t spp, uint32_t max_depth = 0) {
+void expect_furnace_exact(const std::string& api, const Scene& scene, double exact, uint64_t spp,
+                          uint32_t max_depth = 0) {
     const RenderResult r = render_on(api, scene, spp, 16, 0, false, max_depth);
     const test::MeanEstimate e = test::pooled_mean(r);
     std::printf("%s: mean %.4g, standard error %.3g, exact %.4g, invalid samples %llu\n",
@@ -86,8 +86,9 @@ INSTANTIATE_TEST_SUITE_P(Ior, GlassInFurnace,
                                             ::testing::Values(1.0001f, 1.5f, 4.0f)),
                          [](const auto& info) {
                              const float ior = std::get<1>(info.param);
-                             return std::get<0>(info.param) +
-                                    (ior < 1.01f ? "_Ior1_0001" : ior < 2 ? "_Ior1_5" : "_Ior4");
+                             return std::get<0>(info.param) + (ior < 1.01f ? "_Ior1_0001"
+                                                               : ior < 2   ? "_Ior1_5"
+                                                                           : "_Ior4");
                          });
 
 // A small sphere light and a 100x smaller one with 10^4x the radiance light the box alike.
@@ -136,17 +137,18 @@ TEST_P(NonFinite, CountedExactlyAndLeftOut) {
     EXPECT_EQ(r.nonfinite[1], 4.0);
     for (float v : r.mean_image()) EXPECT_TRUE(std::isfinite(v));
 }
-INSTANTIATE_TEST_SUITE_P(
-    Backends, NonFinite,
+INSTANTIATE_TEST_SUITE_P(Backends, NonFinite,
 #if MCPT_WITH_VULKAN
-    ::testing::Values(std::tuple<std::string, bool>{"opencl", false}, std::tuple<std::string, bool>{"opencl", true},
-                      std::tuple<std::string, bool>{"vulkan", false}),
+                         ::testing::Values(std::tuple<std::string, bool>{"opencl", false},
+                                           std::tuple<std::string, bool>{"opencl", true},
+                                           std::tuple<std::string, bool>{"vulkan", false}),
 #else
     ::testing::Values(std::tuple<std::string, bool>{"opencl", false}, std::tuple<std::string, bool>{"opencl", true}),
 #endif
-    [](const auto& info) {
-        return std::get<0>(info.param) + (std::get<1>(info.param) ? "_Relaxed" : "_Strict");
-    });
+                         [](const auto& info) {
+                             return std::get<0>(info.param) +
+                                    (std::get<1>(info.param) ? "_Relaxed" : "_Strict");
+                         });
 
 }  // namespace
 }  // namespace mcpt

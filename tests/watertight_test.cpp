@@ -48,8 +48,8 @@ size_t misses_through_edges(TreeKind kind, float shrink) {
             const float k = shrink / (1 - shrink);
             t.v0 += k * (t0.v0 - c), t.v1 += k * (t0.v1 - c), t.v2 += k * (t0.v2 - c);
         }
-        const glm::vec3 targets[] = {t.v0, t.v1, t.v2, 0.5f * (t.v0 + t.v1), 0.5f * (t.v1 + t.v2),
-                                     0.5f * (t.v2 + t.v0)};
+        const glm::vec3 targets[] = {
+            t.v0, t.v1, t.v2, 0.5f * (t.v0 + t.v1), 0.5f * (t.v1 + t.v2), 0.5f * (t.v2 + t.v0)};
         for (const glm::vec3& target : targets) {
             shoot(inside, target);
             // From outside, along the same line through the surface point.

@@ -37,6 +37,7 @@ struct VulkanBackend::Impl {
     Buffer params, tree, tris, shading, accum, readback;
     uint32_t pixels = 0;
     uint64_t counter_offset = 0;  // bytes: the active-slot counter in the accumulation buffer
+    AccumLayout accum_shape;      // what the accumulation buffer holds
 
     // Pipeline specialization, dispatch limit, timings.
     uint32_t local = WORKGROUP_SIZE;
@@ -213,8 +214,9 @@ struct VulkanBackend::Impl {
         // Check every buffer against the device limits before allocating or compiling.
         const uint64_t npix = uint64_t(width) * uint64_t(height);
         pd.info.memory = vk::memory_limits(pd);
-        const uint64_t max_bytes = pd.info.memory.max_buffer_bytes;
-        const uint64_t accum_bytes = accum_buffer_bytes(npix, max_bytes);
+        limit_buffers(pd.info.memory, options.max_buffer_bytes);
+        const AccumLayout layout = accum_layout(npix, pd.info.memory.max_buffer_bytes);
+        const uint64_t accum_bytes = layout.bytes;
         check_device_limits(scene, width, height, pd.info, description());
         dev->wait_idle();
         release_scene();
@@ -237,8 +239,7 @@ struct VulkanBackend::Impl {
                                    0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
         if (!accum.mapped) {
             // The sums (read_accum), or the pending word (dispatch), never the path state.
-            const uint64_t sums_bytes = npix * ACCUM_VEC4_PER_PIXEL * 16;
-            readback = dev->create_buffer(sums_bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+            readback = dev->create_buffer(layout.sums_bytes(), VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                           vk::kHostMemory, VK_MEMORY_PROPERTY_HOST_CACHED_BIT);
         }
         dev->begin_commands();
@@ -249,9 +250,8 @@ struct VulkanBackend::Impl {
             VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT);
         dev->submit_and_wait();
         pixels = uint32_t(npix);
-        counter_offset = (npix * ACCUM_VEC4_PER_PIXEL +
-                          uint64_t(path_state_slots(npix, max_bytes)) * PATH_STATE_VEC4) *
-                         16;
+        counter_offset = layout.pending_offset();
+        accum_shape = layout;
 
         // Descriptor set: every buffer at its BINDING_* slot.
         const Buffer* by_slot[BINDING_COUNT] = {};
@@ -353,7 +353,7 @@ struct VulkanBackend::Impl {
     void read_accum(std::vector<float>& out) {
         if (pixels == 0) throw Error("vulkan: read_accum() before load()");
         // The sums only (the path state after them stays on the device).
-        const uint64_t bytes = uint64_t(pixels) * ACCUM_VEC4_PER_PIXEL * 16;
+        const uint64_t bytes = accum_shape.sums_bytes();
         out.resize(size_t(bytes / 4));
         if (accum.mapped) {
             std::memcpy(out.data(), accum.mapped, size_t(bytes));
@@ -411,7 +411,7 @@ size_t VulkanBackend::validation_messages() const {
     return impl_->instance->messages() - impl_->messages_before;
 }
 std::string VulkanBackend::layout() const {
-    return vk::layout_line(impl_->pd.props.limits);
+    return vk::layout_line(impl_->pd.props.limits) + window_note(impl_->accum_shape);
 }
 uint32_t VulkanBackend::local_size() const {
     return impl_->local;

@@ -92,6 +92,9 @@ mcpt_status guarded(mcpt_status context, std::string& message, Body&& body) {
     } catch (const CError& e) {
         message = e.message;
         return e.status;
+    } catch (const mcpt::OutOfMemory& e) {
+        message = e.what();
+        return MCPT_ERROR_OUT_OF_MEMORY;
     } catch (const mcpt::DeviceLost& e) {
         message = e.what();
         return MCPT_ERROR_DEVICE_LOST;

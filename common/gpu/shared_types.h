@@ -112,10 +112,14 @@ MCPT_STRUCT(GpuParams) {
     // repeats it until no pixel owes samples. Pixel i keeps its path in slot i - state_base.
     uint round_start, bounce_budget;
     uint state_base, state_slots;  // state_slots: slots after the accumulation sums
-    uint pad0;
+    // 0: the buffer holds the sums of every pixel; 1: only those of the tile at state_base
+    // (state_slots pixels: images whose sums exceed the device's largest buffer; the host
+    // reads the window back after each round).
+    uint accum_window;
 };
 
-// Accumulation buffer: two vec4 per pixel.
+// Accumulation buffer: two vec4 per pixel (every pixel, or the window's state_slots pixels
+// from state_base when accum_window is set).
 //   [2*i]   = sum of radiance (rgb), number of non-finite samples (w)
 //   [2*i+1] = sum of squared radiance (rgb), number of rays traced (w)
 // then the path state of state_slots slots (PATH_STATE_VEC4 vec4 each, integrator.h), then

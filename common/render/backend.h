@@ -45,6 +45,9 @@ struct BackendOptions {
     // Fault injection for tests: the device reports itself lost at this dispatch (counted from
     // 1; 0 = never); open_device() takes $MCPT_LOSE_DEVICE_AFTER when 0.
     uint32_t lose_device_after = 0;
+    // Tests: a largest buffer smaller than the device's (0 = the device's), so that large
+    // images take the windowed accumulation (gpu_scene.h) on any device.
+    uint64_t max_buffer_bytes = 0;
 };
 
 // The MCPT_FEATURES value a backend compiles `scene` with: the feature bits, and the compile

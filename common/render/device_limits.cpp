@@ -20,7 +20,7 @@ std::string human_bytes(uint64_t b) {
 std::vector<std::pair<std::string, uint64_t>> device_buffers(const GpuScene& scene, int width,
                                                              int height,
                                                              uint64_t max_buffer_bytes) {
-    const uint64_t accum = accum_buffer_bytes(uint64_t(width) * uint64_t(height), max_buffer_bytes);
+    const uint64_t accum = accum_layout(uint64_t(width) * uint64_t(height), max_buffer_bytes).bytes;
     const uint64_t tree = scene.nodes.size() * sizeof(gpu::KdNode) + scene.leaf_indices.size() * 4;
     const uint64_t shading = scene.spheres.size() * sizeof(gpu::GpuSphere) +
                              scene.materials.size() * sizeof(gpu::GpuMaterial) +
@@ -53,6 +53,14 @@ void check_device_limits(const GpuScene& scene, int width, int height, const Dev
     if (m.device_memory_bytes > 0 && total > m.device_memory_bytes) {
         throw Error("scene too large for " + where + ": needs " + human_bytes(total) + " of " +
                     human_bytes(m.device_memory_bytes) + " device memory");
+    }
+}
+
+void limit_buffers(MemoryLimits& m, uint64_t max_buffer_bytes) {
+    if (max_buffer_bytes == 0) return;
+    if (m.max_buffer_bytes == 0 || max_buffer_bytes < m.max_buffer_bytes) {
+        m.max_buffer_bytes = max_buffer_bytes;
+        m.max_buffer_note = " (lowered by BackendOptions::max_buffer_bytes)";
     }
 }
 

@@ -21,6 +21,10 @@ std::string human_bytes(uint64_t bytes);
 std::vector<std::pair<std::string, uint64_t>> device_buffers(const GpuScene& scene, int width,
                                                              int height, uint64_t max_buffer_bytes);
 
+// Lowers m.max_buffer_bytes to max_buffer_bytes (0: leaves it), noting why: how tests make a
+// device's largest buffer small (BackendOptions::max_buffer_bytes).
+void limit_buffers(MemoryLimits& m, uint64_t max_buffer_bytes);
+
 // Throws mcpt::Error "scene too large for <where>: <buffer> need(s) <size>, <limit> is <size>"
 // naming the first buffer over a limit, or the total over the device's memory.
 void check_device_limits(const GpuScene& scene, int width, int height, const DeviceInfo& device,

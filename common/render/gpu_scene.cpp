@@ -152,22 +152,33 @@ void append_words(std::vector<uint32_t>& out, const std::vector<T>& v) {
 }
 }  // namespace
 
-uint32_t path_state_slots(uint64_t npix, uint64_t max_buffer_bytes) {
-    uint64_t slots = std::min<uint64_t>(npix, MAX_STATE_SLOTS);
-    // Within the device's largest buffer, after the sums and the pending word (at least a
-    // few thousand slots: a buffer too small for those is refused by check_device_limits).
-    const uint64_t vec4s = max_buffer_bytes / 16;
-    const uint64_t sums = npix * ACCUM_VEC4_PER_PIXEL + 1;
-    if (max_buffer_bytes > 0) {
-        const uint64_t fit = vec4s > sums ? (vec4s - sums) / PATH_STATE_VEC4 : 0;
-        slots = std::min(slots, std::max<uint64_t>(fit, std::min<uint64_t>(npix, 4096)));
-    }
-    return uint32_t(slots);
+std::string window_note(const AccumLayout& l) {
+    return l.window ? ", accumulation in windows of " + std::to_string(l.sum_pixels) + " pixels"
+                    : "";
 }
 
-uint64_t accum_buffer_bytes(uint64_t npix, uint64_t max_buffer_bytes) {
-    const uint64_t slots = path_state_slots(npix, max_buffer_bytes);
-    return (npix * ACCUM_VEC4_PER_PIXEL + slots * PATH_STATE_VEC4 + 1) * 16;
+AccumLayout accum_layout(uint64_t npix, uint64_t max_buffer_bytes) {
+    // In vec4s: the sums of every pixel, the slots, the pending word.
+    const uint64_t limit = max_buffer_bytes > 0 ? max_buffer_bytes / 16 : UINT64_MAX;
+    const uint64_t sums = npix * ACCUM_VEC4_PER_PIXEL;
+    const uint64_t min_slots = std::min<uint64_t>(npix, 4096);
+    AccumLayout l;
+    uint64_t slots = std::min<uint64_t>(npix, MAX_STATE_SLOTS);
+    if (sums + min_slots * PATH_STATE_VEC4 + 1 <= limit) {
+        // Every pixel's sums, and as many slots as fit beside them.
+        slots = std::min(slots, (limit - sums - 1) / PATH_STATE_VEC4);
+        l.sum_pixels = uint32_t(npix);
+    } else {
+        // A window: as many pixels as fit with their sums and slots (at least one workgroup;
+        // an image over 2^32 pixels is refused before this).
+        slots = std::min(
+            slots, std::max<uint64_t>((limit - 1) / (ACCUM_VEC4_PER_PIXEL + PATH_STATE_VEC4), 64));
+        l.window = true;
+        l.sum_pixels = uint32_t(slots);
+    }
+    l.slots = uint32_t(slots);
+    l.bytes = (uint64_t(l.sum_pixels) * ACCUM_VEC4_PER_PIXEL + slots * PATH_STATE_VEC4 + 1) * 16;
+    return l;
 }
 
 std::vector<uint32_t> tree_buffer(const GpuScene& s) {

@@ -2,6 +2,7 @@
 // uploads as they are, plus the scene part of GpuParams.
 #pragma once
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "common/accel/kdtree.h"
@@ -35,12 +36,22 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree);
 std::vector<uint32_t> tree_buffer(const GpuScene& scene);
 std::vector<uint32_t> shading_buffer(const GpuScene& scene);
 
-// Path-state slots for an image of npix pixels (one per pixel of a round's tile: the whole
-// image up to MAX_STATE_SLOTS, within a device's largest buffer, MemoryLimits::
-// max_buffer_bytes, 0 = unknown), and the bytes of its accumulation buffer: sums, path state
-// and the active-slot counter.
-uint32_t path_state_slots(uint64_t npix, uint64_t max_buffer_bytes);
-uint64_t accum_buffer_bytes(uint64_t npix, uint64_t max_buffer_bytes);
+// The accumulation buffer of an image of npix pixels on a device whose largest buffer is
+// max_buffer_bytes (MemoryLimits::max_buffer_bytes; 0 = unknown): the sums of every pixel and
+// one path-state slot per pixel of a round's tile (the whole image up to MAX_STATE_SLOTS, as
+// many as fit); or, when not even the sums fit, a window of `slots` pixels with their sums
+// and slots, which a round's tile never exceeds and the host reads back after each round.
+struct AccumLayout {
+    bool window = false;
+    uint32_t sum_pixels = 0;  // pixels whose sums the buffer holds (npix, or slots)
+    uint32_t slots = 0;       // path-state slots: the largest tile
+    uint64_t bytes = 0;       // sums, path state and the pending word
+    uint64_t sums_bytes() const { return uint64_t(sum_pixels) * ACCUM_VEC4_PER_PIXEL * 16; }
+    uint64_t pending_offset() const { return bytes - 16; }
+};
+AccumLayout accum_layout(uint64_t npix, uint64_t max_buffer_bytes);
+// ", accumulation in windows of N pixels" for a windowed layout (Backend::layout()), else "".
+std::string window_note(const AccumLayout& layout);
 
 // Pinhole camera for a width x height image into params.
 void set_camera(gpu::GpuParams& params, const Camera& camera, int width, int height);

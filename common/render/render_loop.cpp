@@ -1,10 +1,14 @@
 #include "common/render/render_loop.h"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 
 #include "common/error.h"
+#include "common/render/device_limits.h"
 
 namespace mcpt {
 
@@ -60,10 +64,39 @@ RenderResult render(Backend& backend, const GpuScene& scene, const Camera& camer
     return render_loaded(backend, scene, camera, opt, progress);
 }
 
+uint64_t host_bytes_per_pixel() {
+    // Double sums and squares (6), invalid count (1); the device's float sums (8).
+    return 7 * sizeof(double) + 8 * sizeof(float);
+}
+
+uint64_t host_memory_available() {
+    // MemAvailable (Linux, Android), else the physical memory.
+    if (FILE* f = std::fopen("/proc/meminfo", "r")) {
+        char line[256];
+        unsigned long long kib = 0;
+        while (std::fgets(line, sizeof line, f))
+            if (std::sscanf(line, "MemAvailable: %llu kB", &kib) == 1) break;
+        std::fclose(f);
+        if (kib > 0) return uint64_t(kib) * 1024;
+    }
+    const long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGE_SIZE);
+    return pages > 0 && size > 0 ? uint64_t(pages) * uint64_t(size) : UINT64_MAX;
+}
+
 ProgressiveRender::ProgressiveRender(Backend& backend, const GpuScene& scene, const Camera& camera,
                                      const RenderOptions& opt)
     : backend_(backend), opt_(opt) {
     npix_ = uint32_t(opt.width) * uint32_t(opt.height);
+    // The host accumulators, checked against the memory available before allocating (at
+    // most half of it: the process and the system need the rest).
+    const uint64_t need = uint64_t(npix_) * host_bytes_per_pixel();
+    const uint64_t available = host_memory_available();
+    if (need > available / 2) {
+        throw OutOfMemory("image too large for this host: " + std::to_string(opt.width) + "x" +
+                          std::to_string(opt.height) + " needs " + human_bytes(need) +
+                          " of host memory for its sums; " + human_bytes(available) +
+                          " available (at most half is used)");
+    }
     p_ = scene.params;
     set_camera(p_, camera, opt.width, opt.height);
     p_.max_depth = opt.max_depth;
@@ -80,7 +113,8 @@ ProgressiveRender::ProgressiveRender(Backend& backend, const GpuScene& scene, co
 
 void ProgressiveRender::flush() {
     if (unflushed_ == 0) return;
-    backend_.read_accum(device_sums_);
+    // A windowed buffer's sums were read back tile by tile during the pass.
+    if (!windowed_) backend_.read_accum(device_sums_);
     for (size_t i = 0; i < npix_; ++i) {
         const float* a = &device_sums_[8 * i];
         for (int c = 0; c < 3; ++c) {
@@ -106,7 +140,10 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
     uint32_t spp = uint32_t(std::max(1.0, std::floor(work_ / npix_)));
     spp = std::min(spp, opt_.flush_spp - unflushed_);
     spp = uint32_t(std::max<uint64_t>(1, std::min<uint64_t>(spp, max_spp)));
-    const uint32_t slots = path_state_slots(npix_, backend_.device().memory.max_buffer_bytes);
+    const AccumLayout layout = accum_layout(npix_, backend_.device().memory.max_buffer_bytes);
+    const uint32_t slots = layout.slots;
+    windowed_ = layout.window;
+    if (windowed_) device_sums_.resize(size_t(npix_) * 8);
     uint32_t tile = uint32_t(std::clamp(work_ / spp, 64.0, double(std::min(npix_, slots))));
     // Tiles of equal size (no sliver at the end).
     const uint32_t tiles = (npix_ + tile - 1) / tile;
@@ -115,8 +152,10 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
     const double target_s = opt_.dispatch_ms * 1e-3;
     p_.sample_offset = uint32_t(r_.spp);
     p_.samples_per_dispatch = spp;
-    p_.accumulate = unflushed_ > 0 ? 1u : 0u;
+    // A window is overwritten by each tile's round and read back after it.
+    p_.accumulate = unflushed_ > 0 && !windowed_ ? 1u : 0u;
     p_.state_slots = slots;
+    p_.accum_window = windowed_ ? 1u : 0u;
     const auto start = clock::now();
     for (uint32_t offset = 0; offset < npix_; offset += tile) {
         p_.pixel_offset = p_.state_base = offset;
@@ -139,6 +178,12 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
             else if (active > 0 && t < 0.4 * target_s && uint64_t(bounce_budget_) * spp < cap)
                 bounce_budget_ *= 2;
         }
+        if (windowed_) {
+            // The tile's sums, staged until the pass completes (a failure mid-pass adds none).
+            backend_.read_accum(window_sums_);
+            std::copy_n(window_sums_.begin(), size_t(p_.pixel_count) * 8,
+                        device_sums_.begin() + size_t(offset) * 8);
+        }
     }
     last_pass_s_ = std::chrono::duration<double>(clock::now() - start).count();
     r_.spp += spp;
@@ -146,7 +191,7 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
     // Retarget the dispatch size from this pass's rate.
     const double rate = double(spp) * npix_ / std::max(last_pass_s_, 1e-6);
     work_ = std::clamp(rate * opt_.dispatch_ms * 1e-3, 64.0, 64.0 * npix_);
-    if (unflushed_ >= opt_.flush_spp) flush();
+    if (unflushed_ >= opt_.flush_spp || windowed_) flush();
     return spp;
 }
 

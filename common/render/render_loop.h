@@ -84,7 +84,14 @@ class ProgressiveRender {
     uint32_t bounce_budget_ = 16;    // bounces per sample in one dispatch
     std::vector<float> dispatch_s_;  // every dispatch's wall time
     std::vector<float> device_sums_;
+    bool windowed_ = false;  // the device holds one tile's sums at a time (gpu_scene.h)
+    std::vector<float> window_sums_;
 };
+
+// Host memory the accumulators of one pixel take, and the memory available (MemAvailable, or
+// the physical memory): ProgressiveRender refuses an image that needs more than half of it.
+uint64_t host_bytes_per_pixel();
+uint64_t host_memory_available();
 
 using ProgressFn = std::function<void(double fraction, const RenderResult& so_far)>;
 

@@ -1,0 +1,46 @@
+// Images whose sums exceed the device's largest buffer render through a window of the
+// accumulation buffer (gpu_scene.h): the device holds one tile's sums and path state, read
+// back after each round. The result is the very image the whole-image buffer gives
+// (reproducible mode: same samples, same float sums, same order), on both APIs.
+#include <gtest/gtest.h>
+
+#include "common/render/session.h"
+#include "common/scene/scene_load.h"
+#include "test_util.h"
+
+namespace mcpt {
+namespace {
+
+class AccumWindow : public ::testing::TestWithParam<std::string> {};
+
+std::vector<float> render_image(const std::string& api, uint64_t max_buffer_bytes,
+                                std::string* layout) {
+    BackendOptions o;
+    o.max_buffer_bytes = max_buffer_bytes;
+    Session s(test::test_backend(api, o));
+    s.set_scene(load_scene("cornell"));
+    s.settings().width = 48, s.settings().height = 40;
+    s.settings().reproducible = true;
+    s.settings().seed = 5;
+    EXPECT_EQ(s.render(1e6, 0, 6).spp, 6u);
+    *layout = s.backend().layout();
+    return s.image_rgba32f();
+}
+
+TEST_P(AccumWindow, WindowedBufferGivesTheWholeImageBuffersImage) {
+    const uint64_t small = 64 << 10;  // 64 KiB: windows of 511 pixels, 4 tiles of 480
+    ASSERT_TRUE(accum_layout(48 * 40, small).window);
+    std::string whole_layout, window_layout;
+    const std::vector<float> whole = render_image(GetParam(), 0, &whole_layout);
+    const std::vector<float> windowed = render_image(GetParam(), small, &window_layout);
+    EXPECT_EQ(whole_layout.find("window"), std::string::npos) << whole_layout;
+    EXPECT_NE(window_layout.find("accumulation in windows of 511 pixels"), std::string::npos)
+        << window_layout;
+    EXPECT_EQ(whole, windowed);
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, AccumWindow, ::testing::ValuesIn(test::test_apis()),
+                         [](const auto& info) { return info.param; });
+
+}  // namespace
+}  // namespace mcpt
