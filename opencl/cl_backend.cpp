@@ -118,10 +118,12 @@ class OpenClBackend final : public Backend {
         }
     }
 
-    void read_accum(std::vector<float>& out) override {
-        out.resize(sums_floats_);  // the sums only; the path state stays on the device
+    void read_accum(std::vector<float>& out, uint32_t pixels) override {
+        // The sums only; the path state stays on the device.
+        const size_t per_pixel = ACCUM_VEC4_PER_PIXEL * 4;
+        out.resize(pixels == 0 ? sums_floats_ : std::min(sums_floats_, size_t(pixels) * per_pixel));
         try {
-            queue_.enqueueReadBuffer(accum_, CL_TRUE, 0, sums_floats_ * 4, out.data());
+            queue_.enqueueReadBuffer(accum_, CL_TRUE, 0, out.size() * 4, out.data());
         } catch (const cl::Error& e) {
             stopped(e.err(), e.what());
         }

@@ -27,7 +27,7 @@ std::pair<std::vector<float>, int> round_sums(Backend& b, const Scene& scene, co
     int dispatches = 1;
     while (b.dispatch(p) != 0) p.round_start = 0, ++dispatches;
     std::vector<float> sums;
-    b.read_accum(sums);
+    b.read_accum(sums, 0);
     return {sums, dispatches};
 }
 

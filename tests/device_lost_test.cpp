@@ -41,9 +41,9 @@ class FailingBackend final : public Backend {
         }
         return inner_->dispatch(p);
     }
-    void read_accum(std::vector<float>& out) override {
+    void read_accum(std::vector<float>& out, uint32_t pixels) override {
         ++reads_;
-        inner_->read_accum(out);
+        inner_->read_accum(out, pixels);
     }
     double compile_seconds() const override { return inner_->compile_seconds(); }
     double device_seconds() const override { return inner_->device_seconds(); }
@@ -83,17 +83,23 @@ double mean(const std::vector<float>& v) {
     return sum / double(v.size());
 }
 
-// The first pass of a render() is read back at once, the second completes on the device, the
-// third fails: the image holds the samples read back and none of the second pass's (its sums
-// are on the lost device; counting its samples would darken the image).
+// Two passes complete on the device, the third fails before they are read back (a render()
+// reads back at most once a second after the first): the image is the 4 spp of before,
+// exactly (the completed passes' sums are on the lost device; counting their samples would
+// darken the image). On a machine so slow that a second passed, one read-back came first.
 TEST_P(DeviceFailure, LostDeviceKeepsExactlyTheSamplesReadBack) {
     start();
     fb_->arm(3, true);
     EXPECT_THROW(session_->render(1e6, 0, 100000), DeviceLost);
     ASSERT_EQ(fb_->pass_spp().size(), 3u);
-    ASSERT_EQ(fb_->reads_since_armed(), 1) << "one read-back, after the first pass";
-    EXPECT_EQ(session_->spp(), 4u + fb_->pass_spp()[0]);
-    EXPECT_NEAR(mean(session_->image_rgba32f()), mean(before_), 0.1 * mean(before_));
+    if (fb_->reads_since_armed() == 0) {
+        EXPECT_EQ(session_->spp(), 4u);
+        EXPECT_EQ(session_->image_rgba32f(), before_);
+    } else {
+        ASSERT_EQ(fb_->reads_since_armed(), 1);
+        EXPECT_EQ(session_->spp(), 4u + fb_->pass_spp()[0]);
+        EXPECT_NEAR(mean(session_->image_rgba32f()), mean(before_), 0.1 * mean(before_));
+    }
     const std::string out = testing::TempDir() + "/device_lost_" + GetParam() + ".exr";
     session_->write_image(out);
     EXPECT_GT(std::filesystem::file_size(out), 0u);

@@ -50,7 +50,7 @@ class FakeBackend final : public Backend {
         }
         return active;
     }
-    void read_accum(std::vector<float>& out) override { out = accum_; }
+    void read_accum(std::vector<float>& out, uint32_t) override { out = accum_; }
     double compile_seconds() const override { return 0; }
     uint32_t compiled_features() const override { return FEATURE_ALL; }
     std::string layout() const override { return "fake"; }

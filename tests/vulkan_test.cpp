@@ -174,7 +174,7 @@ TEST(VulkanDispatch, SplitDispatchMatchesSingleDispatch) {
         while (vk->dispatch(params) > 0) params.round_start = 0;
         EXPECT_GT(uint32_t(size * size), vk->local_size()) << "no split to test";
         std::vector<float> accum;
-        vk->read_accum(accum);
+        vk->read_accum(accum, 0);
         return accum;
     };
     const std::vector<float> single = run(false), split = run(true);

@@ -350,10 +350,12 @@ struct VulkanBackend::Impl {
         return active;
     }
 
-    void read_accum(std::vector<float>& out) {
+    void read_accum(std::vector<float>& out, uint32_t count) {
         if (pixels == 0) throw Error("vulkan: read_accum() before load()");
         // The sums only (the path state after them stays on the device).
-        const uint64_t bytes = accum_shape.sums_bytes();
+        const uint64_t all = accum_shape.sum_pixels;
+        const uint64_t bytes =
+            (count == 0 ? all : std::min<uint64_t>(count, all)) * ACCUM_VEC4_PER_PIXEL * 16;
         out.resize(size_t(bytes / 4));
         if (accum.mapped) {
             std::memcpy(out.data(), accum.mapped, size_t(bytes));
@@ -386,8 +388,8 @@ void VulkanBackend::load(const GpuScene& scene, int width, int height) {
 uint32_t VulkanBackend::dispatch(const gpu::GpuParams& params) {
     return impl_->dispatch(params);
 }
-void VulkanBackend::read_accum(std::vector<float>& out) {
-    impl_->read_accum(out);
+void VulkanBackend::read_accum(std::vector<float>& out, uint32_t pixels) {
+    impl_->read_accum(out, pixels);
 }
 double VulkanBackend::compile_seconds() const {
     return impl_->compile_seconds;

@@ -114,7 +114,7 @@ ProgressiveRender::ProgressiveRender(Backend& backend, const GpuScene& scene, co
 void ProgressiveRender::flush() {
     if (unflushed_ == 0) return;
     // A windowed buffer's sums were read back tile by tile during the pass.
-    if (!windowed_) backend_.read_accum(device_sums_);
+    if (!windowed_) backend_.read_accum(device_sums_, 0);
     for (size_t i = 0; i < npix_; ++i) {
         const float* a = &device_sums_[8 * i];
         for (int c = 0; c < 3; ++c) {
@@ -126,6 +126,13 @@ void ProgressiveRender::flush() {
         r_.rays += a[7];
     }
     unflushed_ = 0;
+    flushed_ = true;
+    flushed_at_ = std::chrono::steady_clock::now();
+}
+
+double ProgressiveRender::seconds_since_flush() const {
+    if (!flushed_) return HUGE_VAL;
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - flushed_at_).count();
 }
 
 void ProgressiveRender::discard_unflushed() {
@@ -143,6 +150,13 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
     const AccumLayout layout = accum_layout(npix_, backend_.device().memory.max_buffer_bytes);
     const uint32_t slots = layout.slots;
     windowed_ = layout.window;
+    if (windowed_) {
+        // Every pass reads the whole image back: passes of about a second amortize that
+        // (the tiles stay sized to the dispatch target; paths continue across dispatches).
+        const double per_second = work_ * 1e3 / opt_.dispatch_ms / npix_;
+        spp = uint32_t(std::clamp<double>(std::floor(per_second), 1.0, double(opt_.flush_spp)));
+        spp = uint32_t(std::max<uint64_t>(1, std::min<uint64_t>(spp, max_spp)));
+    }
     if (windowed_) device_sums_.resize(size_t(npix_) * 8);
     uint32_t tile = uint32_t(std::clamp(work_ / spp, 64.0, double(std::min(npix_, slots))));
     // Tiles of equal size (no sliver at the end).
@@ -157,6 +171,7 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
     p_.state_slots = slots;
     p_.accum_window = windowed_ ? 1u : 0u;
     const auto start = clock::now();
+    double dispatch_s = 0;  // this pass's dispatches, without read-backs
     for (uint32_t offset = 0; offset < npix_; offset += tile) {
         p_.pixel_offset = p_.state_base = offset;
         p_.pixel_count = std::min(tile, npix_ - offset);
@@ -169,6 +184,7 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
             active = backend_.dispatch(p_);
             const double t = std::chrono::duration<double>(clock::now() - t0).count();
             dispatch_s_.push_back(float(t));
+            dispatch_s += t;
             longest_dispatch_s_ = std::max(longest_dispatch_s_, t);
             // The budget bounds dispatches whose paths outlast it: halve it after such a dispatch
             // over the target, double it while they stay well under. (A dispatch that finished
@@ -180,7 +196,7 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
         }
         if (windowed_) {
             // The tile's sums, staged until the pass completes (a failure mid-pass adds none).
-            backend_.read_accum(window_sums_);
+            backend_.read_accum(window_sums_, p_.pixel_count);
             std::copy_n(window_sums_.begin(), size_t(p_.pixel_count) * 8,
                         device_sums_.begin() + size_t(offset) * 8);
         }
@@ -188,8 +204,9 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
     last_pass_s_ = std::chrono::duration<double>(clock::now() - start).count();
     r_.spp += spp;
     unflushed_ += spp;
-    // Retarget the dispatch size from this pass's rate.
-    const double rate = double(spp) * npix_ / std::max(last_pass_s_, 1e-6);
+    // Retarget the dispatch size from this pass's dispatch rate (read-backs of a window are
+    // not dispatches: counting them would shrink the tiles they are amortized over).
+    const double rate = double(spp) * npix_ / std::max(dispatch_s, 1e-6);
     work_ = std::clamp(rate * opt_.dispatch_ms * 1e-3, 64.0, 64.0 * npix_);
     if (unflushed_ >= opt_.flush_spp || windowed_) flush();
     return spp;

@@ -1,6 +1,7 @@
 // Progressive rendering on any Backend: short dispatches sized to a time target, device sums
 // flushed into double-precision host accumulators so nothing drifts over millions of samples.
 #pragma once
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <vector>
@@ -63,6 +64,8 @@ class ProgressiveRender {
     uint32_t pass(uint64_t max_spp = UINT64_MAX);
     // Adds the device sums into result().
     void flush();
+    // Seconds since a flush last added samples; HUGE_VAL before the first.
+    double seconds_since_flush() const;
     // Forgets the samples not yet flushed (the device stopped: its sums are gone), so
     // result() holds exactly the samples flushed before.
     void discard_unflushed();
@@ -85,6 +88,8 @@ class ProgressiveRender {
     std::vector<float> dispatch_s_;  // every dispatch's wall time
     std::vector<float> device_sums_;
     bool windowed_ = false;  // the device holds one tile's sums at a time (gpu_scene.h)
+    bool flushed_ = false;
+    std::chrono::steady_clock::time_point flushed_at_;
     std::vector<float> window_sums_;
 };
 

@@ -86,7 +86,6 @@ PassStats Session::render(double budget_ms, double target_error, uint64_t max_sp
     PassStats st;
     const uint64_t spp_before = r.spp;
     const double budget_s = budget_ms * 1e-3;
-    double flushed_at = -HUGE_VAL;  // the first pass's samples reach the host at once
     try {
         while (true) {
             if (max_spp > 0 && r.spp >= max_spp) break;
@@ -95,12 +94,11 @@ PassStats Session::render(double budget_ms, double target_error, uint64_t max_sp
                 break;
             }
             progressive_->pass(max_spp > 0 ? max_spp - r.spp : UINT64_MAX);
-            // Samples to the host at least once a second (a device lost loses no more), and
-            // after every pass when the error is checked.
+            // Samples to the host after the first pass, then at least once a second (a lost
+            // device loses no more), and after every pass when the error is checked.
             const double t = elapsed();
-            if (target_error > 0 || t - flushed_at > 1.0) {
+            if (target_error > 0 || progressive_->seconds_since_flush() > 1.0) {
                 progressive_->flush();
-                flushed_at = t;
                 if (target_error > 0 && r.spp >= 2 && r.relative_error() <= target_error) break;
             }
             // Stop when the next pass would overrun the budget.
