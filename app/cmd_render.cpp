@@ -119,9 +119,10 @@ void run_render(const RenderArgs& a) {
         std::printf("%s layout: %s, submission budget %.0f ms\n", backend.device().backend.c_str(),
                     backend.layout().c_str(), s.dispatch_ms);
         if (const ProgressiveRender* loop = session.loop()) {
-            std::printf("dispatches: %llu, longest %.1f ms, median %.1f ms\n",
+            std::printf("dispatches: %llu, longest %.1f ms (#%llu), median %.1f ms\n",
                         (unsigned long long)loop->dispatches(),
                         1e3 * loop->longest_dispatch_seconds(),
+                        (unsigned long long)loop->longest_dispatch_number(),
                         1e3 * loop->median_dispatch_seconds());
         }
         std::printf("features used: %s\n", feature_names(g.features).c_str());

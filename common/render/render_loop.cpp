@@ -185,7 +185,7 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
             const double t = std::chrono::duration<double>(clock::now() - t0).count();
             dispatch_s_.push_back(float(t));
             dispatch_s += t;
-            longest_dispatch_s_ = std::max(longest_dispatch_s_, t);
+            if (t > longest_dispatch_s_) longest_dispatch_s_ = t, longest_at_ = dispatch_s_.size();
             // The budget bounds dispatches whose paths outlast it: halve it after such a dispatch
             // over the target, double it while they stay well under. (A dispatch that finished
             // its paths and still overran has too many pixels: the tile shrinks after the pass.)

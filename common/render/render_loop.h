@@ -72,6 +72,7 @@ class ProgressiveRender {
     // Seconds the last pass took, and the longest and the median dispatch so far.
     double last_pass_seconds() const { return last_pass_s_; }
     double longest_dispatch_seconds() const { return longest_dispatch_s_; }
+    uint64_t longest_dispatch_number() const { return longest_at_; }  // counted from 1
     double median_dispatch_seconds() const;
     uint64_t dispatches() const { return dispatch_s_.size(); }
     RenderResult& result() { return r_; }
@@ -84,6 +85,7 @@ class ProgressiveRender {
     RenderResult r_;
     uint32_t npix_ = 0, unflushed_ = 0;
     double work_ = 0, last_pass_s_ = 0, longest_dispatch_s_ = 0;
+    uint64_t longest_at_ = 0;
     uint32_t bounce_budget_ = 16;    // bounces per sample in one dispatch
     std::vector<float> dispatch_s_;  // every dispatch's wall time
     std::vector<float> device_sums_;
