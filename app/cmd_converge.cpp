@@ -257,9 +257,10 @@ void add_converge_command(CLI::App& app) {
     sub->add_option("--width", a->width)->check(CLI::Range(1, 16384))->capture_default_str();
     sub->add_option("--height", a->height)->check(CLI::Range(1, 16384))->capture_default_str();
     sub->add_option("--time", a->seconds, "Render time per backend (s)")
-        ->check(CLI::PositiveNumber)
+        ->check(CLI::Range(1e-3, 1e7))
         ->capture_default_str();
-    sub->add_option("--spp", a->max_spp, "Also stop at this many samples per pixel");
+    sub->add_option("--spp", a->max_spp, "Also stop at this many samples per pixel")
+        ->check(CLI::Range(int64_t(1), int64_t(1000000000000)));
     sub->add_option("--checkpoints", a->checkpoints,
                     "geometric (1, 2, 4, ... spp) or time (time budget / 2^k)")
         ->check(CLI::IsMember({"geometric", "time"}))

@@ -9,6 +9,7 @@
 
 #include "app/commands.h"
 #include "common/error.h"
+#include "common/io/image_io.h"
 #include "common/render/prepare.h"
 #include "common/render/scene_features.h"
 #include "common/render/session.h"
@@ -54,6 +55,7 @@ void run_render(const RenderArgs& a) {
     BackendOptions bo;
     bo.fast_math = a.fast_math;
     bo.limits = a.limits;
+    check_image_path(a.output);  // before anything renders
     Session session(a.backend + (a.device.empty() ? "" : ":" + a.device), bo);
     Scene loaded = load_scene(a.scene);
     for (const std::string& w : loaded.warnings) std::cerr << "mcpt: warning: " << w << "\n";
@@ -139,10 +141,15 @@ void run_render(const RenderArgs& a) {
     for (float e : err) mean_err += e, max_err = std::max<double>(max_err, e);
     mean_err /= double(err.size());
     const double mean_l = r.mean_radiance();
-    std::printf(
-        "standard error per pixel and channel (sample variance): mean %.4g, max %.4g; "
-        "relative to mean radiance %.4g: %.2f%%\n",
-        mean_err, max_err, mean_l, mean_l > 0 ? 100.0 * mean_err / mean_l : 0.0);
+    if (r.spp < 2) {
+        // The sample variance needs two samples.
+        std::printf("standard error per pixel: unknown with 1 sample per pixel (needs 2)\n");
+    } else {
+        std::printf(
+            "standard error per pixel and channel (sample variance): mean %.4g, max "
+            "%.4g; relative to mean radiance %.4g: %.2f%%\n",
+            mean_err, max_err, mean_l, mean_l > 0 ? 100.0 * mean_err / mean_l : 0.0);
+    }
     if (a.target_error > 0) {
         std::printf("target relative error %.2f%%: %s\n", 100 * a.target_error,
                     st.target_reached ? "reached" : "not reached (stopped by --time or --spp)");
@@ -172,10 +179,11 @@ void add_render_command(CLI::App& app) {
                     "Vulkan limits: device (as reported) or phone (Vulkan 1.1 minimums); "
                     "default $MCPT_VULKAN_LIMITS or device")
         ->check(CLI::IsMember({"device", "phone"}));
-    auto* spp = sub->add_option("--spp", args->spp, "Samples per pixel (default 64)");
+    auto* spp = sub->add_option("--spp", args->spp, "Samples per pixel (default 64)")
+                    ->check(CLI::Range(int64_t(1), int64_t(1000000000000)));  // as a number: "-1" is not 2^64 - 1
     sub->add_option("--time", args->seconds, "Render for this many seconds instead")
         ->excludes(spp)
-        ->check(CLI::PositiveNumber);
+        ->check(CLI::Range(1e-3, 1e7));
     sub->add_option("--target-error", args->target_error,
                     "Stop once mean standard error / mean radiance is below this (e.g. 0.05)")
         ->check(CLI::Range(1e-6, 1.0));

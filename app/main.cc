@@ -20,7 +20,8 @@ int main(int argc, char** argv) {
     } catch (const mcpt::ExitStatus& e) {
         return e.code;
     } catch (const CLI::ParseError& e) {
-        return app.exit(e);
+        // CLI11's message; bad options are bad input: exit status 1 (--help: 0).
+        return app.exit(e) == 0 ? 0 : 1;
     } catch (const std::exception& e) {
         std::cerr << "mcpt: error: " << e.what() << "\n";
         return 1;

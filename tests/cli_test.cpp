@@ -52,10 +52,12 @@ TEST(Cli, SceneWithoutLight) {
 }
 
 TEST(Cli, BadOptionsAreRejected) {
-    EXPECT_NE(run_mcpt("render --tree octree").status, 0);
-    EXPECT_NE(run_mcpt("render --width 0").status, 0);
-    EXPECT_NE(run_mcpt("render --spp 4 --time 1").status, 0);
-    EXPECT_NE(run_mcpt("frobnicate").status, 0);
+    // Bad input: exit status 1, as documented (CLI11's own codes are 105 and up).
+    EXPECT_EQ(run_mcpt("render --tree octree").status, 1);
+    EXPECT_EQ(run_mcpt("render --width 0").status, 1);
+    EXPECT_EQ(run_mcpt("render --spp 4 --time 1").status, 1);
+    EXPECT_EQ(run_mcpt("frobnicate").status, 1);
+    EXPECT_EQ(run_mcpt("render --help").status, 0);
 }
 
 TEST(Cli, UnknownDevice) {
@@ -80,6 +82,43 @@ TEST(Cli, DevicesListsOpenCl) {
     const CliRun r = run_mcpt("devices");
     EXPECT_EQ(r.status, 0);
     EXPECT_NE(r.output.find("opencl:"), std::string::npos) << r.output;
+}
+
+// Sample counts and times are numbers in range: -1 is not 2^64 - 1 samples, 0 is not the
+// default; the messages name the option (and no 300-digit number).
+TEST(Cli, SampleCountAndTimeMustBePositive) {
+    expect_error("render --spp -1 -q", "--spp");
+    expect_error("render --spp 0 -q", "--spp");
+    expect_error("render --time -1 -q", "--time");
+    const CliRun r = run_mcpt("render --time -1 -q");
+    EXPECT_EQ(r.output.find("179769"), std::string::npos) << r.output;
+    expect_error("converge --spp -1", "--spp");
+    expect_error("converge --time -1", "--time");
+}
+
+// The output's format and folder are checked before rendering (a million samples per pixel
+// would otherwise run for hours first).
+TEST(Cli, OutputCheckedBeforeRendering) {
+    expect_error("render --spp 1000000 -q -o /nonexistent-folder/x.exr", "no folder");
+    const std::string bmp = (std::filesystem::temp_directory_path() / "mcpt_cli.bmp").string();
+    expect_error("render --spp 1000000 -q -o " + bmp, "unsupported image format");
+}
+
+// With one sample per pixel the error is unknown, and said to be.
+TEST(Cli, OneSampleHasNoErrorEstimate) {
+    const std::string out = (std::filesystem::temp_directory_path() / "mcpt_cli_1spp.png").string();
+    const CliRun r = run_mcpt("render --spp 1 --width 8 --height 8 -q -o " + out);
+    EXPECT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("unknown with 1 sample per pixel"), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("0.00%"), std::string::npos) << r.output;
+}
+
+// A negative default-scene index is an error, not scene 0.
+TEST(Cli, NegativeSceneIndex) {
+    const std::string path =
+        temp_file("negscene.gltf",
+                  R"({"asset":{"version":"2.0"},"scene":-3,"scenes":[{"nodes":[]}],"nodes":[]})");
+    expect_error("render " + path + " -q", "default scene -3 is negative");
 }
 
 }  // namespace

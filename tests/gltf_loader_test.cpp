@@ -15,6 +15,7 @@
 
 #include "common/error.h"
 #include "common/scene/scene.h"
+#include "common/scene/scene_load.h"
 
 namespace mcpt {
 namespace {
@@ -429,6 +430,44 @@ TEST(GltfLoader, GarbageAndTruncatedJson) {
     const fs::path empty = temp_dir() / "empty.gltf";
     write_file(empty, "");
     EXPECT_NE(load_error(empty.string()).find("empty.gltf"), std::string::npos);
+}
+
+// JSON nested tens of thousands deep (here in extras) is refused before the parser recurses
+// through it (it overflowed the stack: signal 11), from a .gltf, a .glb and memory; brackets
+// inside strings do not count, and a normal scene's nesting passes.
+TEST(GltfLoader, DeepJsonNestingIsRefused) {
+    std::string json = quad_gltf().finished().dump();
+    const std::string deep = std::string(100000, '[') + std::string(100000, ']');
+    std::string nested = json;
+    nested.insert(nested.size() - 1, ",\"extras\":" + deep);
+    const fs::path gltf = temp_dir() / "deep.gltf";
+    write_file(gltf, nested);
+    EXPECT_NE(load_error(gltf.string()).find("JSON nested deeper than 256 levels"),
+              std::string::npos)
+        << load_error(gltf.string());
+    // The same JSON as a .glb's JSON chunk (padded to 4 bytes).
+    std::string chunk = nested;
+    while (chunk.size() % 4) chunk += ' ';
+    std::string glb = "glTF";
+    auto put32 = [&](uint32_t v) { glb.append(reinterpret_cast<const char*>(&v), 4); };
+    put32(2), put32(uint32_t(12 + 8 + chunk.size())), put32(uint32_t(chunk.size()));
+    glb += "JSON" + chunk;
+    const fs::path glb_path = temp_dir() / "deep.glb";
+    write_file(glb_path, glb);
+    EXPECT_NE(load_error(glb_path.string()).find("nested deeper"), std::string::npos)
+        << load_error(glb_path.string());
+    try {
+        load_scene_memory(glb.data(), glb.size());
+        ADD_FAILURE() << "deep JSON from memory was accepted";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("nested deeper"), std::string::npos) << e.what();
+    }
+    // Brackets inside a string are text, not nesting: this file loads.
+    std::string in_string = json;
+    in_string.insert(in_string.size() - 1, ",\"extras\":\"" + deep + "\"");
+    const fs::path text = temp_dir() / "brackets_in_string.gltf";
+    write_file(text, in_string);
+    EXPECT_EQ(load_error(text.string()), "");
 }
 
 TEST(GltfLoader, IndexOutOfRange) {

@@ -4,12 +4,14 @@
 
 #include <stb_image_write.h>
 #include <tinyexr.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 
 #include "common/error.h"
 
@@ -105,6 +107,20 @@ uint8_t linear_to_srgb8(float linear) {
     const double v = linear;
     const double s = v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
     return uint8_t(std::clamp(std::lround(s * 255.0), 0L, 255L));
+}
+
+void check_image_path(const std::string& path) {
+    const std::string ext = extension_of(path);
+    if (ext != ".exr" && ext != ".png")
+        throw Error("unsupported image format \"" + ext + "\" for " + path + ", use .exr or .png");
+    // The folder must exist and take new files.
+    const std::filesystem::path p(path);
+    const std::filesystem::path dir = p.has_parent_path() ? p.parent_path() : ".";
+    std::error_code ec;
+    if (!std::filesystem::is_directory(dir, ec))
+        throw Error("cannot write " + path + ": no folder " + dir.string());
+    if (access(dir.c_str(), W_OK) != 0)
+        throw Error("cannot write " + path + ": folder " + dir.string() + " is not writable");
 }
 
 void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb) {

@@ -14,6 +14,10 @@ namespace mcpt {
 // Throws mcpt::Error for another extension, a size mismatch, or a file that cannot be written.
 void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb);
 
+// Throws mcpt::Error unless `path` has a format write_image() writes and names a file in an
+// existing, writable folder: what a command checks before it renders.
+void check_image_path(const std::string& path);
+
 // Reads the R, G, B channels of an EXR file (3 floats per pixel, top row first, half channels
 // widened to float); throws mcpt::Error naming the file when it cannot be read.
 std::vector<float> read_exr(const std::string& path, int& width, int& height);

@@ -38,6 +38,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
 #include <glm/gtc/type_ptr.hpp>
+#include <iterator>
 #include <set>
 #include <sstream>
 #include <utility>
@@ -55,6 +56,42 @@ const char* const kIor = "KHR_materials_ior";
 
 bool supported_extension(const std::string& name) {
     return name == kEmissiveStrength || name == kTransmission || name == kIor;
+}
+
+// The JSON parser recurses once per nesting level: a file nesting arrays tens of thousands
+// deep would overflow the stack. glTF itself nests a handful of levels; extras may add some.
+constexpr int kMaxJsonDepth = 256;
+
+// The deepest nesting of arrays and objects in JSON text (brackets inside strings do not
+// count), stopping once it exceeds kMaxJsonDepth.
+int json_depth(const char* p, size_t n) {
+    int depth = 0, deepest = 0;
+    bool in_string = false;
+    for (size_t i = 0; i < n && deepest <= kMaxJsonDepth; ++i) {
+        const char c = p[i];
+        if (in_string) {
+            if (c == '\\')
+                ++i;  // skip the escaped character
+            else if (c == '"')
+                in_string = false;
+        } else if (c == '"') {
+            in_string = true;
+        } else if (c == '[' || c == '{') {
+            deepest = std::max(deepest, ++depth);
+        } else if (c == ']' || c == '}') {
+            --depth;
+        }
+    }
+    return deepest;
+}
+
+// The JSON text of a .gltf (all of it) or a .glb (its first chunk, when the header is whole).
+std::pair<const char*, size_t> json_text(const unsigned char* bytes, size_t size, bool binary) {
+    if (!binary) return {reinterpret_cast<const char*>(bytes), size};
+    if (size < 20) return {nullptr, 0};
+    uint32_t length = 0;
+    std::memcpy(&length, bytes + 12, 4);
+    return {reinterpret_cast<const char*>(bytes) + 20, std::min<size_t>(length, size - 20)};
 }
 
 // Image callback that keeps images undecoded.
@@ -133,7 +170,10 @@ class GltfLoader {
     // are read from base_dir (none when empty: the loader never touches the file system).
     explicit GltfLoader(std::string path) : path_(std::move(path)) {}
     GltfLoader(std::string name, const unsigned char* bytes, size_t size, std::string base_dir)
-        : path_(std::move(name)), bytes_(bytes), size_(size), base_dir_(std::move(base_dir)),
+        : path_(std::move(name)),
+          bytes_(bytes),
+          size_(size),
+          base_dir_(std::move(base_dir)),
           in_memory_(true) {}
     Scene load();
 
@@ -202,6 +242,25 @@ void GltfLoader::read_model() {
     char magic[4] = {};
     in.read(magic, 4);
     const bool binary = in.gcount() == 4 && std::memcmp(magic, "glTF", 4) == 0;
+    // Bound the JSON's nesting before the parser recurses through it.
+    {
+        in.seekg(0);
+        std::vector<unsigned char> head;
+        if (binary) {
+            head.resize(20);
+            in.read(reinterpret_cast<char*>(head.data()), 20);
+            uint32_t length = 0;
+            if (in.gcount() == 20) std::memcpy(&length, head.data() + 12, 4);
+            head.resize(20 + std::min<uint64_t>(length, std::filesystem::file_size(path_, ec)));
+            in.read(reinterpret_cast<char*>(head.data()) + 20, std::streamsize(head.size() - 20));
+            head.resize(20 + size_t(std::max<std::streamsize>(in.gcount(), 0)));
+        } else {
+            head.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+        }
+        const auto [text, length] = json_text(head.data(), head.size(), binary);
+        if (json_depth(text, length) > kMaxJsonDepth)
+            fail("JSON nested deeper than " + std::to_string(kMaxJsonDepth) + " levels");
+    }
     in.close();
     scene_.name = std::filesystem::path(path_).stem().string();
 
@@ -230,6 +289,10 @@ void GltfLoader::parse_memory() {
     if (size_ > 0xffffffffu) fail("buffer larger than 4 GiB");
     const bool binary = size_ >= 4 && std::memcmp(bytes_, "glTF", 4) == 0;
     scene_.name = path_;
+    // Bound the JSON's nesting before the parser recurses through it.
+    const auto [text, length] = json_text(static_cast<const unsigned char*>(bytes_), size_, binary);
+    if (json_depth(text, length) > kMaxJsonDepth)
+        fail("JSON nested deeper than " + std::to_string(kMaxJsonDepth) + " levels");
     tg::TinyGLTF loader;
     loader.SetImageLoader(&skip_image, nullptr);
     if (base_dir_.empty()) {
@@ -237,9 +300,11 @@ void GltfLoader::parse_memory() {
         tg::FsCallbacks fs{};
         fs.FileExists = [](const std::string&, void*) { return true; };  // ReadWholeFile says no
         fs.ExpandFilePath = [](const std::string& p, void*) { return p; };
-        fs.ReadWholeFile = [](std::vector<unsigned char>*, std::string* err,
-                              const std::string& p, void*) {
-            if (err) *err += "external file '" + p + "' refused: loading from memory without a base folder\n";
+        fs.ReadWholeFile = [](std::vector<unsigned char>*, std::string* err, const std::string& p,
+                              void*) {
+            if (err)
+                *err += "external file '" + p +
+                        "' refused: loading from memory without a base folder\n";
             return false;
         };
         fs.WriteWholeFile = [](std::string* err, const std::string&,
@@ -332,6 +397,9 @@ void GltfLoader::convert_materials() {
 // The default scene's roots (scene 0 when none is marked; parentless nodes when no scene).
 std::vector<int> GltfLoader::root_nodes() {
     if (!model_.scenes.empty()) {
+        // No "scene" reads as -1 (then the first scene); another negative index is an error.
+        if (model_.defaultScene < -1)
+            fail("default scene " + std::to_string(model_.defaultScene) + " is negative");
         int s = model_.defaultScene < 0 ? 0 : model_.defaultScene;
         if (size_t(s) >= model_.scenes.size())
             fail("default scene " + std::to_string(s) + " out of range (file has " +
