@@ -3,6 +3,7 @@
 #include "common/scene/gltf_loader.h"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -468,6 +469,34 @@ TEST(GltfLoader, DeepJsonNestingIsRefused) {
     const fs::path text = temp_dir() / "brackets_in_string.gltf";
     write_file(text, in_string);
     EXPECT_EQ(load_error(text.string()), "");
+}
+
+// Buffer URIs resolve inside the scene's folder only: a sub-folder file loads; "../", an
+// absolute path and a FIFO (which blocked forever) are refused with the URI's name, and the
+// message says nothing of the outside file's size.
+TEST(GltfLoader, ExternalFilesStayInTheScenesFolder) {
+    const Gltf g = quad_gltf();
+    const fs::path dir = temp_dir() / "confined";
+    fs::create_directories(dir / "data");
+    const std::string bytes(g.bin.begin(), g.bin.end());
+    write_file(dir / "data" / "quad.bin", bytes);
+    write_file(temp_dir() / "outside.bin", bytes + std::string(4321, 'x'));
+    auto with_uri = [&](const std::string& name, const std::string& uri) {
+        json d = g.finished();
+        d["buffers"][0]["uri"] = uri;
+        write_file(dir / name, d.dump());
+        return (dir / name).string();
+    };
+    EXPECT_EQ(load_error(with_uri("inside.gltf", "data/quad.bin")), "");
+    const std::string up = load_error(with_uri("up.gltf", "../outside.bin"));
+    EXPECT_NE(up.find("outside.bin' refused: outside the scene's folder"), std::string::npos) << up;
+    EXPECT_EQ(up.find("4321"), std::string::npos) << up;
+    EXPECT_EQ(up.find(std::to_string(bytes.size() + 4321)), std::string::npos) << up;
+    const std::string abs = load_error(with_uri("abs.gltf", (temp_dir() / "outside.bin").string()));
+    EXPECT_NE(abs.find("refused"), std::string::npos) << abs;
+    ASSERT_EQ(mkfifo((dir / "pipe.bin").c_str(), 0600), 0);
+    const std::string fifo = load_error(with_uri("fifo.gltf", "pipe.bin"));
+    EXPECT_NE(fifo.find("not a regular file"), std::string::npos) << fifo;
 }
 
 TEST(GltfLoader, IndexOutOfRange) {

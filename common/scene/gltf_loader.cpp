@@ -94,6 +94,66 @@ std::pair<const char*, size_t> json_text(const unsigned char* bytes, size_t size
     return {reinterpret_cast<const char*>(bytes) + 20, std::min<size_t>(length, size - 20)};
 }
 
+// External files (buffer and image URIs) come only from the scene's own folder: a regular
+// file below it, at most kMaxExternalBytes; never a FIFO or device (they block forever), never
+// a path that leaves the folder (absolute, "../"), and never a message about such a file's
+// size or contents.
+constexpr uint64_t kMaxExternalBytes = uint64_t(2) << 30;
+
+struct FolderFs {
+    std::filesystem::path root;  // canonical
+
+    // The canonical path of `p` if it lies inside root, else empty.
+    std::filesystem::path inside(const std::string& p) const {
+        std::error_code ec;
+        const std::filesystem::path c = std::filesystem::weakly_canonical(p, ec);
+        if (ec) return {};
+        const std::string r = root.string(), s = c.string();
+        if (s.size() <= r.size() || s.compare(0, r.size(), r) != 0 ||
+            (r.back() != '/' && s[r.size()] != '/'))
+            return {};
+        return c;
+    }
+};
+
+tg::FsCallbacks folder_callbacks(const FolderFs* fs) {
+    tg::FsCallbacks cb{};
+    cb.user_data = const_cast<FolderFs*>(fs);
+    cb.ExpandFilePath = [](const std::string& p, void*) { return p; };  // no "~" expansion
+    // Existence is ReadWholeFile's to judge, so that a refusal says why.
+    cb.FileExists = [](const std::string&, void*) { return true; };
+    cb.ReadWholeFile = [](std::vector<unsigned char>* out, std::string* err, const std::string& p,
+                          void* ud) {
+        const FolderFs* fs = static_cast<FolderFs*>(ud);
+        const std::filesystem::path c = fs->inside(p);
+        std::error_code ec;
+        const std::string name = std::filesystem::path(p).filename().string();
+        std::string why;
+        if (c.empty()) {
+            why = "outside the scene's folder " + fs->root.string();
+        } else if (!std::filesystem::exists(c, ec)) {
+            why = "not found";
+        } else if (!std::filesystem::is_regular_file(c, ec)) {
+            why = "not a regular file";
+        } else if (std::filesystem::file_size(c, ec) > kMaxExternalBytes || ec) {
+            why = "larger than 2 GiB";
+        } else {
+            std::ifstream in(c, std::ios::binary);
+            out->assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+            if (in.bad()) why = "cannot be read";
+        }
+        if (why.empty()) return true;
+        if (err) *err += "external file '" + name + "' refused: " + why + "\n";
+        return false;
+    };
+    cb.WriteWholeFile = [](std::string* err, const std::string&, const std::vector<unsigned char>&,
+                           void*) {
+        if (err) *err += "writing is not allowed\n";
+        return false;
+    };
+    return cb;
+}
+
 // Image callback that keeps images undecoded.
 bool skip_image(tg::Image*, const int, std::string*, std::string*, int, int, const unsigned char*,
                 int, void*) {
@@ -266,6 +326,13 @@ void GltfLoader::read_model() {
 
     tg::TinyGLTF loader;
     loader.SetImageLoader(&skip_image, nullptr);
+    FolderFs folder;
+    {
+        std::error_code ec2;
+        folder.root = std::filesystem::weakly_canonical(
+            std::filesystem::absolute(path_, ec2).parent_path(), ec2);
+    }
+    loader.SetFsCallbacks(folder_callbacks(&folder));
     std::string err, warn;
     bool ok = false;
     try {
@@ -295,6 +362,7 @@ void GltfLoader::parse_memory() {
         fail("JSON nested deeper than " + std::to_string(kMaxJsonDepth) + " levels");
     tg::TinyGLTF loader;
     loader.SetImageLoader(&skip_image, nullptr);
+    FolderFs folder;
     if (base_dir_.empty()) {
         // No folder given: a URI that is not a data URI is an error, not a file read.
         tg::FsCallbacks fs{};
@@ -313,6 +381,12 @@ void GltfLoader::parse_memory() {
             return false;
         };
         loader.SetFsCallbacks(fs);
+    } else {
+        // External files from the base folder only.
+        std::error_code ec;
+        folder.root =
+            std::filesystem::weakly_canonical(std::filesystem::absolute(base_dir_, ec), ec);
+        loader.SetFsCallbacks(folder_callbacks(&folder));
     }
     std::string err, warn;
     bool ok = false;
