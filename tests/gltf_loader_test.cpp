@@ -499,6 +499,35 @@ TEST(GltfLoader, ExternalFilesStayInTheScenesFolder) {
     EXPECT_NE(fifo.find("not a regular file"), std::string::npos) << fifo;
 }
 
+// An accessor without a bufferView and a count near the old cap (2^28) made the loader
+// allocate gigabytes before anything refused the file: now refused by its count, at once.
+TEST(GltfLoader, HugeAccessorWithoutDataIsRefused) {
+    json d = quad_gltf().finished();
+    for (json& a : d["accessors"]) {
+        if (a["type"] != "VEC3") continue;
+        a.erase("bufferView");
+        a.erase("byteOffset");
+        a["count"] = 250000000;
+    }
+    const fs::path path = temp_dir() / "huge_accessor.gltf";
+    write_file(path, d.dump());
+    const std::string e = load_error(path.string());
+    EXPECT_NE(e.find("accessor count 250000000 without a bufferView (at most 16777216)"),
+              std::string::npos)
+        << e;
+}
+
+// A non-finite position is reported as the file has it: the file, the accessor, the element
+// and the value before any node transform.
+TEST(GltfLoader, NonFinitePositionNamesFileAndElement) {
+    Gltf g = quad_gltf();
+    const float nan = std::nanf("");
+    std::memcpy(g.bin.data() + 12 * 2 + 4, &nan, 4);  // element 2, y
+    const std::string e = load_error(g.write("nan_position.gltf"));
+    EXPECT_NE(e.find("nan_position.gltf"), std::string::npos) << e;
+    EXPECT_NE(e.find("non-finite position at element 2 = ("), std::string::npos) << e;
+}
+
 TEST(GltfLoader, IndexOutOfRange) {
     Gltf g;
     const int pos = g.positions(kQuad);

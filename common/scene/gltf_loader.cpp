@@ -31,6 +31,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -61,6 +62,10 @@ bool supported_extension(const std::string& name) {
 // The JSON parser recurses once per nesting level: a file nesting arrays tens of thousands
 // deep would overflow the stack. glTF itself nests a handful of levels; extras may add some.
 constexpr int kMaxJsonDepth = 256;
+
+// Elements of an accessor without a bufferView (zeros but for its sparse values): 2^24, 192 MiB
+// as positions; no real scene comes near it without data behind it.
+constexpr size_t kMaxZeroAccessorCount = size_t(1) << 24;
 
 // The deepest nesting of arrays and objects in JSON text (brackets inside strings do not
 // count), stopping once it exceeds kMaxJsonDepth.
@@ -687,26 +692,35 @@ std::vector<T> GltfLoader::read_accessor(const tg::Accessor& a, size_t elem,
             if (s != 0) stride = s;
         }
         base = view_data(view, a.byteOffset, a.count, stride, elem, what);
-    } else if (a.count > (size_t(1) << 28)) {
-        fail(what + ": accessor count " + std::to_string(a.count) + " too large");
+    } else if (a.count > kMaxZeroAccessorCount) {
+        // No data behind it: all zeros but the sparse values. Bounded before allocating (a
+        // count near 2^28 took gigabytes before anything else could refuse the file).
+        fail(what + ": accessor count " + std::to_string(a.count) +
+             " without a bufferView (at most " + std::to_string(kMaxZeroAccessorCount) + ")");
+    }
+    // Sparse substitutions (tightly packed indices and values): their views are checked
+    // against the file's data before the elements are allocated.
+    const unsigned char* ip = nullptr;
+    const unsigned char* vp = nullptr;
+    size_t isize = 0, n = 0;
+    if (a.sparse.isSparse) {
+        isize = index_size(a.sparse.indices.componentType);
+        if (isize == 0) fail(what + ": sparse indices must be unsigned byte, short or int");
+        if (a.sparse.count < 0 || a.sparse.indices.byteOffset < 0 || a.sparse.values.byteOffset < 0)
+            fail(what + ": negative sparse count or byteOffset");
+        n = size_t(a.sparse.count);
+        if (n > a.count)
+            fail(what + ": " + std::to_string(n) + " sparse values for " + std::to_string(a.count) +
+                 " elements");
+        ip = view_data(a.sparse.indices.bufferView, size_t(a.sparse.indices.byteOffset), n, isize,
+                       isize, what + " (sparse indices)");
+        vp = view_data(a.sparse.values.bufferView, size_t(a.sparse.values.byteOffset), n, elem,
+                       elem, what + " (sparse values)");
     }
     std::vector<T> out(a.count, T{});
     if (base)
         for (size_t i = 0; i < a.count; ++i) out[i] = decode(base + i * stride);
-
-    // Sparse substitutions: tightly packed indices and values.
     if (a.sparse.isSparse) {
-        const size_t isize = index_size(a.sparse.indices.componentType);
-        if (isize == 0) fail(what + ": sparse indices must be unsigned byte, short or int");
-        if (a.sparse.count < 0 || a.sparse.indices.byteOffset < 0 || a.sparse.values.byteOffset < 0)
-            fail(what + ": negative sparse count or byteOffset");
-        const size_t n = size_t(a.sparse.count);
-        const unsigned char* ip =
-            view_data(a.sparse.indices.bufferView, size_t(a.sparse.indices.byteOffset), n, isize,
-                      isize, what + " (sparse indices)");
-        const unsigned char* vp =
-            view_data(a.sparse.values.bufferView, size_t(a.sparse.values.byteOffset), n, elem, elem,
-                      what + " (sparse values)");
         for (size_t i = 0; i < n; ++i) {
             const uint32_t j = read_index(ip + i * isize, isize);
             if (j >= out.size())
@@ -727,11 +741,22 @@ std::vector<glm::vec3> GltfLoader::read_positions(int accessor, const std::strin
         fail(what +
              ": POSITION must be float VEC3 (non-float, quantized positions are not "
              "supported)");
-    return read_accessor<glm::vec3>(a, 12, what, [](const unsigned char* p) {
+    std::vector<glm::vec3> out = read_accessor<glm::vec3>(a, 12, what, [](const unsigned char* p) {
         glm::vec3 v;
         std::memcpy(&v[0], p, 12);
         return v;
     });
+    // Non-finite positions named as the file has them (before any node transform).
+    for (size_t i = 0; i < out.size(); ++i) {
+        const glm::vec3& v = out[i];
+        if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) {
+            std::ostringstream o;
+            o << what << ": non-finite position at element " << i << " = (" << v.x << ", " << v.y
+              << ", " << v.z << ")";
+            fail(o.str());
+        }
+    }
+    return out;
 }
 
 std::vector<uint32_t> GltfLoader::read_indices(int accessor, const std::string& where) const {

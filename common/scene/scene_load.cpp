@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 
+#include "common/error.h"
 #include "common/scene/builtin_scenes.h"
 #include "common/scene/gltf_loader.h"
 
@@ -31,8 +32,15 @@ Scene validated(Scene scene) {
 
 Scene load_scene(const std::string& arg) {
     // A file by extension, else a built-in name.
-    return validated((ends_with(arg, ".gltf") || ends_with(arg, ".glb")) ? load_gltf(arg)
-                                                                         : make_builtin_scene(arg));
+    if (!ends_with(arg, ".gltf") && !ends_with(arg, ".glb"))
+        return validated(make_builtin_scene(arg));
+    Scene scene = load_gltf(arg);
+    try {
+        return validated(std::move(scene));
+    } catch (const Error& e) {
+        // World-space checks (after node transforms): say which file.
+        throw Error(arg + ": " + e.what() + " (in world space, after node transforms)");
+    }
 }
 
 Scene load_scene_memory(const void* data, size_t size, const std::string& name,
