@@ -9,12 +9,14 @@
 #include <cstdio>
 #include <fstream>
 #include <random>
+#include <sstream>
 
 #include "app/bench_common.h"
 #include "app/commands.h"
-#include "common/scene/builtin_scenes.h"
 #include "common/error.h"
+#include "common/io/atomic_file.h"
 #include "common/render/scene_features.h"
+#include "common/scene/builtin_scenes.h"
 
 namespace mcpt {
 
@@ -94,8 +96,7 @@ std::string table(const std::vector<SpecRow>& rows) {
 }
 
 void write_csv(const std::string& path, const std::vector<SpecRow>& rows) {
-    std::ofstream f(path);
-    if (!f) throw Error("cannot write '" + path + "'");
+    std::ostringstream f;  // written whole at the end (atomic_file.h)
     f << "scene,backend,device,left_out,full_ms,specialized_ms,specialized_auto_ms,auto_tree,"
          "full_compile_cold_s,full_compile_cached_s,specialized_compile_cold_s,"
          "specialized_compile_cached_s\n";
@@ -106,6 +107,7 @@ void write_csv(const std::string& path, const std::vector<SpecRow>& rows) {
           << ',' << r.full_compile.cached_s << ',' << r.special_compile.cold_s << ','
           << r.special_compile.cached_s << '\n';
     }
+    write_text_atomically(path, f.str());
 }
 
 }  // namespace
@@ -157,7 +159,7 @@ void run_specialize_bench(const SpecializeBenchArgs& a) {
         "\nspeed-up: full kernel time / specialized time (same SAH tree; '+ tree auto': with "
         "the tree --tree auto picks for the device). cold: a compile nonce defeats the driver's "
         "and mcpt's pipeline caches; cached: a new backend building the same variant again.\n");
-    std::ofstream(a.output + ".md") << t;
+    write_text_atomically(a.output + ".md", t);
     write_csv(a.output + ".csv", rows);
     std::printf("wrote %s.md, %s.csv\n", a.output.c_str(), a.output.c_str());
 }

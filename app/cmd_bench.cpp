@@ -9,15 +9,17 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <sstream>
 
 #include "app/bench_common.h"
 #include "app/bench_specialize.h"
 #include "app/commands.h"
-#include "common/scene/builtin_scenes.h"
 #include "common/accel/cpu_trace.h"
 #include "common/error.h"
-#include "common/render/render_loop.h"
+#include "common/io/atomic_file.h"
 #include "common/io/svg_plot.h"
+#include "common/render/render_loop.h"
+#include "common/scene/builtin_scenes.h"
 #include "opencl/cl_backend.h"
 #if MCPT_WITH_VULKAN
 #include "vulkan/vk_backend.h"
@@ -133,8 +135,7 @@ std::string markdown_table(const std::vector<Row>& rows) {
 }
 
 void write_csv(const std::string& path, const std::vector<Row>& rows, const RenderOptions& ro) {
-    std::ofstream f(path);
-    if (!f) throw Error("cannot write '" + path + "'");
+    std::ostringstream f;  // written whole at the end (atomic_file.h)
     f << "model,triangles,tree,backend,device,build_ms,tree_bytes,ms_per_frame,msamples_per_s,"
          "mrays_per_s,tri_tests_per_ray,node_visits_per_ray,camera_tri_tests_per_ray,"
          "camera_node_visits_per_ray,rays_per_sample,width,height,spp,note\n";
@@ -143,9 +144,10 @@ void write_csv(const std::string& path, const std::vector<Row>& rows, const Rend
           << "\"," << r.build_ms << ',' << r.tree_bytes << ',' << r.ms_per_frame << ','
           << r.msamples << ',' << r.mrays << ',' << r.counts.paths.tests_per_ray() << ','
           << r.counts.paths.visits_per_ray() << ',' << r.counts.camera.tests_per_ray() << ','
-          << r.counts.camera.visits_per_ray() << ',' << r.counts.rays_per_path << ',' << ro.width << ','
-          << ro.height << ',' << ro.spp << ",\"" << r.note << "\"\n";
+          << r.counts.camera.visits_per_ray() << ',' << r.counts.rays_per_path << ',' << ro.width
+          << ',' << ro.height << ',' << ro.spp << ",\"" << r.note << "\"\n";
     }
+    write_text_atomically(path, f.str());
 }
 
 void write_plot(const std::string& path, const std::vector<Row>& rows, const RenderOptions& ro) {
@@ -242,7 +244,7 @@ void run_bench(const BenchArgs& a) {
         "\ntri tests/ray and node visits/ray: all rays of full paths (camera, bounce, "
         "shadow), counted on the CPU; ms/frame: median of %d frames\n",
         a.frames);
-    std::ofstream(a.output + ".md") << table;
+    write_text_atomically(a.output + ".md", table);
     write_csv(a.output + ".csv", rows, ro);
     write_plot(a.output + ".svg", rows, ro);
     std::printf("wrote %s.md, %s.csv, %s.svg\n", a.output.c_str(), a.output.c_str(),

@@ -54,8 +54,8 @@ void run_compare(const CompareArgs& args) {
         if (s == 1) opt.extra_defines = args.b_defines, side_ro.light_scale = args.b_light_scale;
         sides[s].backend = open_device(specs[s], opt);
         // The tree: as asked, or (auto) the one this side's device cost model picks.
-        const GpuScene g = prepare_scene(scene, sides[s].backend->device(),
-                                         tree_options(args.tree), args.width, args.height);
+        const GpuScene g = prepare_scene(scene, sides[s].backend->device(), tree_options(args.tree),
+                                         args.width, args.height);
         sides[s].tree = tree_kind_name(g.tree_kind);
         bo.seed_base = 1000u + 100000u * uint32_t(s);
         const double device_before = sides[s].backend->device_seconds();
@@ -97,7 +97,8 @@ void run_compare(const CompareArgs& args) {
         const BatchSet& bs = sides[s].batches;
         const double samples = double(bs.batches) * double(bs.spp_per_batch) * pixels;
         device_ns[s] = sides[s].device_seconds > 0 ? 1e9 * sides[s].device_seconds / samples : 0;
-        overhead[s] = sides[s].device_seconds > 0 ? 100 * (1 - sides[s].device_seconds / bs.seconds) : 0;
+        overhead[s] =
+            sides[s].device_seconds > 0 ? 100 * (1 - sides[s].device_seconds / bs.seconds) : 0;
     }
     row("device time/sample (ns)", device_ns[0], device_ns[1], "");
     row("host overhead (%)", overhead[0], overhead[1], "");
@@ -118,10 +119,11 @@ void run_compare(const CompareArgs& args) {
     }
     // Same-seed agreement.
     const SameSeedDiff d = same_seed_diff(sides[0].same_seed, sides[1].same_seed);
-    std::printf("same seed (%llu spp): %zu of %zu pixels diverged (> %.0e relative), %.3f%%; "
-                "max |difference| %.3g\n",
-                (unsigned long long)args.same_seed_spp, d.diverged, d.pixels, d.tolerance,
-                100 * d.fraction_diverged(), d.max_abs_diff);
+    std::printf(
+        "same seed (%llu spp): %zu of %zu pixels diverged (> %.0e relative), %.3f%%; "
+        "max |difference| %.3g\n",
+        (unsigned long long)args.same_seed_spp, d.diverged, d.pixels, d.tolerance,
+        100 * d.fraction_diverged(), d.max_abs_diff);
     if (!args.output.empty()) {
         // p-value, signed z (B - A), mean difference per pixel.
         std::vector<float> img(3 * agreement.p_image.size());
@@ -143,14 +145,17 @@ void add_compare_command(CLI::App& app) {
     auto a = std::make_shared<CompareArgs>();
     CLI::App* sub = app.add_subcommand("compare", "A/B-test two backends on one scene");
     sub->add_option("scene", a->scene, "Built-in scene or .gltf/.glb file")->capture_default_str();
-    sub->add_option("--a", a->a, "Backend A: opencl|vulkan[:device][,limits=phone]")->capture_default_str();
-    sub->add_option("--b", a->b, "Backend B: opencl|vulkan[:device][,limits=phone]")->capture_default_str();
+    sub->add_option("--a", a->a, "Backend A: opencl|vulkan[:device][,limits=phone]")
+        ->capture_default_str();
+    sub->add_option("--b", a->b, "Backend B: opencl|vulkan[:device][,limits=phone]")
+        ->capture_default_str();
     sub->add_option("--width", a->width)->check(CLI::Range(1, 4096))->capture_default_str();
     sub->add_option("--height", a->height)->check(CLI::Range(1, 4096))->capture_default_str();
     sub->add_option("--batches", a->batches, "Independent batches per backend")
         ->check(CLI::Range(2, 100000))
         ->capture_default_str();
-    sub->add_option("--spp", a->spp, "Samples per pixel per batch")->check(CLI::Range(1, 1000000))
+    sub->add_option("--spp", a->spp, "Samples per pixel per batch")
+        ->check(CLI::Range(1, 1000000))
         ->capture_default_str();
     sub->add_option("--same-seed-spp", a->same_seed_spp, "Samples per pixel of the same-seed test")
         ->check(CLI::Range(1, 1000000))

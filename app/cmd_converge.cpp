@@ -9,12 +9,14 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <sstream>
 
 #include "app/commands.h"
 #include "common/analysis/convergence.h"
 #include "common/error.h"
-#include "common/render/scene_features.h"
+#include "common/io/atomic_file.h"
 #include "common/io/svg_plot.h"
+#include "common/render/scene_features.h"
 #include "opencl/cl_backend.h"
 
 namespace mcpt {
@@ -99,8 +101,7 @@ void print_checkpoint(const Run& run, const Checkpoint& c) {
 }
 
 void write_csv(const std::string& path, const std::vector<Run>& runs) {
-    std::ofstream f(path);
-    if (!f) throw Error("cannot write '" + path + "'");
+    std::ostringstream f;  // written whole at the end (atomic_file.h)
     f << "backend,device,checkpoint,seconds,spp,rmse,rel_mse,mean_signed_error,reference_noise,"
          "rel_rmse\n";
     for (const Run& r : runs) {
@@ -114,6 +115,7 @@ void write_csv(const std::string& path, const std::vector<Run>& runs) {
             f << line;
         }
     }
+    write_text_atomically(path, f.str());
 }
 
 void write_plot(const std::string& path, const std::string& scene, const std::vector<Run>& runs) {
@@ -188,8 +190,7 @@ void run_converge(const ConvergeArgs& a) {
     for (size_t b = 0; b < a.backends.size(); ++b) {
         std::unique_ptr<Backend> backend = open_device(a.backends[b]);
         // --tree auto: the tree this device's cost model picks.
-        const GpuScene gb =
-            prepare_scene(scene, backend->device(), tree_opts, a.width, a.height);
+        const GpuScene gb = prepare_scene(scene, backend->device(), tree_opts, a.width, a.height);
         backend->load(gb, a.width, a.height);
         Run run;
         run.backend = backend->device().backend, run.device = backend->device().name;

@@ -180,7 +180,8 @@ void add_render_command(CLI::App& app) {
                     "default $MCPT_VULKAN_LIMITS or device")
         ->check(CLI::IsMember({"device", "phone"}));
     auto* spp = sub->add_option("--spp", args->spp, "Samples per pixel (default 64)")
-                    ->check(CLI::Range(int64_t(1), int64_t(1000000000000)));  // as a number: "-1" is not 2^64 - 1
+                    ->check(CLI::Range(
+                        int64_t(1), int64_t(1000000000000)));  // as a number: "-1" is not 2^64 - 1
     sub->add_option("--time", args->seconds, "Render for this many seconds instead")
         ->excludes(spp)
         ->check(CLI::Range(1e-3, 1e7));

@@ -19,9 +19,10 @@ struct TreeArgs {
 };
 
 void print_work(const char* what, const gpu::RayWork& w) {
-    std::printf("  %-34s %8.0f rays: %7.2f triangle tests/ray, %7.2f node visits/ray, "
-                "%5.1f%% hit\n",
-                what, w.rays, w.tests_per_ray(), w.visits_per_ray(), 100.0 * w.hits / w.rays);
+    std::printf(
+        "  %-34s %8.0f rays: %7.2f triangle tests/ray, %7.2f node visits/ray, "
+        "%5.1f%% hit\n",
+        what, w.rays, w.tests_per_ray(), w.visits_per_ray(), 100.0 * w.hits / w.rays);
 }
 
 void run_tree(const TreeArgs& a) {
@@ -33,7 +34,8 @@ void run_tree(const TreeArgs& a) {
     std::printf("%s", describe(tree.stats, scene.triangles.size()).c_str());
     const double tri_bytes = double(scene.triangles.size() * sizeof(gpu::GpuTriangle));
     std::printf("  bytes per triangle (tree + triangle data): %.1f\n",
-                (double(tree.stats.bytes) + tri_bytes) / double(std::max<size_t>(1, scene.triangles.size())));
+                (double(tree.stats.bytes) + tri_bytes) /
+                    double(std::max<size_t>(1, scene.triangles.size())));
 
     // Camera rays through a square grid of pixels.
     gpu::GpuParams p = g.params;
@@ -67,13 +69,16 @@ void run_tree(const TreeArgs& a) {
 
 void add_tree_command(CLI::App& app) {
     auto args = std::make_shared<TreeArgs>();
-    CLI::App* sub = app.add_subcommand("tree", "Build a scene's k-d tree, report stats and work/ray");
-    sub->add_option("scene", args->scene, "Built-in scene or .gltf/.glb file")->capture_default_str();
+    CLI::App* sub =
+        app.add_subcommand("tree", "Build a scene's k-d tree, report stats and work/ray");
+    sub->add_option("scene", args->scene, "Built-in scene or .gltf/.glb file")
+        ->capture_default_str();
     sub->add_option("--tree", args->tree, "sah, median or none")
         ->check(CLI::IsMember({"sah", "median", "none"}))
         ->capture_default_str();
     sub->add_option("--depth", args->depth, "Depth limit (median: default 3)");
-    sub->add_option("--rays", args->rays, "Rays per measurement")->check(CLI::Range(1, 100000000))
+    sub->add_option("--rays", args->rays, "Rays per measurement")
+        ->check(CLI::Range(1, 100000000))
         ->capture_default_str();
     sub->callback([args] { run_tree(*args); });
 }

@@ -3,10 +3,12 @@
 
 #include <gtest/gtest.h>
 #include <stb_image.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <limits>
@@ -14,6 +16,7 @@
 #include <vector>
 
 #include "common/error.h"
+#include "common/io/atomic_file.h"
 
 namespace mcpt {
 namespace {
@@ -151,4 +154,38 @@ TEST(ImageIo, ReadExrErrorsThrow) {
 }
 
 }  // namespace
+}  // namespace mcpt
+
+namespace mcpt {
+
+// Outputs are written whole or not at all: a writer that fails midway leaves neither a partial
+// file under the final name nor its temporary file, and an older file there stays intact.
+TEST(AtomicFile, FailedWriteLeavesTheOldFileAndNoTemporary) {
+    const std::filesystem::path dir =
+        std::filesystem::temp_directory_path() / ("mcpt_atomic_" + std::to_string(getpid()));
+    std::filesystem::create_directories(dir);
+    const std::string path = (dir / "out.csv").string();
+    write_text_atomically(path, "old\n");
+    EXPECT_THROW(write_atomically(path,
+                                  [](const std::string& tmp) {
+                                      std::ofstream(tmp) << "half a fi";
+                                      throw Error("writer failed");
+                                  }),
+                 Error);
+    std::ifstream in(path);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(text, "old\n");
+    int files = 0;
+    for (const auto& e : std::filesystem::directory_iterator(dir)) files += e.is_regular_file();
+    EXPECT_EQ(files, 1) << "a temporary file was left behind";
+    // An image write that fails (no such folder) leaves nothing either.
+    EXPECT_THROW(write_image((dir / "missing" / "x.png").string(), 1, 1, {0.f, 0.f, 0.f}), Error);
+    write_text_atomically(path, "new\n");
+    std::ifstream again(path);
+    std::string line;
+    std::getline(again, line);
+    EXPECT_EQ(line, "new");
+    std::filesystem::remove_all(dir);
+}
+
 }  // namespace mcpt

@@ -14,6 +14,7 @@
 #include <filesystem>
 
 #include "common/error.h"
+#include "common/io/atomic_file.h"
 
 namespace mcpt {
 
@@ -132,10 +133,13 @@ void write_image(const std::string& path, int width, int height, const std::vect
         throw Error("cannot write image " + path + ": " + std::to_string(rgb.size()) +
                     " floats do not make a " + std::to_string(width) + "x" +
                     std::to_string(height) + " RGB image");
-    if (ext == ".exr")
-        write_exr(path, width, height, rgb);
-    else
-        write_png(path, width, height, rgb);
+    // Whole or not at all: into a temporary file, then renamed.
+    write_atomically(path, [&](const std::string& tmp) {
+        if (ext == ".exr")
+            write_exr(tmp, width, height, rgb);
+        else
+            write_png(tmp, width, height, rgb);
+    });
 }
 
 std::vector<float> read_exr(const std::string& path, int& width, int& height) {

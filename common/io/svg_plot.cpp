@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "common/error.h"
+#include "common/io/atomic_file.h"
 
 namespace mcpt {
 
@@ -200,10 +201,7 @@ std::string render_svg(const SvgPlot& plot) {
 }
 
 void write_svg(const std::string& path, const SvgPlot& plot) {
-    std::ofstream f(path);
-    if (!f) throw Error("cannot write '" + path + "'");
-    f << render_svg(plot);
-    if (!f) throw Error("cannot write '" + path + "'");
+    write_text_atomically(path, render_svg(plot));
 }
 
 }  // namespace mcpt
