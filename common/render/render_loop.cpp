@@ -107,6 +107,12 @@ ProgressiveRender::ProgressiveRender(Backend& backend, const GpuScene& scene, co
     r_.sum.assign(3 * size_t(npix_), 0.0);
     r_.sum_sq.assign(3 * size_t(npix_), 0.0);
     r_.nonfinite.assign(npix_, 0.0);
+    // The accumulation buffer the backend allocated for this size (gpu_scene.h).
+    const AccumLayout layout = accum_layout(npix_, backend.device().memory.max_buffer_bytes);
+    slots_ = layout.slots;
+    windowed_ = layout.window;
+    p_.accum_window = windowed_ ? 1u : 0u;
+    if (windowed_) device_sums_.resize(size_t(npix_) * 8);
     // Work per dispatch (pixel-samples), adapted to the measured rate.
     work_ = std::min<double>(npix_, 4096);
 }
@@ -144,20 +150,13 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
     using clock = std::chrono::steady_clock;
     // Every pixel gets `spp` more samples, in tiles of at most `work` pixel-samples (and at
     // most the path-state slots).
-    uint32_t spp = uint32_t(std::max(1.0, std::floor(work_ / npix_)));
-    spp = std::min(spp, opt_.flush_spp - unflushed_);
+    // A windowed buffer is read back whole every pass: passes of about a second amortize that
+    // (the tiles stay sized to the dispatch target; paths continue across dispatches).
+    const double work = windowed_ ? work_ * 1e3 / opt_.dispatch_ms : work_;
+    uint32_t spp =
+        uint32_t(std::clamp(std::floor(work / npix_), 1.0, double(opt_.flush_spp - unflushed_)));
     spp = uint32_t(std::max<uint64_t>(1, std::min<uint64_t>(spp, max_spp)));
-    const AccumLayout layout = accum_layout(npix_, backend_.device().memory.max_buffer_bytes);
-    const uint32_t slots = layout.slots;
-    windowed_ = layout.window;
-    if (windowed_) {
-        // Every pass reads the whole image back: passes of about a second amortize that
-        // (the tiles stay sized to the dispatch target; paths continue across dispatches).
-        const double per_second = work_ * 1e3 / opt_.dispatch_ms / npix_;
-        spp = uint32_t(std::clamp<double>(std::floor(per_second), 1.0, double(opt_.flush_spp)));
-        spp = uint32_t(std::max<uint64_t>(1, std::min<uint64_t>(spp, max_spp)));
-    }
-    if (windowed_) device_sums_.resize(size_t(npix_) * 8);
+    const uint32_t slots = slots_;
     uint32_t tile = uint32_t(std::clamp(work_ / spp, 64.0, double(std::min(npix_, slots))));
     // Tiles of equal size (no sliver at the end).
     const uint32_t tiles = (npix_ + tile - 1) / tile;
@@ -169,7 +168,6 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
     // A window is overwritten by each tile's round and read back after it.
     p_.accumulate = unflushed_ > 0 && !windowed_ ? 1u : 0u;
     p_.state_slots = slots;
-    p_.accum_window = windowed_ ? 1u : 0u;
     const auto start = clock::now();
     double dispatch_s = 0;  // this pass's dispatches, without read-backs
     for (uint32_t offset = 0; offset < npix_; offset += tile) {

@@ -89,6 +89,7 @@ class ProgressiveRender {
     uint32_t bounce_budget_ = 16;    // bounces per sample in one dispatch
     std::vector<float> dispatch_s_;  // every dispatch's wall time
     std::vector<float> device_sums_;
+    uint32_t slots_ = 0;     // path-state slots: the largest tile
     bool windowed_ = false;  // the device holds one tile's sums at a time (gpu_scene.h)
     bool flushed_ = false;
     std::chrono::steady_clock::time_point flushed_at_;
