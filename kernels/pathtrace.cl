@@ -19,15 +19,11 @@ __kernel void pathtrace(__global const GpuParams* params, __global const uint* t
     uint gid = get_global_id(0);
     if (gid >= params->pixel_count) return;
     uint pixel = params->pixel_offset + gid;
-    // The pixel's sums (in the window when the buffer holds only the tile's), path state and
-    // the pending word (layout in shared_types.h).
-    bool window = params->accum_window != 0u;
-    uint sum_pixels = window ? params->state_slots : params->width * params->height;
-    uint sum = ACCUM_VEC4_PER_PIXEL * (pixel - (window ? params->state_base : 0u));
-    __global float4* state = accum + ACCUM_VEC4_PER_PIXEL * sum_pixels +
-                             PATH_STATE_VEC4 * (pixel - params->state_base);
-    __global uint* pending = (__global uint*)(accum + ACCUM_VEC4_PER_PIXEL * sum_pixels +
-                                             PATH_STATE_VEC4 * params->state_slots);
+    // The pixel's sums, path state and the pending word.
+    AccumPlace at = accum_place(SCENE_ARGS_ pixel);
+    uint sum = at.sum;
+    __global float4* state = accum + at.state;
+    __global uint* pending = (__global uint*)(accum + at.pending);
     // Start the pixel's samples of this round, or continue its path.
     PathState st;
     if (params->round_start != 0u) {

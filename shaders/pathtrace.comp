@@ -16,13 +16,11 @@ void main() {
     uint gid = gl_GlobalInvocationID.x;
     if (gid >= params.pixel_count) return;
     uint pixel = params.pixel_offset + gid;
-    // The pixel's sums (in the window when the buffer holds only the tile's), path state and
-    // the pending word (layout in shared_types.h).
-    bool window = params.accum_window != 0u;
-    uint sum_pixels = window ? params.state_slots : params.width * params.height;
-    uint sum = ACCUM_VEC4_PER_PIXEL * (pixel - (window ? params.state_base : 0u));
-    uint state = ACCUM_VEC4_PER_PIXEL * sum_pixels + PATH_STATE_VEC4 * (pixel - params.state_base);
-    uint pending = 4u * (ACCUM_VEC4_PER_PIXEL * sum_pixels + PATH_STATE_VEC4 * params.state_slots);
+    // The pixel's sums, path state and the pending word.
+    AccumPlace at = accum_place(pixel);
+    uint sum = at.sum;
+    uint state = at.state;
+    uint pending = 4u * at.pending;
     // Start the pixel's samples of this round, or continue its path.
     PathState st;
     if (params.round_start != 0u) {

@@ -377,6 +377,23 @@ MCPT_FN SlotStep step_slot(SCENE_PARAMS_ PathState st, uint pixel) {
     return step;
 }
 
+// Where `pixel`'s sums and path state lie in the accumulation buffer, in vec4s, and the vec4
+// whose first word is the pending flag (layout in shared_types.h): the sums of every pixel, or
+// of the window's pixels from state_base when accum_window is set.
+MCPT_STRUCT(AccumPlace) {
+    uint sum, state, pending;
+};
+
+MCPT_FN AccumPlace accum_place(SCENE_PARAMS_ uint pixel) {
+    bool window = PARAM(accum_window) != 0u;
+    uint sum_pixels = window ? PARAM(state_slots) : PARAM(width) * PARAM(height);
+    AccumPlace at;
+    at.sum = ACCUM_VEC4_PER_PIXEL * (pixel - (window ? PARAM(state_base) : 0u));
+    at.state = ACCUM_VEC4_PER_PIXEL * sum_pixels + PATH_STATE_VEC4 * (pixel - PARAM(state_base));
+    at.pending = ACCUM_VEC4_PER_PIXEL * sum_pixels + PATH_STATE_VEC4 * PARAM(state_slots);
+    return at;
+}
+
 // Path state in storage: PATH_STATE_VEC4 vec4 per slot (shared_types.h).
 MCPT_STRUCT(PackedState) {
     vec4 a, b, c, d, e, f;
