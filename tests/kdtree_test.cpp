@@ -621,6 +621,24 @@ TEST(KdTreeBuild, FlatMeshSplitsOnlyInItsPlane) {
     }
 }
 
+// A node whose references span less than 64 / FLT_MAX along an axis (1e-38 here) made the
+// binned SAH's scale overflow to inf and convert inf to a bin index (UBSan; on x86 a write far
+// before the bin counts). Found by the glTF fuzz target (regressions/gltf/sah_bins_thin_union.glb).
+TEST(KdTreeBuild, BinnedSahOverADenormalThinUnion) {
+    std::vector<Triangle> tris;
+    for (int i = 0; i < 64; ++i) {
+        const float x = float(i % 8), y = float(i / 8), z = (i & 1) ? 1e-38f : 0.f;
+        tris.push_back({{x, y, z}, {x + 1.f, y, 0.f}, {x, y + 1.f, z}, 0});
+    }
+    const KdTree tree = build_kdtree(tris, options(TreeKind::Sah, -1));
+    EXPECT_GT(tree.stats.leaves, 8u);
+    size_t references = 0;
+    for (const gpu::KdNode& n : tree.nodes)
+        if ((n.flags & 3u) == KD_LEAF) references += n.flags >> 2;
+    EXPECT_EQ(references, tree.leaf_indices.size());
+    for (uint32_t index : tree.leaf_indices) EXPECT_LT(index, tris.size());
+}
+
 TEST(KdTreeBuild, SameTreeForEveryThreadCount) {
     const std::vector<Triangle> tris = blob(40);  // 19200 triangles: subtrees go to workers
     for (TreeKind kind : {TreeKind::Sah, TreeKind::Median}) {

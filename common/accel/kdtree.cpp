@@ -521,8 +521,13 @@ void binned_search(const Ref* refs, size_t n, const Box& refs_union, const SahCo
         width[a] = (uhi[a] - ulo[a]) / float(bins);
         scale[a] = uhi[a] > ulo[a] ? float(bins) / (uhi[a] - ulo[a]) : 0.f;
     }
-    const int last = bins - 1;  // references lie in the union: only the top end needs a clamp
-    const auto bin = [&](float x, int a) { return std::min(int((x - ulo[a]) * scale[a]), last); };
+    // References lie in the union, but over a denormal-thin union the scale overflows to inf
+    // (and 0 * inf is NaN): clamp in float, then convert.
+    const int last = bins - 1;
+    const auto bin = [&](float x, int a) {
+        const float f = (x - ulo[a]) * scale[a];
+        return f >= float(last) ? last : f > 0.f ? int(f) : 0;
+    };
     for (size_t i = 0; i < n; ++i) {
         const Ref& r = refs[i];
         ++starts[0][bin(r.lo[0], 0)], ++ends[0][bin(r.hi[0], 0)];

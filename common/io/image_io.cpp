@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 
 #include "common/error.h"
 #include "common/io/atomic_file.h"
@@ -143,16 +144,72 @@ void write_image(const std::string& path, int width, int height, const std::vect
 }
 
 std::vector<float> read_exr(const std::string& path, int& width, int& height) {
-    // tinyexr returns RGBA (alpha 1 when absent); keep R, G, B
-    float* rgba = nullptr;
+    // The whole file, from a regular file of at most 4 GiB.
+    std::error_code ec;
+    const auto size = std::filesystem::file_size(path, ec);
+    if (ec || !std::filesystem::is_regular_file(path, ec))
+        throw Error("cannot read EXR image " + path + ": not a readable regular file");
+    if (size > (uint64_t(4) << 30)) throw Error("cannot read EXR image " + path + ": over 4 GiB");
+    std::vector<unsigned char> bytes(size);
+    {
+        std::ifstream in(path, std::ios::binary);
+        if (!in || !in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(size)))
+            throw Error("cannot read EXR image " + path);
+    }
+    // Header and pixels through tinyexr's lower-level calls, each freed by its owner (LoadEXR
+    // leaks the header's channel list when the pixels fail to decode; a failed pixel load
+    // frees its own buffers but leaves their pointers, so only a loaded image is freed).
+    struct Owned {
+        EXRHeader header;
+        EXRImage image;
+        bool image_loaded = false;
+        Owned() { InitEXRHeader(&header), InitEXRImage(&image); }
+        ~Owned() {
+            if (image_loaded) FreeEXRImage(&image);
+            FreeEXRHeader(&header);
+        }
+    } exr;
+    const auto fail = [&](const std::string& why) {
+        return Error("cannot read EXR image " + path + ": " + why);
+    };
+    EXRVersion version;
+    if (ParseEXRVersionFromMemory(&version, bytes.data(), bytes.size()) != TINYEXR_SUCCESS)
+        throw fail("not an OpenEXR file");
+    if (version.multipart || version.non_image)
+        throw fail("multi-part and deep files are not read");
     const char* err = nullptr;
-    if (LoadEXR(&rgba, &width, &height, path.c_str(), &err) != TINYEXR_SUCCESS)
-        throw Error("cannot read EXR image " + path + ": " + take_exr_error(err));
+    if (ParseEXRHeaderFromMemory(&exr.header, &version, bytes.data(), bytes.size(), &err) !=
+        TINYEXR_SUCCESS)
+        throw fail(take_exr_error(err));
+    if (exr.header.tiled) throw fail("tiled files are not read (mcpt writes scan lines)");
+    // The image size before tinyexr allocates it: at most what mcpt renders.
+    const EXRBox2i& w = exr.header.data_window;
+    const int64_t wide = int64_t(w.max_x) - w.min_x + 1, high = int64_t(w.max_y) - w.min_y + 1;
+    if (wide < 1 || high < 1 || wide > 16384 || high > 16384)
+        throw fail("data window " + std::to_string(wide) + "x" + std::to_string(high) +
+                   " outside 1x1 to 16384x16384");
+    int rgb_channel[3] = {-1, -1, -1};
+    for (int c = 0; c < exr.header.num_channels; ++c) {
+        exr.header.requested_pixel_types[c] = TINYEXR_PIXELTYPE_FLOAT;
+        const std::string name = exr.header.channels[c].name;
+        for (int k = 0; k < 3; ++k)
+            if (name == std::string(1, "RGB"[k])) rgb_channel[k] = c;
+    }
+    if (exr.header.num_channels == 1) rgb_channel[0] = rgb_channel[1] = rgb_channel[2] = 0;
+    if (*std::min_element(rgb_channel, rgb_channel + 3) < 0) throw fail("no R, G and B channels");
+    if (LoadEXRImageFromMemory(&exr.image, &exr.header, bytes.data(), bytes.size(), &err) !=
+        TINYEXR_SUCCESS)
+        throw fail(take_exr_error(err));
+    exr.image_loaded = true;
+    if (!exr.image.images || exr.image.width != wide || exr.image.height != high)
+        throw fail("pixels do not match the header");
+    width = exr.image.width, height = exr.image.height;
     const size_t n = size_t(width) * size_t(height);
     std::vector<float> rgb(3 * n);
-    for (size_t i = 0; i < n; ++i)
-        for (int c = 0; c < 3; ++c) rgb[3 * i + c] = rgba[4 * i + c];
-    std::free(rgba);
+    for (int k = 0; k < 3; ++k) {
+        const float* plane = reinterpret_cast<const float*>(exr.image.images[rgb_channel[k]]);
+        for (size_t i = 0; i < n; ++i) rgb[3 * i + k] = plane[i];
+    }
     return rgb;
 }
 

@@ -18,8 +18,9 @@ void write_image(const std::string& path, int width, int height, const std::vect
 // existing, writable folder: what a command checks before it renders.
 void check_image_path(const std::string& path);
 
-// Reads the R, G, B channels of an EXR file (3 floats per pixel, top row first, half channels
-// widened to float); throws mcpt::Error naming the file when it cannot be read.
+// Reads the R, G, B channels (a single channel as gray) of a scan-line EXR file of at most
+// 16384x16384 pixels (3 floats per pixel, top row first, half channels widened to float);
+// throws mcpt::Error naming the file when it cannot be read.
 std::vector<float> read_exr(const std::string& path, int& width, int& height);
 
 // Linear value -> 8-bit sRGB as written to PNG: clamp to [0, 1], sRGB OETF, round to nearest.
