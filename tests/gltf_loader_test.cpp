@@ -436,6 +436,40 @@ TEST(GltfLoader, GarbageAndTruncatedJson) {
 // JSON nested tens of thousands deep (here in extras) is refused before the parser recurses
 // through it (it overflowed the stack: signal 11), from a .gltf, a .glb and memory; brackets
 // inside strings do not count, and a normal scene's nesting passes.
+// A .glb whose BIN chunk claims the bytes its own 8-byte header takes: tinygltf copied the
+// claimed length from past the end of the data (heap overflow; found by the glTF fuzz target,
+// tests/fuzz/regressions/gltf/glb_bin_chunk_overrun.glb). Refused from a file and from memory.
+TEST(GltfLoader, GlbChunkRunningPastTheDataIsRefused) {
+    std::string json = R"({"asset":{"version":"2.0"},"buffers":[{"byteLength":16}]})";
+    while (json.size() % 4) json += ' ';
+    std::string glb = "glTF";
+    auto put32 = [&](uint32_t v) { glb.append(reinterpret_cast<const char*>(&v), 4); };
+    const uint32_t total = uint32_t(12 + 8 + json.size() + 8 + 8);
+    put32(2), put32(total), put32(uint32_t(json.size()));
+    glb += "JSON" + json;
+    put32(16);  // the BIN chunk's length: 16 bytes claimed, 8 present
+    glb += std::string("BIN\0", 4) + std::string(8, '\x7f');
+    ASSERT_EQ(glb.size(), total);
+    const fs::path path = temp_dir() / "bin_overrun.glb";
+    write_file(path, glb);
+    const std::string expected = "BIN chunk of 16 bytes runs past the end of the file";
+    EXPECT_NE(load_error(path.string()).find(expected), std::string::npos)
+        << load_error(path.string());
+    try {
+        load_scene_memory(glb.data(), glb.size());
+        ADD_FAILURE() << "the overrunning BIN chunk was accepted from memory";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+    }
+    // Negative control: the same file with the chunk's true length loads as far as its
+    // content allows (no geometry: an error about the scene, not the layout).
+    glb.replace(12 + 8 + json.size(), 4, std::string("\x08\0\0\0", 4));
+    glb.replace(8, 4, std::string(reinterpret_cast<const char*>(&total), 4));
+    write_file(path, glb);
+    EXPECT_EQ(load_error(path.string()).find("runs past"), std::string::npos)
+        << load_error(path.string());
+}
+
 TEST(GltfLoader, DeepJsonNestingIsRefused) {
     std::string json = quad_gltf().finished().dump();
     const std::string deep = std::string(100000, '[') + std::string(100000, ']');

@@ -99,6 +99,29 @@ std::pair<const char*, size_t> json_text(const unsigned char* bytes, size_t size
     return {reinterpret_cast<const char*>(bytes) + 20, std::min<size_t>(length, size - 20)};
 }
 
+// The .glb container's layout, checked before tinygltf reads it (tinygltf 2.8 lets a BIN chunk
+// run 8 bytes past the file: it forgets the chunk's own header). "" when whole.
+std::string glb_layout_error(const unsigned char* bytes, size_t size) {
+    if (size < 20) return "GLB shorter than its 20-byte header";
+    uint32_t word[5];
+    std::memcpy(word, bytes, sizeof word);  // magic, version, length, JSON length, JSON type
+    if (word[1] != 2) return "GLB version " + std::to_string(word[1]) + " (glTF 2.0 needs 2)";
+    const uint64_t length = word[2], json_end = 20 + uint64_t(word[3]);
+    if (length > size)
+        return "GLB header says " + std::to_string(length) + " bytes, the data has " +
+               std::to_string(size);
+    if (word[4] != 0x4E4F534Au) return "GLB's first chunk is not JSON";
+    if (json_end > length) return "GLB JSON chunk runs past the end of the file";
+    if (json_end == length) return "";
+    if (json_end + 8 > length) return "GLB BIN chunk header runs past the end of the file";
+    uint32_t bin_length = 0;
+    std::memcpy(&bin_length, bytes + json_end, 4);
+    if (json_end + 8 + bin_length > length)
+        return "GLB BIN chunk of " + std::to_string(bin_length) + " bytes runs past the end of " +
+               "the file (" + std::to_string(length) + " bytes)";
+    return "";
+}
+
 // External files (buffer and image URIs) come only from the scene's own folder: a regular
 // file below it, at most kMaxExternalBytes; never a FIFO or device (they block forever), never
 // a path that leaves the folder (absolute, "../"), and never a message about such a file's
@@ -307,26 +330,23 @@ void GltfLoader::read_model() {
     char magic[4] = {};
     in.read(magic, 4);
     const bool binary = in.gcount() == 4 && std::memcmp(magic, "glTF", 4) == 0;
-    // Bound the JSON's nesting before the parser recurses through it.
-    {
-        in.seekg(0);
-        std::vector<unsigned char> head;
-        if (binary) {
-            head.resize(20);
-            in.read(reinterpret_cast<char*>(head.data()), 20);
-            uint32_t length = 0;
-            if (in.gcount() == 20) std::memcpy(&length, head.data() + 12, 4);
-            head.resize(20 + std::min<uint64_t>(length, std::filesystem::file_size(path_, ec)));
-            in.read(reinterpret_cast<char*>(head.data()) + 20, std::streamsize(head.size() - 20));
-            head.resize(20 + size_t(std::max<std::streamsize>(in.gcount(), 0)));
-        } else {
-            head.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-        }
-        const auto [text, length] = json_text(head.data(), head.size(), binary);
-        if (json_depth(text, length) > kMaxJsonDepth)
-            fail("JSON nested deeper than " + std::to_string(kMaxJsonDepth) + " levels");
-    }
+    // The whole file, then its layout, then its JSON's nesting (bounded before the parser
+    // recurses through it).
+    const uint64_t file_size = std::filesystem::file_size(path_, ec);
+    if (ec) fail("cannot read file size");
+    if (file_size > 0xffffffffu) fail("file larger than 4 GiB");
+    std::vector<unsigned char> bytes(file_size);
+    in.seekg(0);
+    if (!in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(file_size)))
+        fail("cannot read file");
     in.close();
+    if (binary) {
+        const std::string layout = glb_layout_error(bytes.data(), bytes.size());
+        if (!layout.empty()) fail("cannot load binary glTF (.glb) file: " + layout);
+    }
+    const auto [text, length] = json_text(bytes.data(), bytes.size(), binary);
+    if (json_depth(text, length) > kMaxJsonDepth)
+        fail("JSON nested deeper than " + std::to_string(kMaxJsonDepth) + " levels");
     scene_.name = std::filesystem::path(path_).stem().string();
 
     tg::TinyGLTF loader;
@@ -338,11 +358,15 @@ void GltfLoader::read_model() {
             std::filesystem::absolute(path_, ec2).parent_path(), ec2);
     }
     loader.SetFsCallbacks(folder_callbacks(&folder));
+    const std::string base_dir = std::filesystem::path(path_).parent_path().string();
     std::string err, warn;
     bool ok = false;
     try {
-        ok = binary ? loader.LoadBinaryFromFile(&model_, &err, &warn, path_)
-                    : loader.LoadASCIIFromFile(&model_, &err, &warn, path_);
+        ok = binary ? loader.LoadBinaryFromMemory(&model_, &err, &warn, bytes.data(),
+                                                  static_cast<unsigned>(bytes.size()), base_dir)
+                    : loader.LoadASCIIFromString(&model_, &err, &warn,
+                                                 reinterpret_cast<const char*>(bytes.data()),
+                                                 static_cast<unsigned>(bytes.size()), base_dir);
     } catch (const std::exception& e) {
         fail(std::string("malformed glTF file: ") + e.what());
     }
@@ -361,6 +385,11 @@ void GltfLoader::parse_memory() {
     if (size_ > 0xffffffffu) fail("buffer larger than 4 GiB");
     const bool binary = size_ >= 4 && std::memcmp(bytes_, "glTF", 4) == 0;
     scene_.name = path_;
+    if (binary) {
+        const std::string layout =
+            glb_layout_error(static_cast<const unsigned char*>(bytes_), size_);
+        if (!layout.empty()) fail("cannot load binary glTF (.glb) data: " + layout);
+    }
     // Bound the JSON's nesting before the parser recurses through it.
     const auto [text, length] = json_text(static_cast<const unsigned char*>(bytes_), size_, binary);
     if (json_depth(text, length) > kMaxJsonDepth)
