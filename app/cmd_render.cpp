@@ -2,8 +2,10 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 
@@ -37,6 +39,9 @@ struct RenderArgs {
     bool verbose = false;
     std::string specialize = "on";
     double target_error = 0;  // stop once the mean relative standard error is below this
+    bool reproducible = false;
+    std::string checkpoint;        // resume from / save to this file
+    double checkpoint_every = 30;  // seconds between checkpoints
 };
 
 void print_progress(double frac, const RenderResult& r) {
@@ -66,7 +71,23 @@ void run_render(const RenderArgs& a) {
     s.tree = a.tree, s.tree_depth = a.depth;
     s.seed = a.seed;
     s.specialize = a.specialize == "on";
+    s.reproducible = a.reproducible || !a.checkpoint.empty();
     session.commit();
+    // Resume where an earlier run of this command stopped.
+    if (!a.checkpoint.empty()) {
+        std::error_code ec;
+        if (std::filesystem::exists(a.checkpoint, ec)) {
+            session.resume_checkpoint(a.checkpoint);
+            std::printf("resumed from %s at %llu spp\n", a.checkpoint.c_str(),
+                        (unsigned long long)session.spp());
+        } else {
+            // Its folder must take files: refuse now, not after the first interval.
+            const std::filesystem::path folder = std::filesystem::path(a.checkpoint).parent_path();
+            if (access(folder.empty() ? "." : folder.c_str(), W_OK) != 0)
+                throw Error("cannot write checkpoint '" + a.checkpoint +
+                            "': its folder does not exist or is not writable");
+        }
+    }
     const Scene& scene = session.scene();
     const GpuScene& g = session.prepared();
     std::printf("scene: %s: %zu triangles, %zu spheres, %zu materials, %u lights\n",
@@ -81,8 +102,14 @@ void run_render(const RenderArgs& a) {
     if (spp == 0 && seconds <= 0 && a.target_error <= 0) spp = 64;
     const bool bar = !a.quiet && isatty(2);
     const RenderResult& r = session.result();
-    double elapsed = 0;
+    double elapsed = r.seconds;  // a resumed render's time counts
     PassStats st;
+    auto last_save = std::chrono::steady_clock::now();
+    const auto save = [&] {
+        if (a.checkpoint.empty() || session.spp() == 0) return;
+        session.save_checkpoint(a.checkpoint);
+        last_save = std::chrono::steady_clock::now();
+    };
     while (true) {
         const double step_ms = seconds > 0 ? std::min(250.0, (seconds - elapsed) * 1e3) : 250.0;
         try {
@@ -91,11 +118,15 @@ void run_render(const RenderArgs& a) {
             // The device failed mid-render: the samples taken before are kept; write them.
             if (bar) std::fprintf(stderr, "\n");
             if (r.spp == 0) throw;
+            save();
             session.write_image(a.output);
             throw Error(std::string(e.what()) + "\nwrote the " + std::to_string(r.spp) +
                         " spp rendered before the failure to " + a.output);
         }
         elapsed += st.seconds;
+        if (std::chrono::duration<double>(std::chrono::steady_clock::now() - last_save).count() >=
+            a.checkpoint_every)
+            save();
         if (bar) {
             double frac = spp > 0       ? double(r.spp) / double(spp)
                           : seconds > 0 ? std::min(1.0, elapsed / seconds)
@@ -110,6 +141,7 @@ void run_render(const RenderArgs& a) {
             break;
     }
     if (bar) std::fprintf(stderr, "\n");
+    save();
 
     // Throughput and the error the image still carries.
     Backend& backend = session.backend();
@@ -163,7 +195,8 @@ void run_render(const RenderArgs& a) {
         std::printf("non-finite samples: 0\n");
     }
     session.write_image(a.output);
-    std::printf("wrote %s\n", a.output.c_str());
+    std::printf("wrote %s%s%s\n", a.output.c_str(), a.checkpoint.empty() ? "" : " and ",
+                a.checkpoint.c_str());
 }
 
 }  // namespace
@@ -208,6 +241,16 @@ void add_render_command(CLI::App& app) {
     sub->add_option("--specialize", args->specialize,
                     "on: compile only the features the scene uses; off: the full kernel")
         ->check(CLI::IsMember({"on", "off"}))
+        ->capture_default_str();
+    sub->add_flag("--reproducible", args->reproducible,
+                  "The image depends only on the seed, the samples and the device, not on "
+                  "timing (sums in fixed groups of 16 samples)");
+    sub->add_option("--checkpoint", args->checkpoint,
+                    "Save the accumulation to this file (atomically) and resume from it when "
+                    "it exists; implies --reproducible");
+    sub->add_option("--checkpoint-every", args->checkpoint_every,
+                    "Seconds between checkpoints (and one at the end)")
+        ->check(CLI::Range(0.0, 1e7))
         ->capture_default_str();
     sub->add_flag("-q,--quiet", args->quiet, "No progress bar");
     sub->add_flag("-v,--verbose", args->verbose, "Say what the build left out and why");

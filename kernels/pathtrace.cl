@@ -1,6 +1,6 @@
 // OpenCL entry point of the path tracer: one work-item per pixel of this dispatch's range,
 // which continues the pixel's path for at most bounce_budget bounces (step_slot), adds the
-// samples that ended to the accumulation buffer and keeps the path for the next dispatch.
+// samples that ended to the pixel's sums in the accumulation buffer and keeps the path for the next dispatch.
 // Everything else is the shared device code in common/gpu/ (the GLSL twin is
 // shaders/pathtrace.comp, with the same function names).
 #include "../common/gpu/integrator.h"
@@ -38,9 +38,10 @@ __kernel void pathtrace(__global const GpuParams* params, __global const uint* t
         st = unpack_state(p);
         if (st.samples_left == 0u) return;
     }
-    SlotStep r = step_slot(SCENE_ARGS_ st, pixel);
-    accum[sum] += r.add.sum;
-    accum[sum + 1u] += r.add.sum_sq;
+    PixelSums sums = {accum[sum], accum[sum + 1u]};
+    SlotStep r = step_slot(SCENE_ARGS_ st, pixel, sums);
+    accum[sum] = r.sums.sum;
+    accum[sum + 1u] = r.sums.sum_sq;
     // A pixel that still owes samples keeps its path, and the host dispatches again (the
     // pending word is a flag, not a count).
     if (r.st.samples_left > 0u) {

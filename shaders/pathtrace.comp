@@ -1,6 +1,6 @@
 // Vulkan entry point of the path tracer: one invocation per pixel of this dispatch's range,
 // which continues the pixel's path for at most bounce_budget bounces (step_slot), adds the
-// samples that ended to the accumulation buffer and keeps the path for the next dispatch.
+// samples that ended to the pixel's sums in the accumulation buffer and keeps the path for the next dispatch.
 // Everything else is the shared device code in common/gpu/ (the OpenCL twin is
 // kernels/pathtrace.cl, with the same function names).
 #version 450
@@ -36,9 +36,10 @@ void main() {
         st = unpack_state(p);
         if (st.samples_left == 0u) return;
     }
-    SlotStep r = step_slot(st, pixel);
-    accum[sum] += r.add.sum;
-    accum[sum + 1u] += r.add.sum_sq;
+    PixelSums sums = PixelSums(accum[sum], accum[sum + 1u]);
+    SlotStep r = step_slot(st, pixel, sums);
+    accum[sum] = r.sums.sum;
+    accum[sum + 1u] = r.sums.sum_sq;
     // A pixel that still owes samples keeps its path, and the host dispatches again (the
     // pending word is a flag, not a count).
     if (r.st.samples_left > 0u) {

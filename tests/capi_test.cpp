@@ -308,6 +308,58 @@ TEST(CApi, ReproducibleAcrossBudgets) {
     }
 }
 
+// A reproducible render saved at 40 spp (the checkpoint holds the 32 of two whole groups) and
+// resumed in a new session to 80 spp equals the render that ran 80 spp at once, bit for bit;
+// a checkpoint for another seed is refused with a message naming it, and changes nothing.
+TEST(CApi, CheckpointResumesBitForBit) {
+    for (const std::string& api : mcpt::test::test_apis()) {
+        const std::string path = ::testing::TempDir() + "capi_checkpoint_" + api + ".bin";
+        auto open = [&](Session& s, uint32_t seed) {
+            ASSERT_EQ(mcpt_session_load_builtin(s.s, "cornell"), MCPT_OK);
+            ASSERT_EQ(mcpt_session_set_size(s.s, 16, 12), MCPT_OK);
+            ASSERT_EQ(mcpt_session_set_reproducible(s.s, 1), MCPT_OK);
+            ASSERT_EQ(mcpt_session_set_seed(s.s, seed), MCPT_OK);
+        };
+        auto render_to = [&](Session& s, uint64_t spp) {
+            mcpt_render_stats st{};
+            do {
+                ASSERT_EQ(mcpt_session_render(s.s, 5, 0, spp, &st), MCPT_OK) << s.error();
+            } while (st.spp < spp);
+        };
+        std::vector<float> whole, resumed;
+        {
+            Session s(spec_of(api));
+            open(s, 3);
+            render_to(s, 80);
+            whole = rgba32f(s.s);
+        }
+        {
+            Session s(spec_of(api));
+            open(s, 3);
+            render_to(s, 40);
+            ASSERT_EQ(mcpt_session_save_checkpoint(s.s, path.c_str()), MCPT_OK) << s.error();
+        }
+        {
+            Session s(spec_of(api));
+            open(s, 4);
+            EXPECT_EQ(mcpt_session_resume_checkpoint(s.s, path.c_str()), MCPT_ERROR_IO);
+            EXPECT_NE(s.error().find("seed 3 (now 4)"), std::string::npos) << s.error();
+            mcpt_render_stats st{};
+            ASSERT_EQ(mcpt_session_render(s.s, 0, 0, 1, &st), MCPT_OK);
+            EXPECT_EQ(st.spp, 1u) << "a refused checkpoint was mixed in";
+        }
+        {
+            Session s(spec_of(api));
+            open(s, 3);
+            ASSERT_EQ(mcpt_session_resume_checkpoint(s.s, path.c_str()), MCPT_OK) << s.error();
+            render_to(s, 80);
+            resumed = rgba32f(s.s);
+        }
+        EXPECT_TRUE(whole == resumed) << api << ": the resumed render differs";
+        std::remove(path.c_str());
+    }
+}
+
 // A target error stops the render; the error reported is the image's.
 TEST(CApi, StopsAtTargetError) {
     Session s(spec_of("opencl"));

@@ -19,8 +19,17 @@ std::unique_ptr<Backend> test_backend(const std::string& api, BackendOptions opt
 }
 
 CliRun run_mcpt(const std::string& args, const std::string& env) {
-    const std::string cmd =
-        (env.empty() ? "" : "env " + env + " ") + std::string(MCPT_BINARY) + " " + args + " 2>&1";
+    return run_command((env.empty() ? "" : "env " + env + " ") + std::string(MCPT_BINARY) + " " +
+                       args);
+}
+
+CliRun run_mcpt_killed_after(double seconds, const std::string& args) {
+    return run_command("timeout -s KILL " + std::to_string(seconds) + " " +
+                       std::string(MCPT_BINARY) + " " + args);
+}
+
+CliRun run_command(const std::string& command) {
+    const std::string cmd = command + " 2>&1";
     CliRun r;
     FILE* pipe = popen(cmd.c_str(), "r");
     if (!pipe) return r;

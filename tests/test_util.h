@@ -49,6 +49,10 @@ struct CliRun {
     std::string output;
 };
 CliRun run_mcpt(const std::string& args, const std::string& env = "");
+// The same, killed with SIGKILL after `seconds` if still running (status 137 then).
+CliRun run_mcpt_killed_after(double seconds, const std::string& args);
+// A shell command (stderr into stdout).
+CliRun run_command(const std::string& command);
 
 // Mean radiance over all pixels, channels and samples, with its standard error (samples are
 // independent across pixels, so the pooled variance applies).

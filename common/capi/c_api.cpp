@@ -469,4 +469,22 @@ mcpt_status mcpt_session_write_image(mcpt_session s, const char* path) {
     });
 }
 
+mcpt_status mcpt_session_save_checkpoint(mcpt_session s, const char* path) {
+    return with_session(s, MCPT_ERROR_IO, [&](Session& session) {
+        require(path != nullptr && *path, "path is NULL or empty");
+        require_image(session);
+        session.save_checkpoint(path);
+        return MCPT_OK;
+    });
+}
+
+mcpt_status mcpt_session_resume_checkpoint(mcpt_session s, const char* path) {
+    return with_session(s, MCPT_ERROR_IO, [&](Session& session) {
+        require(path != nullptr && *path, "path is NULL or empty");
+        require_scene(session);
+        session.resume_checkpoint(path);
+        return MCPT_OK;
+    });
+}
+
 }  // extern "C"

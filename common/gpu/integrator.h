@@ -338,19 +338,20 @@ MCPT_STRUCT(PixelSums) {
     vec4 sum_sq; // rgb: sum of squares; w: number of rays traced
 };
 
-// What one dispatch did for one pixel's slot: the path state to keep, the sums to add.
+// What one dispatch did for one pixel's slot: the path state to keep, the pixel's new sums.
 MCPT_STRUCT(SlotStep) {
     PathState st;
-    PixelSums add;
+    PixelSums sums;
 };
 
 // One dispatch's work for the slot of `pixel`: continues its path within the bounce budget;
-// each path that ends adds its sample (non-finite ones counted, never added) and starts the
-// pixel's next sample while the pixel owes samples.
-MCPT_FN SlotStep step_slot(SCENE_PARAMS_ PathState st, uint pixel) {
+// each path that ends adds its sample to the pixel's sums (non-finite ones counted, never
+// added) and starts the pixel's next sample while the pixel owes samples. Samples are added
+// one by one in sample order onto the sums so far, so the float sums do not depend on how the
+// samples were split into dispatches (the reproducible mode relies on it).
+MCPT_FN SlotStep step_slot(SCENE_PARAMS_ PathState st, uint pixel, PixelSums sums) {
     SlotStep step;
-    step.add.sum = V4S(0.0f);
-    step.add.sum_sq = V4S(0.0f);
+    step.sums = sums;
     uint budget = PARAM(bounce_budget);
     while (st.samples_left > 0u && budget > 0u) {
         st = advance_path(SCENE_ARGS_ st, pixel, budget);
@@ -360,12 +361,12 @@ MCPT_FN SlotStep step_slot(SCENE_PARAMS_ PathState st, uint pixel) {
         // Tests: poison every 4th sample of pixel 0 (NaN) and of pixel 1 (+Inf).
         if (HAS_FEATURE(FEATURE_TEST_NAN) && pixel <= 1u && (st.sample_index & 3u) == 0u)
             l.x = pixel == 0u ? quiet_nan() : uint_as_float(0x7f800000u);
-        step.add.sum_sq.w += F32(st.rays);
+        step.sums.sum_sq.w += F32(st.rays);
         if (is_nonfinite3(l)) {
-            step.add.sum.w += 1.0f;
+            step.sums.sum.w += 1.0f;
         } else {
-            step.add.sum = step.add.sum + V4(l.x, l.y, l.z, 0.0f);
-            step.add.sum_sq = step.add.sum_sq + V4(l.x * l.x, l.y * l.y, l.z * l.z, 0.0f);
+            step.sums.sum = step.sums.sum + V4(l.x, l.y, l.z, 0.0f);
+            step.sums.sum_sq = step.sums.sum_sq + V4(l.x * l.x, l.y * l.y, l.z * l.z, 0.0f);
         }
         // The pixel's next sample, if it owes one.
         uint left = st.samples_left - 1u;

@@ -1,5 +1,6 @@
 #include "common/io/atomic_file.h"
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -31,10 +32,23 @@ void write_atomically(const std::string& path,
         std::remove(tmp.c_str());
         throw;
     }
+    // On disk before it takes the name (a power cut then leaves the old file or the new one),
+    // and the rename itself on disk after.
+    const auto sync = [](const std::string& file) {
+        const int fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
+        const bool ok = fd >= 0 && ::fsync(fd) == 0;
+        if (fd >= 0) ::close(fd);
+        return ok;
+    };
+    if (!sync(tmp)) {
+        std::remove(tmp.c_str());
+        throw Error("cannot write '" + path + "': the data did not reach the disk (fsync)");
+    }
     if (std::rename(tmp.c_str(), path.c_str()) != 0) {
         std::remove(tmp.c_str());
         throw Error("cannot write '" + path + "': renaming the finished temporary file failed");
     }
+    sync(p.parent_path().empty() ? "." : p.parent_path().string());
 }
 
 void write_text_atomically(const std::string& path, const std::string& text) {

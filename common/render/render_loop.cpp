@@ -89,7 +89,8 @@ ProgressiveRender::ProgressiveRender(Backend& backend, const GpuScene& scene, co
     npix_ = uint32_t(opt.width) * uint32_t(opt.height);
     // The host accumulators, checked against the memory available before allocating (at
     // most half of it: the process and the system need the rest).
-    const uint64_t need = uint64_t(npix_) * host_bytes_per_pixel();
+    const uint64_t need =
+        uint64_t(npix_) * (host_bytes_per_pixel() + (opt.group_spp > 0 ? 7 * sizeof(double) : 0));
     const uint64_t available = host_memory_available();
     if (need > available / 2) {
         throw OutOfMemory("image too large for this host: " + std::to_string(opt.width) + "x" +
@@ -113,6 +114,10 @@ ProgressiveRender::ProgressiveRender(Backend& backend, const GpuScene& scene, co
     windowed_ = layout.window;
     p_.accum_window = windowed_ ? 1u : 0u;
     if (windowed_) device_sums_.resize(size_t(npix_) * 8);
+    if (opt.group_spp > 0) {
+        group_ = std::min(opt.group_spp, opt.flush_spp);
+        settled_ = r_;
+    }
     // Work per dispatch (pixel-samples), adapted to the measured rate.
     work_ = std::min<double>(npix_, 4096);
 }
@@ -121,17 +126,33 @@ void ProgressiveRender::flush() {
     if (unflushed_ == 0) return;
     // A windowed buffer's sums were read back tile by tile during the pass.
     if (!windowed_) backend_.read_accum(device_sums_, 0);
+    // Reproducible, inside a group: the device keeps adding to its sums; show them on top of
+    // the sums settled at the last group end.
+    const bool group_end = group_ == 0 || unflushed_ >= group_;
+    if (group_ > 0 && !group_end) {
+        r_.sum = settled_.sum, r_.sum_sq = settled_.sum_sq, r_.nonfinite = settled_.nonfinite;
+        r_.rays = settled_.rays, r_.nonfinite_total = settled_.nonfinite_total;
+    }
+    RenderResult& add_to = group_ > 0 && group_end ? settled_ : r_;
     for (size_t i = 0; i < npix_; ++i) {
         const float* a = &device_sums_[8 * i];
         for (int c = 0; c < 3; ++c) {
-            r_.sum[3 * i + c] += a[c];
-            r_.sum_sq[3 * i + c] += a[4 + c];
+            add_to.sum[3 * i + c] += a[c];
+            add_to.sum_sq[3 * i + c] += a[4 + c];
         }
-        r_.nonfinite[i] += a[3];
-        r_.nonfinite_total += uint64_t(a[3]);
-        r_.rays += a[7];
+        add_to.nonfinite[i] += a[3];
+        add_to.nonfinite_total += uint64_t(a[3]);
+        add_to.rays += a[7];
     }
-    unflushed_ = 0;
+    if (group_end) {
+        if (group_ > 0) {
+            settled_.spp = r_.spp;
+            const double seconds = r_.seconds;
+            r_ = settled_;
+            r_.seconds = seconds;
+        }
+        unflushed_ = 0;
+    }
     flushed_ = true;
     flushed_at_ = std::chrono::steady_clock::now();
 }
@@ -142,7 +163,23 @@ double ProgressiveRender::seconds_since_flush() const {
 }
 
 void ProgressiveRender::discard_unflushed() {
-    r_.spp -= unflushed_;
+    if (group_ > 0) {
+        const double seconds = r_.seconds;
+        r_ = settled_;
+        r_.seconds = seconds;
+    } else {
+        r_.spp -= unflushed_;
+    }
+    unflushed_ = 0;
+}
+
+void ProgressiveRender::restore(const RenderResult& saved) {
+    if (saved.width != r_.width || saved.height != r_.height)
+        throw Error("saved sums are " + std::to_string(saved.width) + "x" +
+                    std::to_string(saved.height) + ", the image is " + std::to_string(r_.width) +
+                    "x" + std::to_string(r_.height));
+    r_ = saved;
+    if (group_ > 0) settled_ = saved;
     unflushed_ = 0;
 }
 
@@ -153,8 +190,18 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
     // A windowed buffer is read back whole every pass: passes of about a second amortize that
     // (the tiles stay sized to the dispatch target; paths continue across dispatches).
     const double work = windowed_ ? work_ * 1e3 / opt_.dispatch_ms : work_;
-    uint32_t spp =
-        uint32_t(std::clamp(std::floor(work / npix_), 1.0, double(opt_.flush_spp - unflushed_)));
+    // At most up to the next flush (reproducible: the next group end).
+    const uint32_t until_flush = (group_ > 0 ? group_ : opt_.flush_spp) - unflushed_;
+    uint32_t spp = uint32_t(std::clamp(std::floor(work / npix_), 1.0, double(until_flush)));
+    if (windowed_ && group_ > 0) {
+        // Reproducible through a window, whose sums restart every pass: a pass renders a whole
+        // group (or up to max_spp), and a group that max_spp cut short is rendered again
+        // whole, from its first sample, by the next pass.
+        max_spp = max_spp == UINT64_MAX ? max_spp : max_spp + unflushed_;
+        r_.spp -= unflushed_;
+        unflushed_ = 0;
+        spp = group_;
+    }
     spp = uint32_t(std::max<uint64_t>(1, std::min<uint64_t>(spp, max_spp)));
     const uint32_t slots = slots_;
     uint32_t tile = uint32_t(std::clamp(work_ / spp, 64.0, double(std::min(npix_, slots))));
@@ -206,7 +253,7 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
     // not dispatches: counting them would shrink the tiles they are amortized over).
     const double rate = double(spp) * npix_ / std::max(dispatch_s, 1e-6);
     work_ = std::clamp(rate * opt_.dispatch_ms * 1e-3, 64.0, 64.0 * npix_);
-    if (unflushed_ >= opt_.flush_spp || windowed_) flush();
+    if (unflushed_ >= (group_ > 0 ? group_ : opt_.flush_spp) || windowed_) flush();
     return spp;
 }
 

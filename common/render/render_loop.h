@@ -22,6 +22,13 @@ struct RenderOptions {
     float light_scale = 1.f;   // negative controls only
     double dispatch_ms = 30;   // target duration of one dispatch
     uint32_t flush_spp = 128;  // device float sums hold at most this many samples per pixel
+    // > 0: reproducible: samples reach the double sums only in groups that end at multiples
+    // of group_spp samples (1 when the sums are windowed), and the device adds each sample to
+    // its float sums in sample order, so the image depends only on the seed and the sample
+    // count, not on how passes and dispatches were timed. A flush() between group ends shows
+    // the group so far on top of a copy of the sums (the image stays current; twice the host
+    // memory). 0: every flush() moves the device sums into the double sums.
+    uint32_t group_spp = 0;
     // Optional early stop, asked after every flush; when set, every pass is flushed.
     std::function<bool(const RenderResult&)> stop_when;
 };
@@ -67,8 +74,15 @@ class ProgressiveRender {
     // Seconds since a flush last added samples; HUGE_VAL before the first.
     double seconds_since_flush() const;
     // Forgets the samples not yet flushed (the device stopped: its sums are gone), so
-    // result() holds exactly the samples flushed before.
+    // result() holds exactly the samples flushed before (reproducible: before the last group
+    // end).
     void discard_unflushed();
+    // The sums as a checkpoint keeps them: everything flushed (reproducible: up to the last
+    // group end, so that a resumed render adds the same groups). Flush first otherwise.
+    const RenderResult& settled() const { return opt_.group_spp > 0 ? settled_ : r_; }
+    // Continues from sums a checkpoint kept (their size must be the image's): the next sample
+    // is saved.spp.
+    void restore(const RenderResult& saved);
     // Seconds the last pass took, and the longest and the median dispatch so far.
     double last_pass_seconds() const { return last_pass_s_; }
     double longest_dispatch_seconds() const { return longest_dispatch_s_; }
@@ -83,6 +97,8 @@ class ProgressiveRender {
     RenderOptions opt_;
     gpu::GpuParams p_{};
     RenderResult r_;
+    RenderResult settled_;  // reproducible: the sums up to the last group end
+    uint32_t group_ = 0;    // reproducible: samples per group (0: not reproducible)
     uint32_t npix_ = 0, unflushed_ = 0;
     double work_ = 0, last_pass_s_ = 0, longest_dispatch_s_ = 0;
     uint64_t longest_at_ = 0;

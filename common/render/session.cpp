@@ -1,10 +1,14 @@
 #include "common/render/session.h"
 
+#include <mcpt/mcpt.h>
+
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 
 #include "common/error.h"
 #include "common/io/image_io.h"
+#include "common/render/checkpoint.h"
 #include "common/render/device_registry.h"
 #include "common/render/prepare.h"
 #include "common/scene/scene_load.h"
@@ -12,6 +16,26 @@
 namespace mcpt {
 
 namespace {
+// Everything a checkpoint must match to continue this session's image.
+Fingerprint fingerprint(const Session& session) {
+    const SessionSettings& s = session.settings();
+    char hash[32];
+    std::snprintf(hash, sizeof hash, "%016llx", (unsigned long long)scene_hash(session.scene()));
+    char scale[32];
+    std::snprintf(scale, sizeof scale, "%.9g", double(s.light_scale));
+    return {{"mcpt", MCPT_VERSION_STRING},
+            {"scene", session.scene().name + " " + hash},
+            {"width", std::to_string(s.width)},
+            {"height", std::to_string(s.height)},
+            {"max_depth", std::to_string(session.max_depth())},
+            {"seed", std::to_string(s.seed)},
+            {"tree", s.tree + " " + std::to_string(s.tree_depth)},
+            {"specialize", s.specialize ? "on" : "off"},
+            {"reproducible", s.reproducible ? "on" : "off"},
+            {"light_scale", scale},
+            {"device", session.device().backend + ": " + session.device().name}};
+}
+
 bool same(const SessionSettings& a, const SessionSettings& b) {
     return a.width == b.width && a.height == b.height && a.max_depth == b.max_depth &&
            a.tree == b.tree && a.tree_depth == b.tree_depth && a.seed == b.seed &&
@@ -63,7 +87,7 @@ void Session::commit() {
     ro.seed = s.seed;
     ro.light_scale = s.light_scale;
     ro.dispatch_ms = s.dispatch_ms;
-    if (s.reproducible) ro.flush_spp = 1;
+    if (s.reproducible) ro.group_spp = kReproducibleGroupSpp;
     progressive_ = std::make_unique<ProgressiveRender>(*backend_, prepared_, scene_.camera, ro);
     committed_settings_ = s;
     dirty_ = false;
@@ -158,6 +182,21 @@ void Session::write_image(const std::string& path) const {
     const RenderResult& r = result();
     if (r.spp == 0) throw Error("nothing rendered yet: no image to write");
     mcpt::write_image(path, r.width, r.height, r.mean_image());
+}
+
+void Session::save_checkpoint(const std::string& path) {
+    if (!progressive_ || result().spp == 0) throw Error("nothing rendered yet: no checkpoint");
+    if (!settings_.reproducible) progressive_->flush();
+    RenderResult settled = progressive_->settled();  // with the render time of every call
+    settled.seconds = result().seconds;
+    write_checkpoint(path, fingerprint(*this), settled);
+}
+
+void Session::resume_checkpoint(const std::string& path) {
+    if (!has_scene_) throw Error("no scene loaded");
+    if (!lost_.empty()) throw DeviceLost("the device stopped earlier (" + lost_ + ")");
+    if (dirty_ || !same(settings_, committed_settings_)) commit();
+    progressive_->restore(read_checkpoint(path, fingerprint(*this)));
 }
 
 }  // namespace mcpt

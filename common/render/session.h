@@ -18,6 +18,8 @@
 
 namespace mcpt {
 
+constexpr uint32_t kReproducibleGroupSpp = 16;
+
 struct SessionSettings {
     int width = 256, height = 256;
     int max_depth = -1;         // bounces; -1: the scene's default (default_max_depth)
@@ -25,8 +27,9 @@ struct SessionSettings {
     int tree_depth = -1;        // tree depth limit; -1: the kind's default
     uint32_t seed = 0;
     bool specialize = true;  // compile only the features the scene uses
-    // Every sample added to the double sums on its own, so the image depends only on the seed
-    // and the sample count, not on how passes were timed (slower: one read-back per sample).
+    // Samples reach the double sums in fixed groups (kReproducibleGroupSpp, by sample index),
+    // so the image depends only on the seed, the sample count and the device, not on how
+    // passes were timed: checkpoints resume bit for bit (render_loop.h, group_spp).
     bool reproducible = false;
     double dispatch_ms = 30;  // target duration of one dispatch
     float light_scale = 1.f;  // negative controls only
@@ -96,6 +99,14 @@ class Session {
     std::vector<float> image_rgba32f() const;
     std::vector<uint8_t> image_rgba8() const;
     void write_image(const std::string& path) const;
+    // Writes the accumulation (sums, squared sums, invalid counts, the sample index reached)
+    // with the scene's and the settings' fingerprint to `path`, atomically (checkpoint.h). In
+    // reproducible mode it holds the samples up to the last group end. Throws mcpt::Error.
+    void save_checkpoint(const std::string& path);
+    // Continues the accumulation a checkpoint holds (commits first if needed): the next
+    // render() adds to it. Throws mcpt::Error naming what differs (version, scene, an option,
+    // the device) or that the file is truncated or corrupted; the session is then unchanged.
+    void resume_checkpoint(const std::string& path);
 
   private:
     std::unique_ptr<Backend> backend_;

@@ -151,8 +151,10 @@ MCPT_API mcpt_status mcpt_session_set_tree(mcpt_session session, const char* kin
 MCPT_API mcpt_status mcpt_session_set_seed(mcpt_session session, uint32_t seed);
 /* 1 (default): compile only the features the scene uses; 0: the full kernel. */
 MCPT_API mcpt_status mcpt_session_set_specialize(mcpt_session session, int on);
-/* 1: every sample is added to the double-precision sums on its own, so the image depends only
- * on the seed and the sample count, not on how passes were timed (slower). Default 0. */
+/* 1: samples reach the double-precision sums in fixed groups of 16 (by sample index), each
+ * added on the device in sample order, so the image depends only on the seed, the sample count
+ * and the device, not on how passes were timed; a checkpoint then resumes bit for bit (twice
+ * the host memory). Default 0. */
 MCPT_API mcpt_status mcpt_session_set_reproducible(mcpt_session session, int on);
 
 /* Prepares and compiles the scene for the device now instead of in the next render. */
@@ -199,6 +201,18 @@ MCPT_API mcpt_status mcpt_session_read_rgba8(mcpt_session session, uint8_t* pixe
                                              size_t capacity);
 /* Writes .exr (linear float) or .png (8-bit sRGB), by the path's extension. */
 MCPT_API mcpt_status mcpt_session_write_image(mcpt_session session, const char* path);
+
+/* ---- 9. Checkpoints */
+
+/* Writes the accumulation (sums, sample count) with a fingerprint of the version, the scene,
+ * the settings and the device to `path`, atomically (a crash never leaves a partial file).
+ * With mcpt_session_set_reproducible(1), a render resumed from it equals the uninterrupted
+ * one bit for bit; it then holds the samples up to the last group of 16. */
+MCPT_API mcpt_status mcpt_session_save_checkpoint(mcpt_session session, const char* path);
+/* Continues from a checkpoint (after the scene and settings are set as when it was saved):
+ * the next render adds to it. MCPT_ERROR_IO with a message naming what differs (version,
+ * scene, an option, the device) or that the file is truncated or corrupted. */
+MCPT_API mcpt_status mcpt_session_resume_checkpoint(mcpt_session session, const char* path);
 
 #ifdef __cplusplus
 }

@@ -1,0 +1,172 @@
+#include "common/render/checkpoint.h"
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "common/error.h"
+#include "common/io/atomic_file.h"
+
+namespace mcpt {
+
+namespace {
+
+constexpr char kMagic[8] = {'M', 'C', 'P', 'T', 'C', 'K', 'P', 'T'};
+constexpr uint32_t kFormat = 1;
+constexpr uint64_t kFnvBasis = 0xcbf29ce484222325ull, kFnvPrime = 0x100000001b3ull;
+
+uint64_t fnv1a(const void* data, size_t size, uint64_t h = kFnvBasis) {
+    const unsigned char* p = static_cast<const unsigned char*>(data);
+    for (size_t i = 0; i < size; ++i) h = (h ^ p[i]) * kFnvPrime;
+    return h;
+}
+
+// Appends plain values and arrays to a byte string, and reads them back in order.
+struct Writer {
+    std::string bytes;
+    template <typename T>
+    void put(const T& v) {
+        bytes.append(reinterpret_cast<const char*>(&v), sizeof v);
+    }
+    void put(const std::vector<double>& v) {
+        bytes.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
+    }
+};
+
+struct Reader {
+    const std::string& bytes;
+    size_t at = 0;
+    bool take(void* out, size_t n) {
+        if (bytes.size() - at < n) return false;
+        std::memcpy(out, bytes.data() + at, n);
+        at += n;
+        return true;
+    }
+};
+
+std::string encode(const Fingerprint& f) {
+    std::string text;
+    for (const auto& [key, value] : f) text += key + "=" + value + "\n";
+    return text;
+}
+
+Fingerprint decode(const std::string& text) {
+    Fingerprint f;
+    std::istringstream lines(text);
+    for (std::string line; std::getline(lines, line);) {
+        const size_t eq = line.find('=');
+        if (eq == std::string::npos) continue;
+        f.emplace_back(line.substr(0, eq), line.substr(eq + 1));
+    }
+    return f;
+}
+
+// How a saved value differs from the current one, in words.
+std::string difference(const std::string& key, const std::string& saved, const std::string& now) {
+    if (key == "mcpt") return "written by mcpt " + saved + ", this is mcpt " + now;
+    if (key == "scene") return "written for another scene (" + saved + "; now " + now + ")";
+    if (key == "device") return "rendered on " + saved + ", this session is on " + now;
+    return "written with other options: " + key + " " + saved + " (now " + now + ")";
+}
+
+}  // namespace
+
+uint64_t scene_hash(const Scene& s) {
+    uint64_t h = kFnvBasis;
+    for (const Triangle& t : s.triangles) h = fnv1a(&t, sizeof t, h);
+    for (const Sphere& sp : s.spheres) h = fnv1a(&sp, sizeof sp, h);
+    for (const Material& m : s.materials) {
+        h = fnv1a(&m.type, sizeof m.type, h);
+        h = fnv1a(&m.color, sizeof m.color, h);
+        h = fnv1a(&m.emission, sizeof m.emission, h);
+        h = fnv1a(&m.ior, sizeof m.ior, h);
+    }
+    h = fnv1a(&s.camera, sizeof s.camera, h);
+    h = fnv1a(&s.has_camera, sizeof s.has_camera, h);
+    return fnv1a(&s.max_depth_hint, sizeof s.max_depth_hint, h);
+}
+
+void write_checkpoint(const std::string& path, const Fingerprint& fingerprint,
+                      const RenderResult& r) {
+    // Magic, format, fingerprint, scalars, arrays, then the checksum of all before it.
+    Writer w;
+    w.bytes.append(kMagic, sizeof kMagic);
+    w.put(kFormat);
+    const std::string text = encode(fingerprint);
+    w.put(uint32_t(text.size()));
+    w.bytes += text;
+    w.put(uint32_t(r.width)), w.put(uint32_t(r.height));
+    w.put(uint64_t(r.spp)), w.put(uint64_t(r.nonfinite_total));
+    w.put(r.rays), w.put(r.seconds);
+    w.put(r.sum), w.put(r.sum_sq), w.put(r.nonfinite);
+    w.put(fnv1a(w.bytes.data(), w.bytes.size()));
+    write_atomically(path, [&](const std::string& tmp) {
+        std::ofstream f(tmp, std::ios::binary);
+        f.write(w.bytes.data(), std::streamsize(w.bytes.size()));
+        f.flush();
+        if (!f) throw Error("cannot write checkpoint '" + path + "'");
+    });
+}
+
+RenderResult read_checkpoint(const std::string& path, const Fingerprint& expected) {
+    const auto fail = [&](const std::string& why) {
+        return Error("checkpoint '" + path + "' refused: " + why);
+    };
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec)) throw fail("not a regular file");
+    const uint64_t size = std::filesystem::file_size(path, ec);
+    if (ec) throw fail("cannot read its size");
+    // Sums of at most 16384 x 16384 pixels (7 doubles each) and a fingerprint.
+    if (size > uint64_t(16384) * 16384 * 56 + (1u << 20)) throw fail("larger than any checkpoint");
+    std::string bytes(size, '\0');
+    {
+        std::ifstream f(path, std::ios::binary);
+        if (!f.read(bytes.data(), std::streamsize(size))) throw fail("cannot read it");
+    }
+    Reader in{bytes};
+    char magic[8];
+    uint32_t format = 0, text_size = 0;
+    if (!in.take(magic, 8) || std::memcmp(magic, kMagic, 8) != 0)
+        throw fail("not an mcpt checkpoint");
+    if (!in.take(&format, 4) || !in.take(&text_size, 4) || bytes.size() - in.at < text_size)
+        throw fail("truncated");
+    if (format != kFormat)
+        throw fail("format " + std::to_string(format) + ", this mcpt reads format " +
+                   std::to_string(kFormat));
+    const Fingerprint saved = decode(bytes.substr(in.at, text_size));
+    in.at += text_size;
+    // What it was written for, key by key (the version first).
+    for (size_t i = 0; i < expected.size(); ++i) {
+        const auto& [key, now] = expected[i];
+        std::string was = "(missing)";
+        for (const auto& [k, v] : saved)
+            if (k == key) was = v;
+        if (was != now) throw fail(difference(key, was, now));
+    }
+    // The sums: sizes from the header, then the checksum over everything before it.
+    uint32_t width = 0, height = 0;
+    uint64_t spp = 0, nonfinite_total = 0;
+    RenderResult r;
+    if (!in.take(&width, 4) || !in.take(&height, 4) || !in.take(&spp, 8) ||
+        !in.take(&nonfinite_total, 8) || !in.take(&r.rays, 8) || !in.take(&r.seconds, 8))
+        throw fail("truncated");
+    if (width == 0 || height == 0 || width > 16384 || height > 16384)
+        throw fail("corrupted (image size " + std::to_string(width) + "x" + std::to_string(height) +
+                   ")");
+    const uint64_t n = uint64_t(width) * height;
+    if (bytes.size() - in.at != 7 * n * sizeof(double) + 8) throw fail("truncated");
+    r.width = int(width), r.height = int(height), r.spp = spp;
+    r.nonfinite_total = nonfinite_total;
+    r.sum.resize(3 * n), r.sum_sq.resize(3 * n), r.nonfinite.resize(n);
+    in.take(r.sum.data(), 3 * n * sizeof(double));
+    in.take(r.sum_sq.data(), 3 * n * sizeof(double));
+    in.take(r.nonfinite.data(), n * sizeof(double));
+    uint64_t checksum = 0;
+    in.take(&checksum, 8);
+    if (checksum != fnv1a(bytes.data(), bytes.size() - 8))
+        throw fail("corrupted (checksum mismatch)");
+    return r;
+}
+
+}  // namespace mcpt

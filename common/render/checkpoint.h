@@ -1,0 +1,31 @@
+// Checkpoints: a session's accumulation on disk, to resume a render stopped by a kill, a
+// device loss or a power cut. A file holds a fingerprint (mcpt version, scene content hash,
+// every setting that changes the image, the device) as "key=value" lines, the sums, and a
+// checksum; a checkpoint that does not match is refused, naming what differs.
+#pragma once
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "common/render/render_loop.h"
+#include "common/scene/scene.h"
+
+namespace mcpt {
+
+using Fingerprint = std::vector<std::pair<std::string, std::string>>;
+
+// 64-bit FNV-1a of everything in the scene that reaches the image: geometry, materials,
+// camera, bounce hint.
+uint64_t scene_hash(const Scene& scene);
+
+// Writes `sums` (spp, sums, squares, invalid counts, rays, seconds) with `fingerprint` to
+// `path`, atomically and synced to disk. Throws mcpt::Error.
+void write_checkpoint(const std::string& path, const Fingerprint& fingerprint,
+                      const RenderResult& sums);
+
+// Reads a checkpoint written for `expected` (same keys, same values, same order); throws
+// mcpt::Error naming the path and the first difference: "written by mcpt 0.1.0, this is
+// 0.2.0", "for another scene", "width 256 (now 512)", or "truncated" / "corrupted".
+RenderResult read_checkpoint(const std::string& path, const Fingerprint& expected);
+
+}  // namespace mcpt

@@ -1,0 +1,156 @@
+// Checkpoint and resume through `mcpt render --checkpoint`: a render killed with SIGKILL at
+// random moments, several times, or stopped by a lost device, then run again to the end,
+// writes the very file the uninterrupted render writes (bit for bit); a checkpoint from
+// another scene, other options, another version, or a truncated or corrupted one is refused
+// with a message saying which, and left as it was.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <random>
+#include <string>
+
+#include "test_util.h"
+
+namespace mcpt {
+namespace {
+
+namespace fs = std::filesystem;
+using test::run_mcpt;
+
+std::string read_file(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+void write_file(const fs::path& p, const std::string& bytes) {
+    std::ofstream(p, std::ios::binary) << bytes;
+}
+
+fs::path temp(const std::string& name) {
+    const fs::path dir = fs::path(::testing::TempDir()) / "mcpt_checkpoint_test";
+    fs::create_directories(dir);
+    return dir / name;
+}
+
+std::string device_args(const std::string& api) {
+    if (api == "opencl") return "--backend opencl --device " + test::test_opencl_device();
+    const char* e = std::getenv("MCPT_TEST_VULKAN_DEVICE");
+    return std::string("--backend vulkan") + (e ? " --device " + std::string(e) : "");
+}
+
+// The render every test resumes: about 1 s of samples on PoCL or lavapipe.
+std::string render_args(const std::string& api, const std::string& scene = "cornell",
+                        int seed = 11) {
+    return "render " + scene + " " + device_args(api) +
+           " --width 96 --height 72 --spp 192 -q --seed " + std::to_string(seed);
+}
+
+// The uninterrupted render's file.
+std::string uninterrupted(const std::string& api) {
+    const fs::path out = temp("whole_" + api + ".exr");
+    const test::CliRun r = run_mcpt(render_args(api) + " --reproducible -o " + out.string());
+    EXPECT_EQ(r.status, 0) << r.output;
+    return read_file(out);
+}
+
+TEST(Checkpoint, KilledAtRandomMomentsResumesBitForBit) {
+    for (const std::string& api : test::test_apis()) {
+        const std::string whole = uninterrupted(api);
+        const fs::path ckpt = temp("killed_" + api + ".ckpt"), out = temp("killed_" + api + ".exr");
+        fs::remove(ckpt), fs::remove(out);
+        const std::string args = render_args(api) + " --checkpoint " + ckpt.string() +
+                                 " --checkpoint-every 0.05 -o " + out.string();
+        // Killed three times at random moments (seeded), each run resuming the last one.
+        std::mt19937 rng(1234);
+        int killed = 0;
+        uint64_t resumed_at = 0;
+        for (int run = 0; run < 8 && killed < 3; ++run) {
+            const double after = std::uniform_real_distribution<double>(0.4, 1.2)(rng);
+            const test::CliRun r = test::run_mcpt_killed_after(after, args);
+            if (r.status == 137) {
+                ++killed;
+                continue;
+            }
+            ASSERT_EQ(r.status, 0) << r.output;
+            break;
+        }
+        EXPECT_GE(killed, 1) << api << ": no run was killed: the test proves nothing";
+        // The last run resumes from what the kills left, and completes.
+        const test::CliRun last = run_mcpt(args + " -v");
+        ASSERT_EQ(last.status, 0) << last.output;
+        const size_t at = last.output.find("resumed from ");
+        if (at != std::string::npos)
+            resumed_at = std::stoull(last.output.substr(last.output.find(" at ", at) + 4));
+        EXPECT_GT(resumed_at, 0u) << api << ": nothing was saved before the kills\n" << last.output;
+        EXPECT_TRUE(read_file(out) == whole) << api << ": the resumed render differs";
+        // Negative control: a render that is not reproducible differs in its bits.
+        const fs::path other = temp("timed_" + api + ".exr");
+        ASSERT_EQ(run_mcpt(render_args(api) + " -o " + other.string()).status, 0);
+        EXPECT_FALSE(read_file(other) == whole) << api << ": the comparison cannot fail";
+    }
+}
+
+TEST(Checkpoint, DeviceLostThenResumedBitForBit) {
+    for (const std::string& api : test::test_apis()) {
+        const std::string whole = uninterrupted(api);
+        const fs::path ckpt = temp("lost_" + api + ".ckpt"), out = temp("lost_" + api + ".exr");
+        fs::remove(ckpt), fs::remove(out);
+        const std::string args =
+            render_args(api) + " --checkpoint " + ckpt.string() + " -o " + out.string();
+        // Lost after 20 of about 40 dispatches: a group or more is saved.
+        const test::CliRun lost = run_mcpt(args, "MCPT_LOSE_DEVICE_AFTER=20");
+        ASSERT_NE(lost.status, 0) << lost.output;
+        ASSERT_TRUE(fs::exists(ckpt)) << lost.output;
+        const test::CliRun again = run_mcpt(args);
+        ASSERT_EQ(again.status, 0) << again.output;
+        EXPECT_NE(again.output.find("resumed from"), std::string::npos) << again.output;
+        EXPECT_TRUE(read_file(out) == whole) << api;
+    }
+}
+
+TEST(Checkpoint, MismatchesAreRefusedAndLeftAlone) {
+    const std::string api = "opencl";
+    const fs::path ckpt = temp("refuse.ckpt"), out = temp("refuse.exr");
+    fs::remove(ckpt);
+    ASSERT_EQ(run_mcpt(render_args(api) + " --checkpoint " + ckpt.string() + " -o " + out.string())
+                  .status,
+              0);
+    const std::string saved = read_file(ckpt);
+    const auto refused = [&](const std::string& args, const std::string& expected) {
+        const test::CliRun r =
+            run_mcpt(args + " --checkpoint " + ckpt.string() + " -o " + out.string());
+        EXPECT_NE(r.status, 0) << args << "\n" << r.output;
+        EXPECT_NE(r.output.find(expected), std::string::npos) << args << "\n" << r.output;
+    };
+    refused(render_args(api, "furnace"), "written for another scene");
+    refused(render_args(api, "cornell", 12), "written with other options: seed 11 (now 12)");
+    refused(render_args(api) + " --max-depth 3", "max_depth 8 (now 3)");
+    refused(render_args(api) + " --specialize off", "specialize on (now off)");
+    EXPECT_TRUE(read_file(ckpt) == saved) << "a refused checkpoint was overwritten";
+    // Another version (the fingerprint's first line), a cut file, a flipped bit.
+    std::string version = saved;
+    const size_t v = version.find("mcpt=");
+    ASSERT_NE(v, std::string::npos);
+    version.replace(v + 5, 3, "9.9");
+    write_file(ckpt, version);
+    refused(render_args(api), "written by mcpt 9.9");
+    write_file(ckpt, saved.substr(0, saved.size() / 2));
+    refused(render_args(api), "truncated");
+    std::string flipped = saved;
+    flipped[flipped.size() - 100] ^= 0x10;
+    write_file(ckpt, flipped);
+    refused(render_args(api), "corrupted (checksum mismatch)");
+    write_file(ckpt, "not a checkpoint");
+    refused(render_args(api), "not an mcpt checkpoint");
+    // The intact file still resumes.
+    write_file(ckpt, saved);
+    const test::CliRun ok =
+        run_mcpt(render_args(api) + " --checkpoint " + ckpt.string() + " -o " + out.string());
+    EXPECT_EQ(ok.status, 0) << ok.output;
+    EXPECT_NE(ok.output.find("resumed from"), std::string::npos) << ok.output;
+}
+
+}  // namespace
+}  // namespace mcpt
