@@ -1,6 +1,7 @@
 // mcpt: Monte Carlo path tracer with a k-d tree, on OpenCL (and Vulkan).
 #include <CLI/CLI.hpp>
 #include <iostream>
+#include <new>
 
 #include "app/commands.h"
 
@@ -22,6 +23,10 @@ int main(int argc, char** argv) {
     } catch (const CLI::ParseError& e) {
         // CLI11's message; bad options are bad input: exit status 1 (--help: 0).
         return app.exit(e) == 0 ? 0 : 1;
+    } catch (const std::bad_alloc&) {
+        // A size no check foresaw: say what ran out, still exit cleanly.
+        std::cerr << "mcpt: error: out of host memory (an allocation failed)\n";
+        return 1;
     } catch (const std::exception& e) {
         std::cerr << "mcpt: error: " << e.what() << "\n";
         return 1;

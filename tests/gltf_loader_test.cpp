@@ -470,6 +470,34 @@ TEST(GltfLoader, GlbChunkRunningPastTheDataIsRefused) {
         << load_error(path.string());
 }
 
+// Nodes instancing one mesh multiply its triangles: counted from the accessors before any is
+// expanded, and refused with the count and the memory it needs (it allocated 8.8 GB for a 2 MB
+// file instancing 100k triangles 1000 times, then threw std::bad_alloc).
+TEST(GltfLoader, InstancedTrianglesBeyondTheBudgetAreRefused) {
+    const auto file = [&](int instances) {
+        json d = quad_gltf(json::object(), 0).finished();  // not indexed
+        for (json& a : d["accessors"])
+            if (a["type"] == "VEC3") a["count"] = 3 << 20;  // claimed: refused before it is read
+        d["nodes"] = json::array();
+        d["scenes"][0]["nodes"] = json::array();
+        for (int k = 0; k < instances; ++k) {
+            d["nodes"].push_back({{"mesh", 0}, {"translation", {0, 0, k}}});
+            d["scenes"][0]["nodes"].push_back(k);
+        }
+        const fs::path path = temp_dir() / ("instanced_" + std::to_string(instances) + ".gltf");
+        write_file(path, d.dump());
+        return load_error(path.string());
+    };
+    const std::string e = file(300);  // 3.1e8 triangles: over 2^28 on any host
+    EXPECT_NE(e.find("scene too large: 314572800 triangles in 300 mesh instances need about"),
+              std::string::npos)
+        << e;
+    // Negative control: 2 instances pass the count and fail on the data they claim.
+    const std::string small = file(2);
+    EXPECT_EQ(small.find("scene too large"), std::string::npos) << small;
+    EXPECT_NE(small, "") << "the claimed accessor was read";
+}
+
 TEST(GltfLoader, DeepJsonNestingIsRefused) {
     std::string json = quad_gltf().finished().dump();
     const std::string deep = std::string(100000, '[') + std::string(100000, ']');

@@ -6,17 +6,6 @@
 
 namespace mcpt {
 
-std::string human_bytes(uint64_t b) {
-    std::ostringstream o;
-    if (b >= (1ull << 30))
-        o << double(b) / double(1ull << 30) << " GiB";
-    else if (b >= (1ull << 20))
-        o << double(b) / double(1ull << 20) << " MiB";
-    else
-        o << b << " B";
-    return o.str();
-}
-
 std::vector<std::pair<std::string, uint64_t>> device_buffers(const GpuScene& scene, int width,
                                                              int height,
                                                              uint64_t max_buffer_bytes) {

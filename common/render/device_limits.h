@@ -7,13 +7,11 @@
 #include <utility>
 #include <vector>
 
+#include "common/io/host_memory.h"
 #include "common/render/backend.h"
 #include "common/render/gpu_scene.h"
 
 namespace mcpt {
-
-// "1.5 GiB", "12 MiB", "256 B".
-std::string human_bytes(uint64_t bytes);
 
 // The device buffers of a scene rendered at width x height on a device whose largest buffer
 // is max_buffer_bytes (0 = unknown; the path state fits itself in), named as messages name

@@ -69,20 +69,6 @@ uint64_t host_bytes_per_pixel() {
     return 7 * sizeof(double) + 8 * sizeof(float);
 }
 
-uint64_t host_memory_available() {
-    // MemAvailable (Linux, Android), else the physical memory.
-    if (FILE* f = std::fopen("/proc/meminfo", "r")) {
-        char line[256];
-        unsigned long long kib = 0;
-        while (std::fgets(line, sizeof line, f))
-            if (std::sscanf(line, "MemAvailable: %llu kB", &kib) == 1) break;
-        std::fclose(f);
-        if (kib > 0) return uint64_t(kib) * 1024;
-    }
-    const long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGE_SIZE);
-    return pages > 0 && size > 0 ? uint64_t(pages) * uint64_t(size) : UINT64_MAX;
-}
-
 ProgressiveRender::ProgressiveRender(Backend& backend, const GpuScene& scene, const Camera& camera,
                                      const RenderOptions& opt)
     : backend_(backend), opt_(opt) {

@@ -6,6 +6,7 @@
 #include <functional>
 #include <vector>
 
+#include "common/io/host_memory.h"
 #include "common/render/backend.h"
 
 namespace mcpt {
@@ -112,10 +113,9 @@ class ProgressiveRender {
     std::vector<float> window_sums_;
 };
 
-// Host memory the accumulators of one pixel take, and the memory available (MemAvailable, or
-// the physical memory): ProgressiveRender refuses an image that needs more than half of it.
+// Host memory the accumulators of one pixel take: ProgressiveRender refuses an image that
+// needs more than half of host_memory_available() (common/io/host_memory.h).
 uint64_t host_bytes_per_pixel();
-uint64_t host_memory_available();
 
 using ProgressFn = std::function<void(double fraction, const RenderResult& so_far)>;
 

@@ -45,6 +45,7 @@
 #include <utility>
 
 #include "common/error.h"
+#include "common/io/host_memory.h"
 
 namespace mcpt {
 namespace {
@@ -277,6 +278,7 @@ class GltfLoader {
     void convert_materials();
     std::vector<int> root_nodes();
     void traverse(const std::vector<int>& roots);
+    void check_triangle_budget(const std::vector<int>& roots) const;
     glm::dmat4 local_transform(const tg::Node& node, int index);
     void take_camera(int camera, const glm::dmat4& world);
     void add_mesh(int mesh, const glm::dmat4& world);
@@ -308,7 +310,9 @@ Scene GltfLoader::load() {
         // Whole-file checks and warnings, then materials, then the node hierarchy.
         check_features();
         convert_materials();
-        traverse(root_nodes());
+        const std::vector<int> roots = root_nodes();
+        check_triangle_budget(roots);
+        traverse(roots);
     } catch (const Error&) {
         throw;
     } catch (const std::exception& e) {
@@ -525,6 +529,49 @@ std::vector<int> GltfLoader::root_nodes() {
 }
 
 // Depth-first, pre-order walk with an explicit stack; each node may appear once.
+// Nodes may instance one mesh many times: a 2 MB file can hold 10^8 triangles. Count them
+// (from the accessors' counts) before expanding any, and refuse a scene that would not fit.
+void GltfLoader::check_triangle_budget(const std::vector<int>& roots) const {
+    uint64_t triangles = 0, instances = 0;
+    std::vector<char> seen(model_.nodes.size(), 0);
+    std::vector<int> stack(roots.rbegin(), roots.rend());
+    while (!stack.empty()) {
+        const int index = stack.back();
+        stack.pop_back();
+        if (index < 0 || size_t(index) >= model_.nodes.size() || seen[size_t(index)]) continue;
+        seen[size_t(index)] = 1;  // traverse() reports bad and repeated nodes
+        const tg::Node& node = model_.nodes[size_t(index)];
+        if (node.mesh >= 0 && size_t(node.mesh) < model_.meshes.size()) {
+            ++instances;
+            for (const tg::Primitive& prim : model_.meshes[size_t(node.mesh)].primitives) {
+                if (prim.mode != TINYGLTF_MODE_TRIANGLES && prim.mode != -1) continue;
+                const auto pos = prim.attributes.find("POSITION");
+                const int corners = prim.indices >= 0              ? prim.indices
+                                    : pos != prim.attributes.end() ? pos->second
+                                                                   : -1;
+                if (corners >= 0 && size_t(corners) < model_.accessors.size())
+                    triangles += model_.accessors[size_t(corners)].count / 3;
+            }
+        }
+        stack.insert(stack.end(), node.children.rbegin(), node.children.rend());
+    }
+    // Host memory per triangle while loading, validating, packing and building the tree (the
+    // file, scene and device copies, SAH references and events): 485 B on the 871k dragon
+    // (peak RSS 508 MB against 86 MB for the Cornell box).
+    constexpr uint64_t kHostBytesPerTriangle = 512;
+    constexpr uint64_t kMaxTriangles = uint64_t(1) << 28;  // 10 GiB on a device: beyond any
+    const uint64_t available = host_memory_available();
+    const uint64_t need = triangles * kHostBytesPerTriangle;
+    if (triangles > kMaxTriangles || need > available / 2)
+        fail("scene too large: " + std::to_string(triangles) + " triangles in " +
+             std::to_string(instances) + " mesh instances need about " + human_bytes(need) +
+             " of host memory to load and build (" + std::to_string(kHostBytesPerTriangle) +
+             " B each); " + human_bytes(available) + " available, at most half is used" +
+             (triangles > kMaxTriangles
+                  ? "; and more than " + std::to_string(kMaxTriangles) + " triangles"
+                  : ""));
+}
+
 void GltfLoader::traverse(const std::vector<int>& roots) {
     std::vector<char> seen(model_.nodes.size(), 0);
     std::vector<std::pair<int, glm::dmat4>> stack;
