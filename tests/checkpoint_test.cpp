@@ -1,4 +1,5 @@
-// Checkpoint and resume through `mcpt render --checkpoint`: a render killed with SIGKILL at
+// Checkpoint and resume through `mcpt render --checkpoint`, and two renders on one device at
+// once: a render killed with SIGKILL at
 // random moments, several times, or stopped by a lost device, then run again to the end,
 // writes the very file the uninterrupted render writes (bit for bit); a checkpoint from
 // another scene, other options, another version, or a truncated or corrupted one is refused
@@ -20,8 +21,7 @@ namespace fs = std::filesystem;
 using test::run_mcpt;
 
 std::string read_file(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+    return test::read_file(p.string());
 }
 
 void write_file(const fs::path& p, const std::string& bytes) {
@@ -34,16 +34,10 @@ fs::path temp(const std::string& name) {
     return dir / name;
 }
 
-std::string device_args(const std::string& api) {
-    if (api == "opencl") return "--backend opencl --device " + test::test_opencl_device();
-    const char* e = std::getenv("MCPT_TEST_VULKAN_DEVICE");
-    return std::string("--backend vulkan") + (e ? " --device " + std::string(e) : "");
-}
-
 // The render every test resumes: about 1 s of samples on PoCL or lavapipe.
 std::string render_args(const std::string& api, const std::string& scene = "cornell",
                         int seed = 11) {
-    return "render " + scene + " " + device_args(api) +
+    return "render " + scene + " " + test::device_args(api) +
            " --width 96 --height 72 --spp 192 -q --seed " + std::to_string(seed);
 }
 
@@ -150,6 +144,31 @@ TEST(Checkpoint, MismatchesAreRefusedAndLeftAlone) {
         run_mcpt(render_args(api) + " --checkpoint " + ckpt.string() + " -o " + out.string());
     EXPECT_EQ(ok.status, 0) << ok.output;
     EXPECT_NE(ok.output.find("resumed from"), std::string::npos) << ok.output;
+}
+
+// Two `mcpt render` processes on one device at the same time both finish, each with the
+// image it gives alone (reproducible mode: bit for bit).
+TEST(Concurrency, TwoRendersOnOneDeviceAtOnce) {
+    for (const std::string& api : test::test_apis()) {
+        std::string alone[2], args[2];
+        const fs::path together[2] = {temp("together0_" + api + ".exr"),
+                                      temp("together1_" + api + ".exr")};
+        for (int k = 0; k < 2; ++k) {
+            args[k] = render_args(api, k == 0 ? "cornell" : "spheres", 20 + k) + " --reproducible";
+            const fs::path out = temp("alone" + std::to_string(k) + "_" + api + ".exr");
+            ASSERT_EQ(run_mcpt(args[k] + " -o " + out.string()).status, 0);
+            alone[k] = read_file(out);
+        }
+        const std::string bin = MCPT_BINARY;
+        const test::CliRun both = test::run_command(
+            bin + " " + args[0] + " -o " + together[0].string() + " & a=$!; " + bin + " " +
+            args[1] + " -o " + together[1].string() + " & b=$!; wait $a && wait $b");
+        ASSERT_EQ(both.status, 0) << both.output;
+        for (int k = 0; k < 2; ++k)
+            EXPECT_TRUE(read_file(together[k]) == alone[k])
+                << api << ": render " << k << " differs";
+        EXPECT_FALSE(alone[0] == alone[1]);
+    }
 }
 
 }  // namespace

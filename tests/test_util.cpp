@@ -4,6 +4,8 @@
 
 #include <array>
 #include <cstdio>
+#include <fstream>
+#include <iterator>
 
 #include "common/render/device_registry.h"
 
@@ -38,6 +40,17 @@ CliRun run_command(const std::string& command) {
     const int st = pclose(pipe);
     r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
     return r;
+}
+
+std::string device_args(const std::string& api) {
+    if (api == "opencl") return "--backend opencl --device " + test_opencl_device();
+    const char* e = std::getenv("MCPT_TEST_VULKAN_DEVICE");
+    return std::string("--backend vulkan") + (e ? " --device " + std::string(e) : "");
+}
+
+std::string read_file(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
 }  // namespace mcpt::test

@@ -53,6 +53,10 @@ CliRun run_mcpt(const std::string& args, const std::string& env = "");
 CliRun run_mcpt_killed_after(double seconds, const std::string& args);
 // A shell command (stderr into stdout).
 CliRun run_command(const std::string& command);
+// The command line's options for the test device of `api` ("--backend opencl --device 0").
+std::string device_args(const std::string& api);
+// A file's bytes ("" if it cannot be read).
+std::string read_file(const std::string& path);
 
 // Mean radiance over all pixels, channels and samples, with its standard error (samples are
 // independent across pixels, so the pooled variance applies).
