@@ -51,6 +51,7 @@ constexpr int kMaxTreeDepth = 63;     // stack_size() stays within the device de
 constexpr size_t kHandOffMin = 4096;  // a child this large becomes another worker's job
 constexpr size_t kMinEntryLimit = size_t(1) << 24;  // runaway guard on nodes + references:
 constexpr size_t kEntriesPerTriangle = 64;          // max(2^24, 64 N)
+constexpr int kMaxEmptyCuts = 12;  // consecutive empty-space cuts on a path, at most
 constexpr size_t kExactMax = 16;   // nodes with at most this many references sweep exactly
 constexpr int kBins = 64;          // bins per axis for larger nodes, at most
 constexpr int kMinBins = 8;        // ... and at least
@@ -429,16 +430,22 @@ float key_float(uint32_t k) {
 }
 
 // pbrt-v3 SAH cost of splitting `box` at `pos` on `axis` with nb/na references below/above.
+// Areas in units of `scale` (a power of two, 1 unless a node's area overflows float: beyond
+// extents of about 1e19, where an infinite area made every split look free and the tree
+// split down to its depth limit, hundreds of thousands of references per triangle).
 struct SahCost {
     const TreeOptions& opt;
     const Box& box;
     float inv_total_sa;
     float d[3];
+    float scale = 1.f;
     float operator()(int axis, float pos, size_t nb, size_t na) const {
         const int o0 = (axis + 1) % 3, o1 = (axis + 2) % 3;
         const float face = d[o0] * d[o1], rim = d[o0] + d[o1];
-        const float p_below = 2.f * (face + (pos - box.lo[axis]) * rim) * inv_total_sa;
-        const float p_above = 2.f * (face + (box.hi[axis] - pos) * rim) * inv_total_sa;
+        const float below = pos * scale - box.lo[axis] * scale;
+        const float above = box.hi[axis] * scale - pos * scale;
+        const float p_below = 2.f * (face + below * rim) * inv_total_sa;
+        const float p_above = 2.f * (face + above * rim) * inv_total_sa;
         const float bonus = (nb == 0 || na == 0) ? opt.empty_bonus : 0.f;
         return opt.traversal_cost +
                opt.isect_cost * (1.f - bonus) * (p_below * float(nb) + p_above * float(na));
@@ -449,8 +456,9 @@ struct Candidate {
     int axis = -1;
     float pos = 0.f;
     float cost = std::numeric_limits<float>::infinity();
-    void offer(int a, float p, float c) {
-        if (c < cost) axis = a, pos = p, cost = c;
+    size_t below = 0, above = 0;  // references on each side
+    void offer(int a, float p, float c, size_t nb, size_t na) {
+        if (c < cost) axis = a, pos = p, cost = c, below = nb, above = na;
     }
     void offer(const Candidate& c) {
         if (c.cost < cost) *this = c;
@@ -486,7 +494,8 @@ void sweep(std::vector<uint64_t>& events, int a, size_t below, size_t above, con
         above -= ends + planar;
         const float pos = key_float(uint32_t(key));
         if (pos > sah.box.lo[a] && pos < sah.box.hi[a]) {
-            best.offer(a, pos, sah(a, pos, below + planar, above + planar));
+            best.offer(a, pos, sah(a, pos, below + planar, above + planar), below + planar,
+                       above + planar);
         }
         below += starts + planar;
     }
@@ -546,7 +555,7 @@ void binned_search(const Ref* refs, size_t n, const Box& refs_union, const SahCo
             if (!(pos > box.lo[a] && pos < box.hi[a])) continue;
             const float cost = sah(a, pos, below, n - ended);
             if (cost < axis_best.cost) best_bin[a] = i;
-            axis_best.offer(a, pos, cost);
+            axis_best.offer(a, pos, cost, below, n - ended);
         }
         best.offer(axis_best);
     }
@@ -606,10 +615,16 @@ class SahRule : public SplitRule {
         }
         // Node surface area; a node flat in two axes cannot be split usefully.
         SahCost sah{opt_, box, 0.f, {}};
-        for (int a = 0; a < 3; ++a) sah.d[a] = box.hi[a] - box.lo[a];
-        const float total_sa =
-            2.f * (sah.d[0] * sah.d[1] + sah.d[1] * sah.d[2] + sah.d[2] * sah.d[0]);
-        if (!(total_sa > 0.f)) return leaf;
+        const auto area = [&] {
+            for (int a = 0; a < 3; ++a) sah.d[a] = box.hi[a] * sah.scale - box.lo[a] * sah.scale;
+            return 2.f * (sah.d[0] * sah.d[1] + sah.d[1] * sah.d[2] + sah.d[2] * sah.d[0]);
+        };
+        float total_sa = area();
+        if (total_sa == std::numeric_limits<float>::infinity()) {
+            sah.scale = 0x1p-70f;  // exact; extents (< 2^129) then square within float
+            total_sa = area();
+        }
+        if (!(total_sa > 0.f) || !std::isfinite(total_sa)) return leaf;
         sah.inv_total_sa = 1.f / total_sa;
         // Best split over the three axes.
         Candidate best;
@@ -620,10 +635,19 @@ class SahRule : public SplitRule {
         }
         // pbrt-v3 termination.
         const float leaf_cost = opt_.isect_cost * float(n);
-        if (best.cost > leaf_cost) ++bad_refines;
-        if ((best.cost > 4.f * leaf_cost && n < 16) || best.axis < 0 || bad_refines >= 3) {
+        // pbrt-v3 counts splits costlier than a leaf (bad refines) in the low byte; the bytes
+        // above count consecutive splits that keep every reference on one side (cuts of empty
+        // space): a handful bound an object, and more only follow float-extreme boxes (1e-40
+        // beside 1e38), where sliver after sliver looked cheap and multiplied the references
+        // by 10^5.
+        int bad = bad_refines & 255, cuts = bad_refines >> 8;
+        if (best.cost > leaf_cost) ++bad;
+        cuts = best.below == n || best.above == n ? cuts + 1 : 0;
+        if ((best.cost > 4.f * leaf_cost && n < 16) || best.axis < 0 || bad >= 3 ||
+            cuts > kMaxEmptyCuts) {
             return leaf;
         }
+        bad_refines = bad | cuts << 8;
         Split split;
         split.axis = best.axis;
         split.pos = best.pos;

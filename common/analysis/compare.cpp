@@ -4,8 +4,8 @@
 #include <cmath>
 #include <sstream>
 
-#include "common/error.h"
 #include "common/analysis/stats.h"
+#include "common/error.h"
 
 namespace mcpt {
 
@@ -48,7 +48,8 @@ std::string Agreement::verdict() const {
     o << (agree ? "AGREE" : "DIFFER") << ": min p " << min_p << " (Sidak level " << sidak_level
       << ", " << sidak_rejections << " pixels below), " << bh_discoveries
       << " BH discoveries, mean z " << mean_z_score << ", chi2 z " << chi2_score << " (limit "
-      << global_z_limit << "), detectable uniform bias " << 100 * detectable_bias << "%";
+      << global_z_limit << "), uniform bias detected with " << 100 * kDetectionPower
+      << "% power: " << 100 * detectable_bias << "%";
     return o.str();
 }
 
@@ -72,9 +73,9 @@ Agreement test_agreement(const BatchSet& a, const BatchSet& b, double alpha) {
         // Rounding variance split over the two sides: adds (tol * mean)^2 to the error^2.
         const double tol = kRoundingRel * std::max(std::abs(a.mean[i]), std::abs(b.mean[i]));
         const double sampling_se2 = a.var[i] / a.batches + b.var[i] / b.batches;
-        const stats::Welch w = stats::welch_test(
-            b.mean[i], b.var[i] + 0.5 * tol * tol * b.batches, b.batches, a.mean[i],
-            a.var[i] + 0.5 * tol * tol * a.batches, a.batches);
+        const stats::Welch w =
+            stats::welch_test(b.mean[i], b.var[i] + 0.5 * tol * tol * b.batches, b.batches,
+                              a.mean[i], a.var[i] + 0.5 * tol * tol * a.batches, a.batches);
         g.p_image[i] = float(w.p);
         g.z_image[i] = float(std::clamp(w.z, -1e30, 1e30));
         p_tested.push_back(w.p);
@@ -99,7 +100,11 @@ Agreement test_agreement(const BatchSet& a, const BatchSet& b, double alpha) {
         // Wilson-Hilferty: (X/m)^(1/3) is nearly normal for X ~ chi2(m).
         const double md = double(m), v = 2.0 / (9.0 * md);
         g.chi2_score = (std::cbrt(sum_z2 / md) - (1 - v)) / std::sqrt(v);
-        g.detectable_bias = signal > 0 ? g.global_z_limit * std::sqrt(md) / signal : INFINITY;
+        // A bias delta shifts the mean z by delta * signal / sqrt(m); the test fires when the
+        // shifted N(shift, 1) passes the limit: with kDetectionPower when the shift is the limit
+        // plus that power's quantile.
+        const double shift = g.global_z_limit + stats::normal_quantile(kDetectionPower);
+        g.detectable_bias = signal > 0 ? shift * std::sqrt(md) / signal : INFINITY;
     }
     g.mean_relative_diff = sum_a > 0 ? (sum_b - sum_a) / sum_a : 0;
     g.agree = g.sidak_rejections == 0 && std::abs(g.mean_z_score) < g.global_z_limit &&
