@@ -428,14 +428,16 @@ TEST(GltfLoader, GarbageAndTruncatedJson) {
     e = load_error(cut.string());
     EXPECT_NE(e.find("cut.gltf"), std::string::npos) << e;
 
-    const fs::path empty = temp_dir() / "empty.gltf";
-    write_file(empty, "");
-    EXPECT_NE(load_error(empty.string()).find("empty.gltf"), std::string::npos);
+    // Empty, as a .gltf and a .glb: said once, with the path once.
+    for (const char* name : {"empty.gltf", "empty.glb"}) {
+        const fs::path empty = temp_dir() / name;
+        write_file(empty, "");
+        e = load_error(empty.string());
+        EXPECT_NE(e.find("empty file (0 bytes)"), std::string::npos) << e;
+        EXPECT_EQ(e.find(name), e.rfind(name)) << "the path repeats: " << e;
+    }
 }
 
-// JSON nested tens of thousands deep (here in extras) is refused before the parser recurses
-// through it (it overflowed the stack: signal 11), from a .gltf, a .glb and memory; brackets
-// inside strings do not count, and a normal scene's nesting passes.
 // A .glb whose BIN chunk claims the bytes its own 8-byte header takes: tinygltf copied the
 // claimed length from past the end of the data (heap overflow; found by the glTF fuzz target,
 // tests/fuzz/regressions/gltf/glb_bin_chunk_overrun.glb). Refused from a file and from memory.
@@ -498,6 +500,9 @@ TEST(GltfLoader, InstancedTrianglesBeyondTheBudgetAreRefused) {
     EXPECT_NE(small, "") << "the claimed accessor was read";
 }
 
+// JSON nested tens of thousands deep (here in extras) is refused before the parser recurses
+// through it (it overflowed the stack: signal 11), from a .gltf, a .glb and memory; brackets
+// inside strings do not count, and a normal scene's nesting passes.
 TEST(GltfLoader, DeepJsonNestingIsRefused) {
     std::string json = quad_gltf().finished().dump();
     const std::string deep = std::string(100000, '[') + std::string(100000, ']');

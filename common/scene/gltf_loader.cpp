@@ -338,8 +338,10 @@ void GltfLoader::read_model() {
     // recurses through it).
     const uint64_t file_size = std::filesystem::file_size(path_, ec);
     if (ec) fail("cannot read file size");
+    if (file_size == 0) fail("empty file (0 bytes): not a glTF file");
     if (file_size > 0xffffffffu) fail("file larger than 4 GiB");
     std::vector<unsigned char> bytes(file_size);
+    in.clear();  // a file shorter than the magic ended the first read
     in.seekg(0);
     if (!in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(file_size)))
         fail("cannot read file");
