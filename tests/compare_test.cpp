@@ -55,7 +55,7 @@ Agreement compare(const Case& c, const std::string& a_defines = "", float b_ligh
 TEST(CompareBackends, CornellAgrees) {
     const Agreement g = compare(make_case(make_builtin_scene("cornell")));
     EXPECT_TRUE(g.agree) << g.verdict();
-    EXPECT_LT(g.detectable_bias, 0.01) << "the test must be able to see a 1% bias";
+    EXPECT_LT(g.detectable_bias, 0.015) << "the test must see a 1.5% bias with 90% power";
 }
 
 TEST(CompareBackends, FurnaceAgrees) {

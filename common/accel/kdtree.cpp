@@ -51,7 +51,6 @@ constexpr int kMaxTreeDepth = 63;     // stack_size() stays within the device de
 constexpr size_t kHandOffMin = 4096;  // a child this large becomes another worker's job
 constexpr size_t kMinEntryLimit = size_t(1) << 24;  // runaway guard on nodes + references:
 constexpr size_t kEntriesPerTriangle = 64;          // max(2^24, 64 N)
-constexpr int kMaxEmptyCuts = 12;  // consecutive empty-space cuts on a path, at most
 constexpr size_t kExactMax = 16;   // nodes with at most this many references sweep exactly
 constexpr int kBins = 64;          // bins per axis for larger nodes, at most
 constexpr int kMinBins = 8;        // ... and at least
@@ -431,8 +430,8 @@ float key_float(uint32_t k) {
 
 // pbrt-v3 SAH cost of splitting `box` at `pos` on `axis` with nb/na references below/above.
 // Areas in units of `scale` (a power of two, 1 unless a node's area overflows float: beyond
-// extents of about 1e19, where an infinite area made every split look free and the tree
-// split down to its depth limit, hundreds of thousands of references per triangle).
+// extents of about 1e19, where an infinite area priced every split at the traversal cost
+// alone).
 struct SahCost {
     const TreeOptions& opt;
     const Box& box;
@@ -456,9 +455,8 @@ struct Candidate {
     int axis = -1;
     float pos = 0.f;
     float cost = std::numeric_limits<float>::infinity();
-    size_t below = 0, above = 0;  // references on each side
-    void offer(int a, float p, float c, size_t nb, size_t na) {
-        if (c < cost) axis = a, pos = p, cost = c, below = nb, above = na;
+    void offer(int a, float p, float c) {
+        if (c < cost) axis = a, pos = p, cost = c;
     }
     void offer(const Candidate& c) {
         if (c.cost < cost) *this = c;
@@ -494,8 +492,7 @@ void sweep(std::vector<uint64_t>& events, int a, size_t below, size_t above, con
         above -= ends + planar;
         const float pos = key_float(uint32_t(key));
         if (pos > sah.box.lo[a] && pos < sah.box.hi[a]) {
-            best.offer(a, pos, sah(a, pos, below + planar, above + planar), below + planar,
-                       above + planar);
+            best.offer(a, pos, sah(a, pos, below + planar, above + planar));
         }
         below += starts + planar;
     }
@@ -555,7 +552,7 @@ void binned_search(const Ref* refs, size_t n, const Box& refs_union, const SahCo
             if (!(pos > box.lo[a] && pos < box.hi[a])) continue;
             const float cost = sah(a, pos, below, n - ended);
             if (cost < axis_best.cost) best_bin[a] = i;
-            axis_best.offer(a, pos, cost, below, n - ended);
+            axis_best.offer(a, pos, cost);
         }
         best.offer(axis_best);
     }
@@ -635,19 +632,10 @@ class SahRule : public SplitRule {
         }
         // pbrt-v3 termination.
         const float leaf_cost = opt_.isect_cost * float(n);
-        // pbrt-v3 counts splits costlier than a leaf (bad refines) in the low byte; the bytes
-        // above count consecutive splits that keep every reference on one side (cuts of empty
-        // space): a handful bound an object, and more only follow float-extreme boxes (1e-40
-        // beside 1e38), where sliver after sliver looked cheap and multiplied the references
-        // by 10^5.
-        int bad = bad_refines & 255, cuts = bad_refines >> 8;
-        if (best.cost > leaf_cost) ++bad;
-        cuts = best.below == n || best.above == n ? cuts + 1 : 0;
-        if ((best.cost > 4.f * leaf_cost && n < 16) || best.axis < 0 || bad >= 3 ||
-            cuts > kMaxEmptyCuts) {
+        if (best.cost > leaf_cost) ++bad_refines;
+        if ((best.cost > 4.f * leaf_cost && n < 16) || best.axis < 0 || bad_refines >= 3) {
             return leaf;
         }
-        bad_refines = bad | cuts << 8;
         Split split;
         split.axis = best.axis;
         split.pos = best.pos;
@@ -739,7 +727,16 @@ KdTree build_kdtree(const std::vector<Triangle>& triangles, const TreeOptions& o
     }
     KdTree tree;
     tree.kind = options.kind;
+    // A triangle with a NaN or infinite corner cannot be hit, and its bounds compare false
+    // against every plane (each split copied it to both sides: 10^5 references per triangle
+    // in fuzzing): only finite triangles enter the tree (scenes refuse the others earlier).
+    const auto finite = [](const Triangle& t) {
+        for (const glm::vec3& v : {t.v0, t.v1, t.v2})
+            if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) return false;
+        return true;
+    };
     for (const Triangle& t : triangles) {
+        if (!finite(t)) continue;
         tree.bounds.extend(t.v0), tree.bounds.extend(t.v1), tree.bounds.extend(t.v2);
     }
     const size_t n = triangles.size();
@@ -752,12 +749,12 @@ KdTree build_kdtree(const std::vector<Triangle>& triangles, const TreeOptions& o
         // References with the triangles' bounds, then the tree of the chosen kind.
         std::vector<Ref> refs;
         refs.reserve(2 * n);  // room for the duplicated references of the first branch
-        refs.resize(n);
         for (size_t i = 0; i < n; ++i) {
             const Triangle& t = triangles[i];
+            if (!finite(t)) continue;
             const glm::vec3 lo = glm::min(t.v0, glm::min(t.v1, t.v2));
             const glm::vec3 hi = glm::max(t.v0, glm::max(t.v1, t.v2));
-            refs[i] = {{lo.x, lo.y, lo.z}, {hi.x, hi.y, hi.z}, uint32_t(i)};
+            refs.push_back({{lo.x, lo.y, lo.z}, {hi.x, hi.y, hi.z}, uint32_t(i)});
         }
         const Box root{{tree.bounds.min.x, tree.bounds.min.y, tree.bounds.min.z},
                        {tree.bounds.max.x, tree.bounds.max.y, tree.bounds.max.z}};
