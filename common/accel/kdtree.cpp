@@ -109,7 +109,20 @@ uint32_t float_bits(float f) {
 // of the triangle's coordinates so rounding in the clipped vertices cannot shrink them;
 // false when nothing is left.
 bool clip_triangle(const Triangle& t, const Box& b, Box& out) {
-    glm::vec3 poly[2][9] = {{t.v0, t.v1, t.v2}};
+    // Exact arithmetic adds at most one vertex per plane (9 in all); rounded vertices can make
+    // the polygon cross a later plane more often, and extreme coordinates give non-finite
+    // ones: past 16 vertices or at a non-finite one, keep the triangle's bounds within the box
+    // (larger, never wrong; a stack overflow found by the glTF fuzz target).
+    constexpr int kMaxVertices = 16;
+    const auto unclipped = [&] {
+        for (int a = 0; a < 3; ++a) {
+            out.lo[a] = std::max(b.lo[a], std::min({t.v0[a], t.v1[a], t.v2[a]}));
+            out.hi[a] = std::min(b.hi[a], std::max({t.v0[a], t.v1[a], t.v2[a]}));
+            if (!(out.lo[a] <= out.hi[a])) return false;
+        }
+        return true;
+    };
+    glm::vec3 poly[2][kMaxVertices] = {{t.v0, t.v1, t.v2}};
     int n = 3, cur = 0;
     for (int a = 0; a < 3; ++a) {
         for (int side = 0; side < 2; ++side) {
@@ -128,10 +141,13 @@ bool clip_triangle(const Triangle& t, const Box& b, Box& out) {
                 const glm::vec3& p = poly[cur][i];
                 const glm::vec3& q = poly[cur][(i + 1) % n];
                 const bool p_in = inside(p), q_in = inside(q);
+                if (m + 2 > kMaxVertices) return unclipped();
                 if (p_in) poly[next][m++] = p;
                 if (p_in != q_in) {
                     glm::vec3 v = p + (q - p) * ((plane - p[a]) / (q[a] - p[a]));
                     v[a] = plane;
+                    if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
+                        return unclipped();
                     poly[next][m++] = v;
                 }
             }
