@@ -217,3 +217,15 @@ JNI_FN(nativeWriteImage)(JNIEnv* env, jclass, jlong s, jstring path)->void {
     if (open(env, s) && utf8(env, path, p))
         check(env, s, mcpt_session_write_image(handle(s), p.c_str()));
 }
+
+JNI_FN(nativeSaveCheckpoint)(JNIEnv* env, jclass, jlong s, jstring path)->void {
+    std::string p;
+    if (open(env, s) && utf8(env, path, p))
+        check(env, s, mcpt_session_save_checkpoint(handle(s), p.c_str()));
+}
+
+JNI_FN(nativeResumeCheckpoint)(JNIEnv* env, jclass, jlong s, jstring path)->void {
+    std::string p;
+    if (open(env, s) && utf8(env, path, p))
+        check(env, s, mcpt_session_resume_checkpoint(handle(s), p.c_str()));
+}

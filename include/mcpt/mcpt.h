@@ -66,7 +66,7 @@ typedef enum mcpt_status {
     MCPT_ERROR_SCENE = -4,            /* a scene that cannot be read or rendered */
     MCPT_ERROR_DEVICE = -5,           /* no such device, a driver failure, a scene or image
                                          beyond the device's limits */
-    MCPT_ERROR_IO = -6,               /* a file that cannot be written */
+    MCPT_ERROR_IO = -6,               /* a file that cannot be written, or a checkpoint refused */
     MCPT_ERROR_OUT_OF_MEMORY = -7,
     MCPT_ERROR_INTERNAL = -8,
     MCPT_ERROR_DEVICE_LOST = -9 /* the device stopped mid-render (a driver reset, a watchdog,

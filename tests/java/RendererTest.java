@@ -35,6 +35,15 @@ public final class RendererTest {
         }
     }
 
+    static Renderer reproducible(String device, int seed) {
+        Renderer r = new Renderer(device);
+        r.loadBuiltin("cornell");
+        r.setSize(16, 12);
+        r.setSeed(seed);
+        r.setReproducible(true);
+        return r;
+    }
+
     public static void main(String[] args) throws Exception {
         String device = args[0];
         check(!Renderer.version().isEmpty(), "version " + Renderer.version());
@@ -60,6 +69,31 @@ public final class RendererTest {
             check(r.readRgba32f().length == 4 * 32 * 32, "float image");
             Files.write(Paths.get(args[1]), rgba);
         }
+
+        // A checkpoint saved at 40 spp and resumed in another Renderer to 80 spp equals 80 spp
+        // at once; one for another seed is refused.
+        String ckpt = args[1] + ".ckpt";
+        float[] whole, resumed;
+        try (Renderer r = reproducible(device, 5)) {
+            r.render(1e6, 0, 80);
+            whole = r.readRgba32f();
+        }
+        try (Renderer r = reproducible(device, 5)) {
+            r.render(1e6, 0, 40);
+            r.saveCheckpoint(ckpt);
+        }
+        try (Renderer r = reproducible(device, 6)) {
+            expectError("checkpoint of another seed", -6, "seed 5 (now 6)",
+                        () -> r.resumeCheckpoint(ckpt));
+        }
+        try (Renderer r = reproducible(device, 5)) {
+            r.resumeCheckpoint(ckpt);
+            RenderStats st = r.render(1e6, 0, 80);
+            check(st.spp == 80, "resumed to " + st.spp + " spp");
+            resumed = r.readRgba32f();
+        }
+        check(Arrays.equals(whole, resumed), "resumed render equals the uninterrupted one");
+        Files.deleteIfExists(Paths.get(ckpt));
 
         // Misuse: every case raises, the JVM lives on.
         try (Renderer r = new Renderer(device)) {

@@ -97,6 +97,19 @@ public final class Renderer implements AutoCloseable {
     /** .exr (linear) or .png (sRGB), by extension. */
     public void writeImage(String path) { nativeWriteImage(session, path); }
 
+    /**
+     * Saves the accumulation with a fingerprint of the version, scene, settings and device,
+     * atomically (e.g. in onPause). With setReproducible(true) a render resumed from it equals
+     * the uninterrupted one bit for bit.
+     */
+    public void saveCheckpoint(String path) { nativeSaveCheckpoint(session, path); }
+
+    /**
+     * Continues from a checkpoint, after the scene and settings are set as when it was saved;
+     * throws RendererException naming what differs, or that the file is truncated or corrupted.
+     */
+    public void resumeCheckpoint(String path) { nativeResumeCheckpoint(session, path); }
+
     /** Cancels a running render, waits for it and frees the device. Closing twice is allowed. */
     @Override
     public void close() {
@@ -124,5 +137,7 @@ public final class Renderer implements AutoCloseable {
     private static native void nativeReadRgba8(long s, ByteBuffer direct);
     private static native void nativeReadRgba8Array(long s, byte[] out);
     private static native void nativeReadRgba32f(long s, float[] out);
+    private static native void nativeSaveCheckpoint(long s, String path);
+    private static native void nativeResumeCheckpoint(long s, String path);
     private static native void nativeWriteImage(long s, String path);
 }
