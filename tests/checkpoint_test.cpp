@@ -6,6 +6,8 @@
 // with a message saying which, and left as it was.
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -41,66 +43,92 @@ std::string render_args(const std::string& api, const std::string& scene = "corn
            " --width 96 --height 72 --spp 192 -q --seed " + std::to_string(seed);
 }
 
-// The uninterrupted render's file.
-std::string uninterrupted(const std::string& api) {
+// The uninterrupted render's file, its wall time and its number of dispatches (what the
+// interruptions below are scaled to, so that they fall mid-render on any machine).
+struct Whole {
+    std::string file;
+    double seconds = 0;
+    int dispatches = 0;
+};
+
+Whole uninterrupted(const std::string& api) {
     const fs::path out = temp("whole_" + api + ".exr");
-    const test::CliRun r = run_mcpt(render_args(api) + " --reproducible -o " + out.string());
+    const auto start = std::chrono::steady_clock::now();
+    const test::CliRun r = run_mcpt(render_args(api) + " --reproducible -v -o " + out.string());
+    Whole w;
+    w.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     EXPECT_EQ(r.status, 0) << r.output;
-    return read_file(out);
+    const size_t at = r.output.find("dispatches: ");
+    if (at != std::string::npos) w.dispatches = std::stoi(r.output.substr(at + 12));
+    w.file = read_file(out);
+    return w;
+}
+
+// The sample count a run resumed from ("resumed from PATH at N spp"; 0 if it did not).
+uint64_t resumed_at(const std::string& output) {
+    const size_t at = output.find("resumed from ");
+    return at == std::string::npos ? 0 : std::stoull(output.substr(output.find(" at ", at) + 4));
 }
 
 TEST(Checkpoint, KilledAtRandomMomentsResumesBitForBit) {
     for (const std::string& api : test::test_apis()) {
-        const std::string whole = uninterrupted(api);
+        const Whole whole = uninterrupted(api);
         const fs::path ckpt = temp("killed_" + api + ".ckpt"), out = temp("killed_" + api + ".exr");
         fs::remove(ckpt), fs::remove(out);
         const std::string args = render_args(api) + " --checkpoint " + ckpt.string() +
                                  " --checkpoint-every 0.05 -o " + out.string();
-        // Killed three times at random moments (seeded), each run resuming the last one.
+        // Killed at random moments (seeded) between 20% and 50% of the uninterrupted run's
+        // time, each run resuming the last one, until three kills fell after a checkpoint
+        // existed (a later run may finish first: then it is the last).
         std::mt19937 rng(1234);
-        int killed = 0;
-        uint64_t resumed_at = 0;
-        for (int run = 0; run < 8 && killed < 3; ++run) {
-            const double after = std::uniform_real_distribution<double>(0.4, 1.2)(rng);
-            const test::CliRun r = test::run_mcpt_killed_after(after, args);
+        int killed = 0, killed_after_a_checkpoint = 0;
+        test::CliRun done;  // the run that completed
+        for (int run = 0; run < 10 && done.status != 0; ++run) {
+            const double after =
+                whole.seconds * std::uniform_real_distribution<double>(0.2, 0.5)(rng);
+            const bool had_checkpoint = fs::exists(ckpt);
+            const test::CliRun r = killed_after_a_checkpoint < 3
+                                       ? test::run_mcpt_killed_after(after, args)
+                                       : run_mcpt(args);
             if (r.status == 137) {
                 ++killed;
+                killed_after_a_checkpoint += had_checkpoint || fs::exists(ckpt);
                 continue;
             }
             ASSERT_EQ(r.status, 0) << r.output;
-            break;
+            done = r;
         }
-        EXPECT_GE(killed, 1) << api << ": no run was killed: the test proves nothing";
-        // The last run resumes from what the kills left, and completes.
-        const test::CliRun last = run_mcpt(args + " -v");
-        ASSERT_EQ(last.status, 0) << last.output;
-        const size_t at = last.output.find("resumed from ");
-        if (at != std::string::npos)
-            resumed_at = std::stoull(last.output.substr(last.output.find(" at ", at) + 4));
-        EXPECT_GT(resumed_at, 0u) << api << ": nothing was saved before the kills\n" << last.output;
-        EXPECT_TRUE(read_file(out) == whole) << api << ": the resumed render differs";
+        ASSERT_EQ(done.status, 0) << api << ": no run completed";
+        EXPECT_GE(killed_after_a_checkpoint, 1) << api << ": no kill fell after a checkpoint";
+        std::printf("%s: killed %d times (%d after a checkpoint), completed from %llu spp\n",
+                    api.c_str(), killed, killed_after_a_checkpoint,
+                    (unsigned long long)resumed_at(done.output));
+        EXPECT_GT(resumed_at(done.output), 0u) << api << ": nothing was saved\n" << done.output;
+        EXPECT_TRUE(read_file(out) == whole.file) << api << ": the resumed render differs";
         // Negative control: a render that is not reproducible differs in its bits.
         const fs::path other = temp("timed_" + api + ".exr");
         ASSERT_EQ(run_mcpt(render_args(api) + " -o " + other.string()).status, 0);
-        EXPECT_FALSE(read_file(other) == whole) << api << ": the comparison cannot fail";
+        EXPECT_FALSE(read_file(other) == whole.file) << api << ": the comparison cannot fail";
     }
 }
 
 TEST(Checkpoint, DeviceLostThenResumedBitForBit) {
     for (const std::string& api : test::test_apis()) {
-        const std::string whole = uninterrupted(api);
+        const Whole whole = uninterrupted(api);
+        ASSERT_GE(whole.dispatches, 8) << api;
         const fs::path ckpt = temp("lost_" + api + ".ckpt"), out = temp("lost_" + api + ".exr");
         fs::remove(ckpt), fs::remove(out);
         const std::string args =
             render_args(api) + " --checkpoint " + ckpt.string() + " -o " + out.string();
-        // Lost after 20 of about 40 dispatches: a group or more is saved.
-        const test::CliRun lost = run_mcpt(args, "MCPT_LOSE_DEVICE_AFTER=20");
+        // Lost halfway through its dispatches: a group or more is saved.
+        const test::CliRun lost =
+            run_mcpt(args, "MCPT_LOSE_DEVICE_AFTER=" + std::to_string(whole.dispatches / 2));
         ASSERT_NE(lost.status, 0) << lost.output;
         ASSERT_TRUE(fs::exists(ckpt)) << lost.output;
         const test::CliRun again = run_mcpt(args);
         ASSERT_EQ(again.status, 0) << again.output;
-        EXPECT_NE(again.output.find("resumed from"), std::string::npos) << again.output;
-        EXPECT_TRUE(read_file(out) == whole) << api;
+        EXPECT_GT(resumed_at(again.output), 0u) << again.output;
+        EXPECT_TRUE(read_file(out) == whole.file) << api;
     }
 }
 
