@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "common/accel/cpu_trace.h"
 #include "common/error.h"
 #include "common/gpu/traverse.h"
 
@@ -717,28 +718,14 @@ TEST(KdTreeTraversal, DeviceTraversalMatchesBruteForce) {
                 const std::string what = label(m.name, kind, depth);
                 const KdTree tree = build_kdtree(m.tris, options(kind, depth));
                 ASSERT_LE(tree.stack_size(), KD_STACK_SIZE) << what;
-                gpu::GpuParams p{};
-                p.num_triangles = uint32_t(m.tris.size());
-                p.num_nodes = uint32_t(tree.nodes.size());
-                p.scene_min_x = tree.bounds.min.x, p.scene_max_x = tree.bounds.max.x;
-                p.scene_min_y = tree.bounds.min.y, p.scene_max_y = tree.bounds.max.y;
-                p.scene_min_z = tree.bounds.min.z, p.scene_max_z = tree.bounds.max.z;
                 for (const TestRay& r : rays) {
                     gpu::Ray ray;
                     ray.o = r.o, ray.d = r.d, ray.tmax = 3.0e38f;
                     // Brute force with the same triangle test.
-                    const gpu::WoopRay wr = gpu::woop_setup(ray.d);
-                    float best = ray.tmax;
-                    uint32_t best_tri = NO_HIT;
-                    for (uint32_t i = 0; i < g.size(); ++i) {
-                        gpu::Ray rr = ray;
-                        rr.tmax = best;
-                        const gpu::TriHit th = gpu::intersect_triangle(rr, wr, g[i]);
-                        if (th.hit) best = th.t, best_tri = i;
-                    }
-                    const gpu::Hit h =
-                        gpu::trace_ray(&p, tree.nodes.data(), tree.leaf_indices.data(), g.data(),
-                                       nullptr, nullptr, nullptr, ray, false);
+                    const gpu::Hit b = brute_force_hit(g, ray);
+                    const float best = b.t;
+                    const uint32_t best_tri = b.prim;
+                    const gpu::Hit h = cpu_trace_tree(tree, g, ray);
                     ASSERT_EQ(h.status, 0u) << what << ": stack overflow";
                     ASSERT_EQ(h.prim == NO_HIT, best_tri == NO_HIT)
                         << what << ": ray (" << r.o.x << ", " << r.o.y << ", " << r.o.z << ") -> ("

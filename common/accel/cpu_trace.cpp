@@ -1,8 +1,7 @@
 #include "common/accel/cpu_trace.h"
 
-#include "common/gpu/integrator.h"
-
 #include "common/error.h"
+#include "common/gpu/integrator.h"
 
 namespace mcpt {
 
@@ -19,6 +18,32 @@ gpu::Hit cpu_trace(const GpuScene& s, const gpu::Ray& ray, bool any_hit) {
     check_stack(s);
     return gpu::trace_ray(&s.params, s.nodes.data(), s.leaf_indices.data(), s.triangles.data(),
                           s.spheres.data(), s.materials.data(), s.lights.data(), ray, any_hit);
+}
+
+gpu::Hit cpu_trace_tree(const KdTree& tree, const std::vector<gpu::GpuTriangle>& triangles,
+                        const gpu::Ray& ray) {
+    gpu::GpuParams p{};
+    p.num_triangles = uint32_t(triangles.size());
+    p.num_nodes = uint32_t(tree.nodes.size());
+    p.scene_min_x = tree.bounds.min.x, p.scene_max_x = tree.bounds.max.x;
+    p.scene_min_y = tree.bounds.min.y, p.scene_max_y = tree.bounds.max.y;
+    p.scene_min_z = tree.bounds.min.z, p.scene_max_z = tree.bounds.max.z;
+    return gpu::trace_ray(&p, tree.nodes.data(), tree.leaf_indices.data(), triangles.data(),
+                          nullptr, nullptr, nullptr, ray, false);
+}
+
+gpu::Hit brute_force_hit(const std::vector<gpu::GpuTriangle>& triangles, const gpu::Ray& ray) {
+    const gpu::WoopRay wr = gpu::woop_setup(ray.d);
+    gpu::Hit best{};
+    best.t = ray.tmax;
+    best.prim = NO_HIT;
+    for (uint32_t i = 0; i < triangles.size(); ++i) {
+        gpu::Ray r = ray;
+        r.tmax = best.t;
+        const gpu::TriHit th = gpu::intersect_triangle(r, wr, triangles[i]);
+        if (th.hit) best.t = th.t, best.prim = i;
+    }
+    return best;
 }
 
 gpu::Ray cpu_camera_ray(const GpuScene& s, const gpu::GpuParams& params, float fx, float fy) {

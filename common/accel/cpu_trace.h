@@ -2,6 +2,9 @@
 // run, used by tests (against brute force), `mcpt tree` and `mcpt bench` (work per ray).
 // Only the plain data of gpu/ray_types.h is visible here, not the device dialect's macros.
 #pragma once
+#include <vector>
+
+#include "common/accel/kdtree.h"
 #include "common/gpu/ray_types.h"
 #include "common/render/gpu_scene.h"
 
@@ -9,6 +12,15 @@ namespace mcpt {
 
 // Closest (or any) hit of the ray in the packed scene, through the shared trace_ray().
 gpu::Hit cpu_trace(const GpuScene& scene, const gpu::Ray& ray, bool any_hit);
+
+// The closest hit among `triangles` alone through `tree` (built over them), with the shared
+// trace_ray(); status reports a stack overflow instead of throwing.
+gpu::Hit cpu_trace_tree(const KdTree& tree, const std::vector<gpu::GpuTriangle>& triangles,
+                        const gpu::Ray& ray);
+
+// The oracle it is checked against (tests, fuzzing): every triangle in index order with the
+// same triangle test, no tree; prim is NO_HIT when the ray misses them all.
+gpu::Hit brute_force_hit(const std::vector<gpu::GpuTriangle>& triangles, const gpu::Ray& ray);
 
 // The camera ray through (fx, fy) in [-1, 1]^2 of params' camera, through the shared
 // camera_ray().

@@ -13,9 +13,10 @@
 #include <cstring>
 #include <vector>
 
+#include "common/accel/cpu_trace.h"
 #include "common/accel/kdtree.h"
 #include "common/error.h"
-#include "common/gpu/traverse.h"
+#include "common/gpu/traverse.h"  // KD_STACK_SIZE
 
 namespace {
 
@@ -51,12 +52,6 @@ void check_traversal(const mcpt::KdTree& tree, const std::vector<mcpt::Triangle>
     std::vector<gpu::GpuTriangle> g;
     for (const Triangle& t : tris)
         g.push_back({t.v0.x, t.v0.y, t.v0.z, t.v1.x, t.v1.y, t.v1.z, t.v2.x, t.v2.y, t.v2.z, 0u});
-    gpu::GpuParams p{};
-    p.num_triangles = uint32_t(tris.size());
-    p.num_nodes = uint32_t(tree.nodes.size());
-    p.scene_min_x = tree.bounds.min.x, p.scene_max_x = tree.bounds.max.x;
-    p.scene_min_y = tree.bounds.min.y, p.scene_max_y = tree.bounds.max.y;
-    p.scene_min_z = tree.bounds.min.z, p.scene_max_z = tree.bounds.max.z;
     for (size_t r = 0; r < ray_count; ++r) {
         const float* f = ray_floats + 6 * r;
         gpu::Ray ray;
@@ -66,17 +61,10 @@ void check_traversal(const mcpt::KdTree& tree, const std::vector<mcpt::Triangle>
         if (!(len > 1e-3f) || !std::isfinite(len)) continue;
         ray.d = {f[3] / len, f[4] / len, f[5] / len};
         ray.tmax = 3.0e38f;
-        const gpu::WoopRay wr = gpu::woop_setup(ray.d);
-        float best = ray.tmax;
-        uint32_t best_tri = NO_HIT;
-        for (uint32_t i = 0; i < g.size(); ++i) {
-            gpu::Ray rr = ray;
-            rr.tmax = best;
-            const gpu::TriHit th = gpu::intersect_triangle(rr, wr, g[i]);
-            if (th.hit) best = th.t, best_tri = i;
-        }
-        const gpu::Hit h = gpu::trace_ray(&p, tree.nodes.data(), tree.leaf_indices.data(), g.data(),
-                                          nullptr, nullptr, nullptr, ray, false);
+        const gpu::Hit b = brute_force_hit(g, ray);
+        const float best = b.t;
+        const uint32_t best_tri = b.prim;
+        const gpu::Hit h = cpu_trace_tree(tree, g, ray);
         const bool agree = h.status == 0u && (h.prim == NO_HIT) == (best_tri == NO_HIT) &&
                            (best_tri == NO_HIT || std::fabs(h.t - best) <= 1e-6f * best);
         if (!agree) {
