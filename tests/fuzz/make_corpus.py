@@ -42,6 +42,7 @@ def scene_json(buffer_uri, nbytes, sparse=False, hierarchy=False):
          "min": [-3, 0, -3], "max": [3, 0, 3]},
     ]
     if sparse:  # the floor's third vertex moved by a sparse substitution
+        accessors[2]["max"] = [3, 0, 2]
         accessors[2]["sparse"] = {"count": 1, "indices": {"bufferView": 3, "componentType": 5125},
                                   "values": {"bufferView": 4}}
     nodes = [{"mesh": 0}, {"mesh": 1}, {"camera": 0, "translation": [0, 1, 6]}]
