@@ -1,11 +1,8 @@
 #include "common/render/render_loop.h"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 
 #include "common/error.h"
 #include "common/render/device_limits.h"
@@ -133,14 +130,18 @@ void ProgressiveRender::flush() {
     if (group_end) {
         if (group_ > 0) {
             settled_.spp = r_.spp;
-            const double seconds = r_.seconds;
-            r_ = settled_;
-            r_.seconds = seconds;
+            show_settled();
         }
         unflushed_ = 0;
     }
     flushed_ = true;
     flushed_at_ = std::chrono::steady_clock::now();
+}
+
+void ProgressiveRender::show_settled() {
+    const double seconds = r_.seconds;  // render time is kept by the session, not the groups
+    r_ = settled_;
+    r_.seconds = seconds;
 }
 
 double ProgressiveRender::seconds_since_flush() const {
@@ -149,13 +150,10 @@ double ProgressiveRender::seconds_since_flush() const {
 }
 
 void ProgressiveRender::discard_unflushed() {
-    if (group_ > 0) {
-        const double seconds = r_.seconds;
-        r_ = settled_;
-        r_.seconds = seconds;
-    } else {
+    if (group_ > 0)
+        show_settled();
+    else
         r_.spp -= unflushed_;
-    }
     unflushed_ = 0;
 }
 

@@ -99,6 +99,7 @@ class ProgressiveRender {
     gpu::GpuParams p_{};
     RenderResult r_;
     RenderResult settled_;  // reproducible: the sums up to the last group end
+    void show_settled();    // result() = settled_ (its render time kept)
     uint32_t group_ = 0;    // reproducible: samples per group (0: not reproducible)
     uint32_t npix_ = 0, unflushed_ = 0;
     double work_ = 0, last_pass_s_ = 0, longest_dispatch_s_ = 0;
