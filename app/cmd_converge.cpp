@@ -37,6 +37,7 @@ struct ConvergeArgs {
     std::string tree = "auto";
     std::string output = "converge";
     uint32_t seed = 1;
+    std::vector<std::string> samplers{"sobol"};
 };
 
 struct Run {
@@ -80,9 +81,13 @@ Reference make_reference(const ConvergeArgs& a, const Scene& scene, const GpuSce
     RenderOptions r = ro;
     r.spp = a.reference_spp;
     r.seed = 0x7e000000u;
+    // Independent samples: their sample variance is the reference's own error, which every
+    // MSE subtracts (a low-discrepancy sampler's would overstate it).
+    GpuScene independent = g;
+    independent.features |= FEATURE_INDEPENDENT_SAMPLER;
     const bool bar = isatty(2);
     const RenderResult rr =
-        render(*backend, g, scene.camera, r,
+        render(*backend, independent, scene.camera, r,
                bar ? ProgressFn([](double f, const RenderResult& s) {
                    std::fprintf(stderr, "\r  reference %3d%%  %.0f s ", int(100 * f), s.seconds);
                })
@@ -94,7 +99,7 @@ Reference make_reference(const ConvergeArgs& a, const Scene& scene, const GpuSce
 }
 
 void print_checkpoint(const Run& run, const Checkpoint& c) {
-    std::printf("%-8s %-28.28s %9.3f %8llu %11.4g %8.2f%% %11.4g %+12.4g\n", run.backend.c_str(),
+    std::printf("%-18s %-28.28s %9.3f %8llu %11.4g %8.2f%% %11.4g %+12.4g\n", run.backend.c_str(),
                 run.device.c_str(), c.seconds, (unsigned long long)c.spp, c.error.rmse,
                 100 * c.error.rel_rmse, c.error.rel_mse, c.error.mean_signed_error);
     std::fflush(stdout);
@@ -185,27 +190,32 @@ void run_converge(const ConvergeArgs& a) {
 
     // Progressive renders, one backend after the other.
     std::vector<Run> runs;
-    std::printf("\n%-8s %-28s %9s %8s %11s %9s %11s %12s\n", "backend", "device", "seconds", "spp",
+    std::printf("\n%-18s %-28s %9s %8s %11s %9s %11s %12s\n", "backend", "device", "seconds", "spp",
                 "rmse", "rel rmse", "rel mse", "mean signed");
     for (size_t b = 0; b < a.backends.size(); ++b) {
         std::unique_ptr<Backend> backend = open_device(a.backends[b]);
-        // --tree auto: the tree this device's cost model picks.
-        const GpuScene gb = prepare_scene(scene, backend->device(), tree_opts, a.width, a.height);
-        backend->load(gb, a.width, a.height);
-        Run run;
-        run.backend = backend->device().backend, run.device = backend->device().name;
-        ProgressiveOptions po;
-        po.render = ro;
-        po.schedule = a.checkpoints == "time" ? Schedule::TimeDoubling : Schedule::SppDoubling;
-        po.seconds = a.seconds, po.max_spp = a.max_spp;
-        po.seed_base = a.seed + 100000u * uint32_t(b);
-        RenderResult total;
-        run.checkpoints =
-            render_progressive(*backend, gb, scene.camera, po, ref, &total,
-                               [&](const Checkpoint& c) { print_checkpoint(run, c); });
-        run.report =
-            analyze_convergence(run.checkpoints, ref.mean_value(), effective_pixels(total));
-        runs.push_back(std::move(run));
+        for (const std::string& sampler : a.samplers) {
+            // --tree auto: the tree this device's cost model picks.
+            GpuScene gb = prepare_scene(scene, backend->device(), tree_opts, a.width, a.height);
+            if (sampler == "independent") gb.features |= FEATURE_INDEPENDENT_SAMPLER;
+            backend->load(gb, a.width, a.height);
+            Run run;
+            run.backend = backend->device().backend;
+            if (a.samplers.size() > 1) run.backend += "/" + sampler;
+            run.device = backend->device().name;
+            ProgressiveOptions po;
+            po.render = ro;
+            po.schedule = a.checkpoints == "time" ? Schedule::TimeDoubling : Schedule::SppDoubling;
+            po.seconds = a.seconds, po.max_spp = a.max_spp;
+            po.seed_base = a.seed + 100000u * uint32_t(runs.size());
+            RenderResult total;
+            run.checkpoints =
+                render_progressive(*backend, gb, scene.camera, po, ref, &total,
+                                   [&](const Checkpoint& c) { print_checkpoint(run, c); });
+            run.report =
+                analyze_convergence(run.checkpoints, ref.mean_value(), effective_pixels(total));
+            runs.push_back(std::move(run));
+        }
     }
 
     // Fits and bias.
@@ -281,7 +291,11 @@ void add_converge_command(CLI::App& app) {
     sub->add_option("--tree", a->tree, "auto (per device: SAH or none), sah, median or none")
         ->check(CLI::IsMember({"auto", "sah", "median", "none"}))
         ->capture_default_str();
-    sub->add_option("--seed", a->seed, "Seed of the first batch (batches count up from it)")
+    sub->add_option("--seed", a->seed, "Seed of the first run (each further run adds 100000)")
+        ->capture_default_str();
+    sub->add_option("--sampler", a->samplers,
+                    "sobol (Owen-scrambled Sobol) and/or independent, one run per backend each")
+        ->check(CLI::IsMember({"sobol", "independent"}))
         ->capture_default_str();
     sub->add_option("-o,--output", a->output, "Output prefix: prefix.csv, prefix.svg")
         ->capture_default_str();

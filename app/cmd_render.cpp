@@ -38,6 +38,7 @@ struct RenderArgs {
     bool quiet = false;
     bool verbose = false;
     std::string specialize = "on";
+    std::string sampler = "sobol";
     double target_error = 0;  // stop once the mean relative standard error is below this
     bool reproducible = false;
     std::string checkpoint;        // resume from / save to this file
@@ -71,6 +72,7 @@ void run_render(const RenderArgs& a) {
     s.tree = a.tree, s.tree_depth = a.depth;
     s.seed = a.seed;
     s.specialize = a.specialize == "on";
+    s.sampler = a.sampler;
     s.reproducible = a.reproducible || !a.checkpoint.empty();
     session.commit();
     // Resume where an earlier run of this command stopped.
@@ -241,6 +243,10 @@ void add_render_command(CLI::App& app) {
     sub->add_option("--specialize", args->specialize,
                     "on: compile only the features the scene uses; off: the full kernel")
         ->check(CLI::IsMember({"on", "off"}))
+        ->capture_default_str();
+    sub->add_option("--sampler", args->sampler,
+                    "sobol: Owen-scrambled Sobol points; independent: independent uniforms")
+        ->check(CLI::IsMember({"sobol", "independent"}))
         ->capture_default_str();
     sub->add_flag("--reproducible", args->reproducible,
                   "The image depends only on the seed, the samples and the device, not on "

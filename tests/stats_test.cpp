@@ -19,6 +19,11 @@ TEST(Stats, DistributionsMatchTables) {
     EXPECT_NEAR(student_t_two_sided_p(63.65674116, 1), 0.01, 1e-8);
     EXPECT_NEAR(student_t_cdf(-1.0, 5), 0.1816087, 1e-6);
     EXPECT_DOUBLE_EQ(student_t_two_sided_p(0.0, 7), 1.0);
+    EXPECT_NEAR(chi_square_upper_p(3.841458821, 1), 0.05, 1e-9);  // chi-square table
+    EXPECT_NEAR(chi_square_upper_p(124.3421134, 100), 0.05, 1e-8);
+    EXPECT_NEAR(chi_square_upper_p(18.30703805, 10), 0.05, 1e-8);
+    EXPECT_NEAR(chi_square_upper_p(76.15389, 50), 0.01, 1e-6);
+    EXPECT_NEAR(chi_square_upper_p(2.0, 2), std::exp(-1.0), 1e-12);
 }
 
 TEST(Stats, SidakAndBenjaminiHochberg) {

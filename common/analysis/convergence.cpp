@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -207,44 +208,64 @@ std::vector<Checkpoint> render_progressive(Backend& backend, const GpuScene& sce
                                            const Camera& camera, const ProgressiveOptions& opt,
                                            const Reference& ref, RenderResult* total_out,
                                            const std::function<void(const Checkpoint&)>& on_cp) {
+    using clock = std::chrono::steady_clock;
     const bool by_time = opt.schedule == Schedule::TimeDoubling;
     if (opt.max_spp == 0 && !(opt.seconds > 0)) throw Error("give a sample count or a time budget");
     if (by_time && !(opt.seconds > 0)) throw Error("time checkpoints need a time budget");
     std::vector<Checkpoint> cps;
-    RenderResult total;
+    // One sample sequence (one seed), continued from checkpoint to checkpoint: a
+    // low-discrepancy sampler keeps its stratification across them.
     RenderOptions ro = opt.render;
+    ro.seed = opt.seed_base;
+    ProgressiveRender pr(backend, scene, camera, ro);
+    RenderResult& total = pr.result();
+    double seconds = 0;  // time in the render loop; measuring the error is left out
+    // Renders until the image has `spp` samples per pixel (0: no limit) or the render time
+    // reaches `until_s` (0: no limit), then flushes.
+    auto render_until = [&](uint64_t spp, double until_s) {
+        const auto start = clock::now();
+        auto now_s = [&] {
+            return seconds + std::chrono::duration<double>(clock::now() - start).count();
+        };
+        while ((spp == 0 || total.spp < spp) && (until_s == 0 || now_s() < until_s))
+            pr.pass(spp > 0 ? spp - total.spp : UINT64_MAX);
+        pr.flush();
+        seconds = now_s();
+        total.seconds = seconds;
+    };
     const int n_time = std::max(1, opt.time_checkpoints);
-    for (int k = 0;; ++k) {
-        // Next batch: double the samples (or reach the next time checkpoint), within budget.
-        ro.seed = opt.seed_base + uint32_t(k);
-        const double remaining = opt.seconds - total.seconds;
+    bool last = false;
+    for (int k = 0; !last; ++k) {
+        // Next checkpoint: double the samples (or reach the next time checkpoint), within budget.
+        const double remaining = opt.seconds - seconds;
         if (by_time) {
             if (k >= n_time) break;
             const double t_k = opt.seconds * std::ldexp(1.0, k - (n_time - 1));
-            if (t_k <= total.seconds) continue;
-            ro.spp = 0, ro.seconds = t_k - total.seconds;
+            if (t_k <= seconds) continue;
+            render_until(0, t_k);
         } else {
             uint64_t want = std::max<uint64_t>(1, total.spp);
             if (opt.max_spp > 0) want = std::min(want, opt.max_spp - total.spp);
-            ro.spp = want, ro.seconds = 0;
             if (opt.seconds > 0 && total.spp > 0) {
-                const double per_spp = total.seconds / double(total.spp);
-                // A last, shorter batch only if it adds at least a quarter of the samples.
+                const double per_spp = seconds / double(total.spp);
+                // A last, shorter stretch only if it adds at least a quarter of the samples.
                 if (double(want) * per_spp > remaining) {
-                    if (remaining < 0.25 * total.seconds) break;
-                    ro.spp = 0, ro.seconds = remaining;
+                    if (remaining < 0.25 * seconds) break;
+                    last = true;
                 }
             }
+            if (last)
+                render_until(0, opt.seconds);
+            else
+                render_until(total.spp + want, 0);
         }
-        accumulate(total, render_loaded(backend, scene, camera, ro));
         cps.push_back({total.seconds, total.spp, measure_error(total, ref)});
         if (on_cp) on_cp(cps.back());
         // Stop at the sample or time budget.
         if (opt.max_spp > 0 && total.spp >= opt.max_spp) break;
         if (opt.seconds > 0 && total.seconds >= opt.seconds) break;
-        if (!by_time && ro.spp == 0) break;
     }
-    if (total_out) *total_out = std::move(total);
+    if (total_out) *total_out = total;
     return cps;
 }
 

@@ -1,4 +1,4 @@
-// Error against run time: progressive renders made of independent batches, their error
+// Error against run time: progressive renders (one sample sequence), their error
 // against a reference (exact, or a cached high-sample render whose own noise is subtracted),
 // log-log convergence fits, a bias flag, and time-to-error. Shared by `mcpt converge` and the
 // tests, so both judge a render by the same code.
@@ -83,11 +83,11 @@ struct ProgressiveOptions {
     uint64_t max_spp = 0;  // stop once this many samples per pixel are taken (0: no limit)
     double seconds = 0;    // stop once this much render time is spent (0: no limit)
     int time_checkpoints = 8;
-    uint32_t seed_base = 1;  // batch k renders with seed seed_base + k
+    uint32_t seed_base = 1;  // the seed of the one sample sequence
 };
 
-// Renders progressively on a loaded backend as independent batches with increasing sample
-// counts, measuring the error of the running total at each checkpoint. `total` (optional)
+// Renders progressively on a loaded backend, one sample sequence continued to each checkpoint
+// (doubling sample counts or times), measuring the error of the image so far at each. `total` (optional)
 // receives the final accumulation; `on_checkpoint` (optional) sees each checkpoint.
 std::vector<Checkpoint> render_progressive(
     Backend& backend, const GpuScene& scene, const Camera& camera, const ProgressiveOptions& opt,

@@ -1,5 +1,6 @@
 // Statistics for comparing renderers: Student t and normal distributions, Welch's t-test,
-// Sidak and Benjamini-Hochberg corrections (Jung, Hanika & Dachsbacher, JCGT 2020).
+// Sidak and Benjamini-Hochberg corrections (Jung, Hanika & Dachsbacher, JCGT 2020), and the
+// chi-square distribution for goodness-of-fit tests of sampling routines.
 #pragma once
 #include <cstddef>
 #include <vector>
@@ -12,6 +13,13 @@ double normal_quantile(double p);  // inverse of normal_cdf, p in (0, 1)
 double student_t_two_sided_p(double t, double dof);
 // One-sided P(T <= t).
 double student_t_cdf(double t, double dof);
+
+// P(X >= x) for X chi-square distributed with `dof` degrees of freedom.
+double chi_square_upper_p(double x, double dof);
+
+// Pearson's chi-square test of observed counts against expected counts (cells whose
+// expected count is below 5 are pooled into one); returns the p-value.
+double chi_square_test(const std::vector<double>& observed, const std::vector<double>& expected);
 
 struct Welch {
     double t = 0, dof = 1, p = 1;  // two-sided p

@@ -376,6 +376,14 @@ mcpt_status mcpt_session_set_specialize(mcpt_session s, int on) {
     });
 }
 
+mcpt_status mcpt_session_set_sampler(mcpt_session s, const char* sampler) {
+    return with_session(s, MCPT_ERROR_INVALID_ARGUMENT, [&](Session& session) {
+        if (!sampler) throw mcpt::Error("sampler is NULL");
+        session.settings().sampler = sampler;
+        return MCPT_OK;
+    });
+}
+
 mcpt_status mcpt_session_set_reproducible(mcpt_session s, int on) {
     return with_session(s, MCPT_ERROR_INTERNAL, [&](Session& session) {
         session.settings().reproducible = on != 0;

@@ -5,7 +5,7 @@
 #define MCPT_GPU_INTEGRATOR_H
 
 #include "bsdf.h"
-#include "rng.h"
+#include "sampler.h"
 #include "traverse.h"
 
 MCPT_NAMESPACE_BEGIN
@@ -21,6 +21,15 @@ inline thread_local RayWork* path_work = nullptr;
 #else
 #define MCPT_COUNT_RAY(hit)
 #endif
+
+// Four uniforms of dimension group `group` for `pixel`'s sample `sample_index`: Owen-scrambled
+// Sobol points (sampler.h), or independent hashed uniforms (rng.h) in builds that ask for them.
+// Group 0 is the camera; bounce d uses groups 2d + 1 (light point, light choice, roulette) and
+// 2d + 2 (BSDF direction, lobe choice), each pair of sample dimensions on dimensions 0 and 1.
+MCPT_FN vec4 sample4(uint pixel, uint sample_index, uint group, uint seed) {
+    if (HAS_FEATURE(FEATURE_INDEPENDENT_SAMPLER)) return rng4(pixel, sample_index, group, seed);
+    return sobol4(pixel, sample_index, group, seed);
+}
 
 MCPT_FN float quiet_nan() { return uint_as_float(0x7fc00000u); }
 
@@ -191,7 +200,7 @@ MCPT_STRUCT(PathState) {
 
 // The camera ray of `pixel`'s sample `sample_index` through a jittered point of the pixel.
 MCPT_FN PathState start_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
-    vec4 u_cam = rng4(pixel, sample_index, 0u, PARAM(seed));
+    vec4 u_cam = sample4(pixel, sample_index, 0u, PARAM(seed));
     uint px = pixel % PARAM(width), py = pixel / PARAM(width);
     float fx = (F32(px) + u_cam.x) / F32(PARAM(width)) * 2.0f - 1.0f;
     float fy = 1.0f - (F32(py) + u_cam.y) / F32(PARAM(height)) * 2.0f;
@@ -259,12 +268,12 @@ MCPT_FN PathState advance_path(SCENE_PARAMS_ PathState st, uint pixel, uint max_
             break;
         }
 
-        vec4 ua = rng4(pixel, st.sample_index, 2u * depth + 1u, seed);
-        vec4 ub = rng4(pixel, st.sample_index, 2u * depth + 2u, seed);
+        vec4 ua = sample4(pixel, st.sample_index, 2u * depth + 1u, seed);
+        vec4 ub = sample4(pixel, st.sample_index, 2u * depth + 2u, seed);
 
         // Next-event estimation at diffuse vertices.
         if (HAS_FEATURE(FEATURE_DIFFUSE) && m.type == MAT_DIFFUSE && PARAM(num_lights) > 0u) {
-            LightSample ls = sample_light(SCENE_ARGS_ s.p, V3(ua.x, ua.y, ua.z));
+            LightSample ls = sample_light(SCENE_ARGS_ s.p, V3(ua.z, ua.x, ua.y));
             float cos_x = dot(n, ls.wi);
             if (ls.valid && cos_x > 0.0f) {
                 Ray shadow;

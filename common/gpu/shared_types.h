@@ -28,8 +28,9 @@ MCPT_NAMESPACE_BEGIN
 #define FEATURE_KDTREE 128u         // k-d traversal with its stack (else: test every triangle)
 #define FEATURE_ALL 255u           // every feature a scene can use: the full kernel
 #define FEATURE_TEST_NAN 256u      // tests only: poison samples of pixels 0 and 1 (never in ALL)
-#define FEATURE_BITS 511u          // every bit above
-#define FEATURE_COUNT 9
+#define FEATURE_INDEPENDENT_SAMPLER 512u  // independent uniforms, not Sobol (A/B, never in ALL)
+#define FEATURE_BITS 1023u         // every bit above
+#define FEATURE_COUNT 10
 
 // k-d node layout (pbrt): axis in the low 2 bits of `flags`, 3 = leaf; below child implicit.
 #define KD_LEAF 3u

@@ -9,7 +9,7 @@ namespace {
 
 const char* const kFeatureNames[FEATURE_COUNT] = {
     "triangles",     "spheres",  "diffuse",           "mirror", "glass", "triangle lights",
-    "sphere lights", "k-d tree", "test NaN injection"};
+    "sphere lights", "k-d tree", "test NaN injection", "independent sampler"};
 
 uint32_t material_feature(uint32_t type) {
     switch (type) {

@@ -31,6 +31,7 @@ Fingerprint fingerprint(const Session& session) {
             {"seed", std::to_string(s.seed)},
             {"tree", s.tree + " " + std::to_string(s.tree_depth)},
             {"specialize", s.specialize ? "on" : "off"},
+            {"sampler", s.sampler},
             {"reproducible", s.reproducible ? "on" : "off"},
             {"light_scale", scale},
             {"device", session.device().backend + ": " + session.device().name}};
@@ -39,8 +40,9 @@ Fingerprint fingerprint(const Session& session) {
 bool same(const SessionSettings& a, const SessionSettings& b) {
     return a.width == b.width && a.height == b.height && a.max_depth == b.max_depth &&
            a.tree == b.tree && a.tree_depth == b.tree_depth && a.seed == b.seed &&
-           a.specialize == b.specialize && a.reproducible == b.reproducible &&
-           a.dispatch_ms == b.dispatch_ms && a.light_scale == b.light_scale;
+           a.specialize == b.specialize && a.sampler == b.sampler &&
+           a.reproducible == b.reproducible && a.dispatch_ms == b.dispatch_ms &&
+           a.light_scale == b.light_scale;
 }
 }  // namespace
 
@@ -73,6 +75,8 @@ void Session::commit() {
         throw Error("image size must be between 1x1 and 16384x16384");
     if (!(s.dispatch_ms > 0) || !(s.light_scale >= 0))
         throw Error("dispatch time and light scale must be positive");
+    if (s.sampler != "sobol" && s.sampler != "independent")
+        throw Error("unknown sampler '" + s.sampler + "' (sobol or independent)");
     progressive_.reset();
     dirty_ = true;
     // Tree, layout, limits; then compile and upload.
@@ -80,6 +84,7 @@ void Session::commit() {
         prepare_scene(scene_, device(), tree_options(s.tree, s.tree_depth), s.width, s.height);
     GpuScene to_load = prepared_;
     if (!s.specialize) to_load.features = FEATURE_ALL;
+    if (s.sampler == "independent") to_load.features |= FEATURE_INDEPENDENT_SAMPLER;
     backend_->load(to_load, s.width, s.height);
     RenderOptions ro;
     ro.width = s.width, ro.height = s.height;

@@ -27,6 +27,9 @@ struct SessionSettings {
     int tree_depth = -1;        // tree depth limit; -1: the kind's default
     uint32_t seed = 0;
     bool specialize = true;  // compile only the features the scene uses
+    // "sobol": Owen-scrambled Sobol points (the default); "independent": independent uniforms
+    // (the sampler before Sobol, for A/B measurements).
+    std::string sampler = "sobol";
     // Samples reach the double sums in fixed groups (kReproducibleGroupSpp, by sample index),
     // so the image depends only on the seed, the sample count and the device, not on how
     // passes were timed: checkpoints resume bit for bit (render_loop.h, group_spp).

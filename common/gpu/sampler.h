@@ -1,0 +1,105 @@
+// Low-discrepancy samples: Owen-scrambled Sobol points with hash-based scrambling
+// (Burley, "Practical Hash-based Owen Scrambling", JCGT 2020), as a pure function of
+// (pixel, sample index, dimension group, seed) like rng4(), so every backend draws the same
+// stream. Each group of four dimensions shuffles the sample index with its own seed
+// (Burley's padding), so groups are independent of each other while the first 2^k samples of
+// a pixel stay an aligned block of Sobol points: dimensions 0 and 1 of every group form a
+// (0,k,2)-net at every power of two, and each dimension alone is stratified.
+#ifndef MCPT_GPU_SAMPLER_H
+#define MCPT_GPU_SAMPLER_H
+
+#include "rng.h"
+
+MCPT_NAMESPACE_BEGIN
+
+// Samples are shuffled within blocks of 2^16; each further block is scrambled anew.
+#define SOBOL_BLOCK_BITS 16u
+
+// The 32 bits of x in reverse order.
+MCPT_FN uint reverse_bits(uint x) {
+#if defined(MCPT_GLSL)
+    return bitfieldReverse(x);
+#elif defined(__clang__)
+    return __builtin_bitreverse32(x);
+#else
+    x = ((x >> 1u) & 0x55555555u) | ((x & 0x55555555u) << 1u);
+    x = ((x >> 2u) & 0x33333333u) | ((x & 0x33333333u) << 2u);
+    x = ((x >> 4u) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4u);
+    x = ((x >> 8u) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8u);
+    return (x >> 16u) | (x << 16u);
+#endif
+}
+
+// Laine-Karras style permutation with Burley's constants: each bit flips as a hash of the
+// bits below it (the seed picks the hash).
+MCPT_FN uint laine_karras_permutation(uint x, uint seed) {
+    x ^= x * 0x3d20adeau;
+    x += seed;
+    x *= (seed >> 16u) | 1u;
+    x ^= x * 0x05526c56u;
+    x ^= x * 0x53a22864u;
+    return x;
+}
+
+// Owen scrambling of a 32-bit fixed-point value: each bit flips as a hash of the bits above it.
+MCPT_FN uint nested_uniform_scramble(uint x, uint seed) {
+    return reverse_bits(laine_karras_permutation(reverse_bits(x), seed));
+}
+
+// Sobol point `index` (< 2^SOBOL_BLOCK_BITS) in dimensions 0 to 3, as 32-bit fixed point.
+// Dimension 0 is the bit reversal; each line below adds the direction numbers of dimensions
+// 1, 2 and 3 for one bit of the index: primitive polynomials x + 1, x^2 + x + 1 and
+// x^3 + x + 1 with initial m = (1), (1, 3), (1, 3, 1) (Joe & Kuo 2008; sampler_test.cpp derives
+// them again). Written out, not a table: constants need no memory, and no lane diverges.
+#define SOBOL_BIT(bit, v1, v2, v3)     \
+    take = 0u - ((index >> bit) & 1u); \
+    x.y ^= (v1)&take;                  \
+    x.z ^= (v2)&take;                  \
+    x.w ^= (v3)&take
+MCPT_FN uvec4 sobol4_bits(uint index) {
+    uvec4 x = UV4(reverse_bits(index), 0u, 0u, 0u);
+    uint take;
+    // clang-format off
+    SOBOL_BIT( 0u, 0x80000000u, 0x80000000u, 0x80000000u);
+    SOBOL_BIT( 1u, 0xc0000000u, 0xc0000000u, 0xc0000000u);
+    SOBOL_BIT( 2u, 0xa0000000u, 0x60000000u, 0x20000000u);
+    SOBOL_BIT( 3u, 0xf0000000u, 0x90000000u, 0x50000000u);
+    SOBOL_BIT( 4u, 0x88000000u, 0xe8000000u, 0xf8000000u);
+    SOBOL_BIT( 5u, 0xcc000000u, 0x5c000000u, 0x74000000u);
+    SOBOL_BIT( 6u, 0xaa000000u, 0x8e000000u, 0xa2000000u);
+    SOBOL_BIT( 7u, 0xff000000u, 0xc5000000u, 0x93000000u);
+    SOBOL_BIT( 8u, 0x80800000u, 0x68800000u, 0xd8800000u);
+    SOBOL_BIT( 9u, 0xc0c00000u, 0x9cc00000u, 0x25400000u);
+    SOBOL_BIT(10u, 0xa0a00000u, 0xee600000u, 0x59e00000u);
+    SOBOL_BIT(11u, 0xf0f00000u, 0x55900000u, 0xe6d00000u);
+    SOBOL_BIT(12u, 0x88880000u, 0x80680000u, 0x78080000u);
+    SOBOL_BIT(13u, 0xcccc0000u, 0xc09c0000u, 0xb40c0000u);
+    SOBOL_BIT(14u, 0xaaaa0000u, 0x60ee0000u, 0x82020000u);
+    SOBOL_BIT(15u, 0xffff0000u, 0x90550000u, 0xc3050000u);
+    // clang-format on
+    return x;
+}
+#undef SOBOL_BIT
+
+// Four uniforms in [0, 1) for dimension group `group` of sample `sample_index` of `pixel`.
+MCPT_FN vec4 sobol4(uint pixel, uint sample_index, uint group, uint seed) {
+    // Seeds for this pixel, group, seed and block of samples: one for the index, four for
+    // the dimensions.
+    uvec4 h = pcg4d(UV4(pixel, group, seed, sample_index >> SOBOL_BLOCK_BITS));
+    uvec4 s = pcg4d(h);
+    // Shuffle the index within its block (Owen scrambling of the index keeps the first 2^k
+    // samples an aligned block of 2^k Sobol points), then scramble each dimension.
+    uint block_mask = (1u << SOBOL_BLOCK_BITS) - 1u;
+    uint index = nested_uniform_scramble(sample_index & block_mask, h.x) & block_mask;
+    uvec4 x = sobol4_bits(index);
+    vec4 u;
+    u.x = uint_to_unit_float(nested_uniform_scramble(x.x, s.x));
+    u.y = uint_to_unit_float(nested_uniform_scramble(x.y, s.y));
+    u.z = uint_to_unit_float(nested_uniform_scramble(x.z, s.z));
+    u.w = uint_to_unit_float(nested_uniform_scramble(x.w, s.w));
+    return u;
+}
+
+MCPT_NAMESPACE_END
+
+#endif  // MCPT_GPU_SAMPLER_H
