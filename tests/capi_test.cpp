@@ -103,6 +103,7 @@ TEST(CApi, BadHandlesAreRefused) {
             mcpt_session_set_seed(s, 1),
             mcpt_session_set_specialize(s, 1),
             mcpt_session_set_reproducible(s, 1),
+            mcpt_session_set_sampler(s, "sobol"),
             mcpt_session_commit(s),
             mcpt_session_render(s, 10, 0, 0, &rs),
             mcpt_session_cancel(s),
@@ -156,6 +157,9 @@ TEST(CApi, WrongOrderAndBadArguments) {
     EXPECT_NE(s.error().find("unknown tree kind 'octree'"), std::string::npos) << s.error();
     EXPECT_EQ(mcpt_session_set_tree(s.s, "sah", 61), MCPT_ERROR_INVALID_ARGUMENT);
     EXPECT_EQ(mcpt_session_set_tree(s.s, nullptr, -1), MCPT_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(mcpt_session_set_sampler(s.s, "halton"), MCPT_ERROR_INVALID_ARGUMENT);
+    EXPECT_NE(s.error().find("unknown sampler 'halton'"), std::string::npos) << s.error();
+    EXPECT_EQ(mcpt_session_set_sampler(s.s, nullptr), MCPT_ERROR_INVALID_ARGUMENT);
     EXPECT_EQ(mcpt_session_render(s.s, NAN, 0, 0, &rs), MCPT_ERROR_INVALID_ARGUMENT);
     EXPECT_EQ(mcpt_session_render(s.s, -1, 0, 0, &rs), MCPT_ERROR_INVALID_ARGUMENT);
     EXPECT_EQ(mcpt_session_render(s.s, 10, INFINITY, 0, &rs), MCPT_ERROR_INVALID_ARGUMENT);
@@ -173,7 +177,10 @@ TEST(CApi, WrongOrderAndBadArguments) {
     EXPECT_EQ(mcpt_session_read_rgba8(s.s, nullptr, 1000), MCPT_ERROR_INVALID_ARGUMENT);
     EXPECT_EQ(mcpt_session_write_image(s.s, "image.bmp"), MCPT_ERROR_IO);
     EXPECT_EQ(mcpt_session_write_image(s.s, "/no/such/dir/image.png"), MCPT_ERROR_IO);
-    // The session still works after all that.
+    // The session still works after all that, with either sampler.
+    ASSERT_EQ(mcpt_session_render(s.s, 0, 0, 2, &rs), MCPT_OK) << s.error();
+    EXPECT_EQ(rs.spp, 2u);
+    ASSERT_EQ(mcpt_session_set_sampler(s.s, "independent"), MCPT_OK);
     ASSERT_EQ(mcpt_session_render(s.s, 0, 0, 2, &rs), MCPT_OK) << s.error();
     EXPECT_EQ(rs.spp, 2u);
 }

@@ -378,8 +378,10 @@ mcpt_status mcpt_session_set_specialize(mcpt_session s, int on) {
 
 mcpt_status mcpt_session_set_sampler(mcpt_session s, const char* sampler) {
     return with_session(s, MCPT_ERROR_INVALID_ARGUMENT, [&](Session& session) {
-        if (!sampler) throw mcpt::Error("sampler is NULL");
-        session.settings().sampler = sampler;
+        const std::string name = sampler ? sampler : "";
+        if (name != "sobol" && name != "independent")
+            throw mcpt::Error("unknown sampler '" + name + "' (sobol or independent)");
+        session.settings().sampler = name;
         return MCPT_OK;
     });
 }

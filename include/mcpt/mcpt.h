@@ -152,7 +152,7 @@ MCPT_API mcpt_status mcpt_session_set_seed(mcpt_session session, uint32_t seed);
 /* 1 (default): compile only the features the scene uses; 0: the full kernel. */
 MCPT_API mcpt_status mcpt_session_set_specialize(mcpt_session session, int on);
 /* "sobol" (default): Owen-scrambled Sobol points, less error per sample; "independent":
- * independent uniforms (for A/B measurements). Unknown names fail at the next commit. */
+ * independent uniforms (for A/B measurements). Another name: MCPT_ERROR_INVALID_ARGUMENT. */
 MCPT_API mcpt_status mcpt_session_set_sampler(mcpt_session session, const char* sampler);
 /* 1: samples reach the double-precision sums in fixed groups of 16 (by sample index), each
  * added on the device in sample order, so the image depends only on the seed, the sample count

@@ -1,0 +1,403 @@
+# Error against render time, mcpt against Blender Cycles on the very same Cornell box, on the
+# same machine. Runs inside Blender (scripts/cycles-side-by-side starts it):
+#   1. builds mcpt's built-in "cornell" scene in Cycles: geometry (mcpt's y-up mapped to
+#      Blender's z-up), materials (Lambert, sharp mirror, sharp glass of IOR 1.5, a one-sided
+#      emitter), pinhole camera, 1-pixel box filter, the same bounce limit, no clamping, no
+#      glossy filter, no adaptive sampling, no denoising;
+#   2. renders both at 1, 2, 4, ... spp, each renderer against its own reference (two
+#      independent high-sample renders: their mean, with their noise subtracted);
+#   3. prints and writes time to each relative RMSE target, a CSV, an SVG plot, and where the
+#      variance lives (per-pixel variance of each renderer from its two references).
+# Relative RMSE is mcpt converge's: sqrt(mean over pixels and channels of (image - ref)^2,
+# less the reference noise) / mean reference radiance.
+import argparse
+import math
+import os
+import re
+import subprocess
+import sys
+import time
+
+import bpy
+import numpy as np
+
+
+def parse_args():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    p = argparse.ArgumentParser(prog="cycles-side-by-side")
+    p.add_argument("--mcpt", required=True, help="the mcpt binary")
+    p.add_argument("--out", default="side-by-side", help="output folder")
+    p.add_argument("--size", type=int, default=256)
+    p.add_argument("--max-spp", type=int, default=1024)
+    p.add_argument("--ref-spp", type=int, default=2048, help="per reference render (two each)")
+    p.add_argument("--threads", type=int, default=os.cpu_count())
+    p.add_argument("--backend", action="append", help="mcpt backends (default opencl, vulkan)")
+    p.add_argument("--sampler", action="append", help="mcpt samplers (default sobol)")
+    p.add_argument("--targets", default="0.10,0.05,0.02")
+    return p.parse_args(argv)
+
+
+# ---- the scene, as common/scene/builtin_scenes.cpp builds it (mcpt coordinates)
+WALLS = [  # corners (counter-clockwise seen from inside), colour
+    ([(-1, 0, -1), (-1, 0, 1), (1, 0, 1), (1, 0, -1)], (0.73, 0.73, 0.73)),  # floor
+    ([(-1, 2, -1), (1, 2, -1), (1, 2, 1), (-1, 2, 1)], (0.73, 0.73, 0.73)),  # ceiling
+    ([(-1, 0, -1), (1, 0, -1), (1, 2, -1), (-1, 2, -1)], (0.73, 0.73, 0.73)),  # back
+    ([(-1, 0, -1), (-1, 2, -1), (-1, 2, 1), (-1, 0, 1)], (0.65, 0.05, 0.05)),  # left
+    ([(1, 0, -1), (1, 0, 1), (1, 2, 1), (1, 2, -1)], (0.12, 0.45, 0.15)),  # right
+]
+LIGHT = ([(-0.25, 1.98, -0.25), (0.25, 1.98, -0.25), (0.25, 1.98, 0.25), (-0.25, 1.98, 0.25)],
+         (17.0, 12.0, 4.0))
+GLASS_SPHERE = ((0.45, 0.35, 0.3), 0.35, 1.5)
+MIRROR_SPHERE = ((-0.45, 0.35, -0.35), 0.35, 0.95)
+CAMERA = ((0.0, 1.0, 3.9), 0.6911)  # position (looking down -z, y up), vertical fov
+MCPT_MAX_DEPTH = 8  # mcpt's default: 8 scattering vertices; Cycles counts 0 for direct light
+
+
+def to_blender(p):
+    return (p[0], -p[2], p[1])
+
+
+def material(name, build):
+    m = bpy.data.materials.new(name)
+    m.use_nodes = True
+    nt = m.node_tree
+    nt.nodes.clear()
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    shader = build(nt)
+    nt.links.new(shader.outputs[0], out.inputs["Surface"])
+    return m
+
+
+def diffuse(colour):
+    def build(nt):
+        n = nt.nodes.new("ShaderNodeBsdfDiffuse")
+        n.inputs["Color"].default_value = (*colour, 1)
+        n.inputs["Roughness"].default_value = 0.0
+        return n
+    return build
+
+
+def emitter(radiance):
+    # One-sided, as in mcpt: no emission seen from behind.
+    def build(nt):
+        n = nt.nodes.new("ShaderNodeEmission")
+        n.inputs["Color"].default_value = (*radiance, 1)
+        geo = nt.nodes.new("ShaderNodeNewGeometry")
+        front = nt.nodes.new("ShaderNodeMath")
+        front.operation = "SUBTRACT"
+        front.inputs[0].default_value = 1.0
+        nt.links.new(geo.outputs["Backfacing"], front.inputs[1])
+        nt.links.new(front.outputs[0], n.inputs["Strength"])
+        return n
+    return build
+
+
+def mirror(tint):
+    def build(nt):
+        n = nt.nodes.new("ShaderNodeBsdfGlossy")
+        n.distribution = "SHARP"
+        n.inputs["Color"].default_value = (tint, tint, tint, 1)
+        return n
+    return build
+
+
+def glass(ior):
+    def build(nt):
+        n = nt.nodes.new("ShaderNodeBsdfGlass")
+        n.distribution = "SHARP"
+        n.inputs["Color"].default_value = (1, 1, 1, 1)
+        n.inputs["IOR"].default_value = ior
+        return n
+    return build
+
+
+def add_mesh(name, verts, faces, mat, smooth=False):
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(verts, [], faces)
+    mesh.update()
+    for poly in mesh.polygons:
+        poly.use_smooth = smooth
+    obj = bpy.data.objects.new(name, mesh)
+    obj.data.materials.append(mat)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def add_sphere(name, centre, radius, mat, segments=256, rings=128):
+    # A finely tessellated, smooth-shaded sphere (mcpt's are analytic).
+    c = to_blender(centre)
+    verts, faces = [], []
+    for i in range(rings + 1):
+        theta = math.pi * i / rings
+        for j in range(segments):
+            phi = 2 * math.pi * j / segments
+            verts.append((c[0] + radius * math.sin(theta) * math.cos(phi),
+                          c[1] + radius * math.sin(theta) * math.sin(phi),
+                          c[2] + radius * math.cos(theta)))
+    for i in range(rings):
+        for j in range(segments):
+            a, b = i * segments + j, i * segments + (j + 1) % segments
+            faces.append((a, a + segments, b + segments, b))
+    return add_mesh(name, verts, faces, mat, smooth=True)
+
+
+def build_scene(args):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    sc = bpy.context.scene
+    for i, (corners, colour) in enumerate(WALLS):
+        add_mesh("wall%d" % i, [to_blender(p) for p in corners], [(0, 1, 2, 3)],
+                 material("wall%d" % i, diffuse(colour)))
+    add_mesh("light", [to_blender(p) for p in LIGHT[0]], [(0, 1, 2, 3)],
+             material("light", emitter(LIGHT[1])))
+    add_sphere("glass", GLASS_SPHERE[0], GLASS_SPHERE[1], material("glass", glass(GLASS_SPHERE[2])))
+    add_sphere("mirror", MIRROR_SPHERE[0], MIRROR_SPHERE[1],
+               material("mirror", mirror(MIRROR_SPHERE[2])))
+    cam_data = bpy.data.cameras.new("camera")
+    cam_data.sensor_fit = "VERTICAL"
+    cam_data.angle_y = CAMERA[1]
+    cam = bpy.data.objects.new("camera", cam_data)
+    cam.location = to_blender(CAMERA[0])
+    cam.rotation_euler = (math.pi / 2, 0, 0)  # looks down Blender's +y (mcpt's -z), z up
+    sc.collection.objects.link(cam)
+    sc.camera = cam
+    world = bpy.data.worlds.new("black")
+    world.use_nodes = False
+    world.color = (0, 0, 0)
+    sc.world = world
+    # Renderer settings that match mcpt's estimator.
+    r, c = sc.render, sc.cycles
+    r.engine = "CYCLES"
+    r.resolution_x = r.resolution_y = args.size
+    r.resolution_percentage = 100
+    r.threads_mode = "FIXED"
+    r.threads = args.threads
+    r.image_settings.file_format = "OPEN_EXR"
+    r.image_settings.color_depth = "32"
+    r.image_settings.exr_codec = "NONE"
+    sc.view_settings.view_transform = "Standard"
+    sc.view_settings.look = "None"
+    c.device = "CPU"
+    c.use_adaptive_sampling = False
+    c.use_denoising = False
+    c.pixel_filter_type = "BOX"
+    c.filter_width = 1.0
+    bounces = MCPT_MAX_DEPTH - 1
+    c.max_bounces = bounces
+    c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = bounces
+    c.volume_bounces = c.transparent_max_bounces = bounces
+    c.caustics_reflective = c.caustics_refractive = True
+    c.blur_glossy = 0.0
+    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
+    c.light_sampling_threshold = 0.0
+    c.use_animated_seed = False
+    return sc
+
+
+# ---- rendering
+def read_exr(path, size):
+    img = bpy.data.images.load(path, check_existing=False)
+    px = np.array(img.pixels[:], dtype=np.float64).reshape(size, size, 4)[:, :, :3]
+    bpy.data.images.remove(img)
+    return px
+
+
+def render_cycles(sc, spp, seed, path):
+    sc.cycles.samples = spp
+    sc.cycles.seed = seed
+    sc.render.filepath = path
+    start = time.perf_counter()
+    bpy.ops.render.render(write_still=True)
+    return time.perf_counter() - start
+
+
+def render_mcpt(args, backend, sampler, spp, seed, path):
+    cmd = [args.mcpt, "render", "cornell", "--backend", backend, "--spp", str(spp), "--seed",
+           str(seed), "--sampler", sampler, "--width", str(args.size), "--height", str(args.size),
+           "-q", "-o", path]
+    out = subprocess.run(cmd, capture_output=True, text=True)
+    if out.returncode != 0:
+        sys.exit("mcpt failed: " + " ".join(cmd) + "\n" + out.stdout + out.stderr)
+    m = re.search(r"spp, max depth \d+ in ([0-9.]+) s", out.stdout + out.stderr)
+    return float(m.group(1))
+
+
+class Reference:
+    """Mean of two independent renders; its noise variance from their difference."""
+
+    def __init__(self, a, b):
+        self.mean = 0.5 * (a + b)
+        self.noise = float(np.mean((a - b) ** 2)) / 4  # variance of the mean, per value
+        self.pixel_var = (a - b) ** 2 / 2  # per-pixel variance of one render (1 dof)
+
+    def rel_rmse(self, img):
+        mse = max(float(np.mean((img - self.mean) ** 2)) - self.noise, 0.0)
+        return math.sqrt(mse) / float(np.mean(self.mean))
+
+
+def time_to(curve, target):
+    """Log-log interpolation of (seconds, rel_rmse); extrapolated along the last slope."""
+    for (t0, e0), (t1, e1) in zip(curve, curve[1:]):
+        if e0 >= target >= e1 and e0 > 0 and e1 > 0 and e0 != e1:
+            f = math.log(e0 / target) / math.log(e0 / e1)
+            return math.exp(math.log(t0) + f * math.log(t1 / t0)), False
+    if curve and curve[0][1] <= target:
+        return curve[0][0], False
+    (t0, e0), (t1, e1) = curve[-2], curve[-1]
+    slope = math.log(e1 / e0) / math.log(t1 / t0)
+    if slope >= -0.05:
+        return float("inf"), True
+    return t1 * (target / e1) ** (1 / slope), True
+
+
+def write_svg(path, runs, targets):
+    w, h, m = 720, 480, 60
+    pts = [p for _, curve in runs for p in curve if p[0] > 0 and p[1] > 0]
+    x0, x1 = math.log10(min(p[0] for p in pts)), math.log10(max(p[0] for p in pts))
+    y0, y1 = math.log10(min(min(p[1] for p in pts), min(targets))), math.log10(max(p[1] for p in pts))
+    sx = lambda t: m + (math.log10(t) - x0) / (x1 - x0) * (w - 2 * m)
+    sy = lambda e: h - m - (math.log10(e) - y0) / (y1 - y0) * (h - 2 * m)
+    colours = ["#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b"]
+    s = ['<svg xmlns="http://www.w3.org/2000/svg" width="%d" height="%d" font-family="sans-serif" '
+         'font-size="12">' % (w, h), '<rect width="100%" height="100%" fill="white"/>',
+         '<text x="%d" y="20" font-size="14">Relative RMSE against render time (log-log), '
+         'Cornell box %s</text>' % (m, "same machine"),
+         '<text x="%d" y="%d">seconds</text>' % (w // 2, h - 15),
+         '<text x="10" y="%d" transform="rotate(-90 10 %d)">relative RMSE</text>' % (h // 2, h // 2)]
+    for e in targets:
+        s.append('<line x1="%d" x2="%d" y1="%.1f" y2="%.1f" stroke="#ccc" stroke-dasharray="4"/>'
+                 '<text x="%d" y="%.1f" fill="#888">%g%%</text>'
+                 % (m, w - m, sy(e), sy(e), w - m + 4, sy(e) + 4, 100 * e))
+    for k in range(math.floor(x0), math.ceil(x1) + 1):
+        if x0 <= k <= x1:
+            s.append('<text x="%.1f" y="%d" text-anchor="middle">%g</text>' % (sx(10 ** k), h - m + 16, 10 ** k))
+    for k in range(math.floor(y0), math.ceil(y1) + 1):
+        if y0 <= k <= y1:
+            s.append('<text x="%d" y="%.1f" text-anchor="end">%g</text>' % (m - 4, sy(10 ** k) + 4, 10 ** k))
+    for i, (name, curve) in enumerate(runs):
+        col = colours[i % len(colours)]
+        path = " ".join("%.1f,%.1f" % (sx(t), sy(e)) for t, e in curve if t > 0 and e > 0)
+        s.append('<polyline fill="none" stroke="%s" stroke-width="2" points="%s"/>' % (col, path))
+        s.append('<text x="%d" y="%d" fill="%s">%s</text>' % (w - m - 220, m + 16 * i, col, name))
+    s.append('<rect x="%d" y="%d" width="%d" height="%d" fill="none" stroke="black"/>'
+             % (m, m - 10, w - 2 * m, h - 2 * m + 10))
+    s.append("</svg>")
+    with open(path, "w") as f:
+        f.write("\n".join(s))
+
+
+def main():
+    args = parse_args()
+    backends = args.backend or ["opencl", "vulkan"]
+    samplers = args.sampler or ["sobol"]
+    targets = [float(t) for t in args.targets.split(",")]
+    os.makedirs(args.out, exist_ok=True)
+    sc = build_scene(args)
+    print("Cycles: %s, %d threads, pattern %s, box filter 1 px, max bounces %d"
+          % (bpy.app.version_string, args.threads, sc.cycles.sampling_pattern, sc.cycles.max_bounces))
+    spps = [1 << k for k in range(int(math.log2(args.max_spp)) + 1)]
+    exr = lambda name: os.path.join(args.out, name + ".exr")
+
+    # References: two independent renders each.
+    print("references: 2 x %d spp each ..." % args.ref_spp, flush=True)
+    refs = {}
+    imgs = []
+    for seed in (90001, 90002):
+        render_cycles(sc, args.ref_spp, seed, exr("cycles-ref-%d" % seed))
+        imgs.append(read_exr(exr("cycles-ref-%d" % seed), args.size))
+    refs["cycles"] = Reference(*imgs)
+    imgs = []
+    for seed in (90001, 90002):
+        render_mcpt(args, backends[0], "independent", args.ref_spp, seed, exr("mcpt-ref-%d" % seed))
+        imgs.append(read_exr(exr("mcpt-ref-%d" % seed), args.size))
+    refs["mcpt"] = Reference(*imgs)
+    for name, ref in refs.items():
+        print("  %s: mean radiance %.5f, reference noise %.2f%% of it"
+              % (name, float(np.mean(ref.mean)), 100 * math.sqrt(ref.noise) / float(np.mean(ref.mean))))
+    # The scenes match when the references differ by no more than their noise.
+    c, m = refs["cycles"], refs["mcpt"]
+    mismatch = max(float(np.mean((c.mean - m.mean) ** 2)) - c.noise - m.noise, 0.0)
+    print("  cycles vs mcpt references: mean radiance ratio %.4f, RMS difference beyond noise "
+          "%.2f%% of the mean" % (float(np.mean(c.mean) / np.mean(m.mean)),
+                                  100 * math.sqrt(mismatch) / float(np.mean(m.mean))))
+
+    # Error against time.
+    runs = []
+    rows = ["renderer,spp,seconds,rel_rmse"]
+    names = [("cycles", None, None)] + [("mcpt " + b + (" " + s if len(samplers) > 1 else ""), b, s)
+                                        for b in backends for s in samplers]
+    for name, backend, sampler in names:
+        curve = []
+        for spp in spps:
+            path = exr("%s-%d" % (name.replace(" ", "-"), spp))
+            if backend is None:
+                t = render_cycles(sc, spp, 1, path)
+            else:
+                t = render_mcpt(args, backend, sampler, spp, 1, path)
+            err = refs["cycles" if backend is None else "mcpt"].rel_rmse(read_exr(path, args.size))
+            curve.append((t, err))
+            rows.append("%s,%d,%.4f,%.6f" % (name, spp, t, err))
+            print("  %-22s %5d spp %8.3f s  rel RMSE %6.2f%%" % (name, spp, t, 100 * err), flush=True)
+        if backend is None:
+            # Cycles' time includes its scene sync: take off the extrapolation to 0 spp.
+            t1, t2 = curve[0][0], curve[1][0]
+            sync = max(0.0, 2 * t1 - t2)
+            curve = [(t - sync, e) for t, e in curve]
+            print("  (cycles: %.3f s of scene synchronisation taken off each time)" % sync)
+        runs.append((name, curve))
+
+    # Time to each target, and the ratio to Cycles.
+    print("\n| relative RMSE | " + " | ".join(n for n, _ in runs) + " |")
+    print("|---|" + "---:|" * len(runs))
+    for target in targets:
+        cells = []
+        base = None
+        for name, curve in runs:
+            t, extrapolated = time_to(curve, target)
+            base = t if base is None else base
+            cell = ("~" if extrapolated else "") + "%.2f s" % t
+            if name != "cycles" and math.isfinite(t) and base > 0:
+                cell += " (x%.2f)" % (t / base)
+            cells.append(cell)
+        print("| %g%% | %s |" % (100 * target, " | ".join(cells)))
+    print("(~: extrapolated along the last two points' slope; xN: time relative to Cycles)")
+
+    # Where the variance lives: per-sample variance per pixel from each renderer's two references.
+    vc = c.pixel_var.mean(axis=2) * args.ref_spp
+    vm = m.pixel_var.mean(axis=2) * args.ref_spp
+    lum = m.mean.mean(axis=2)
+    print("\nper-sample variance, mcpt / Cycles, by region (pixels ranked by mcpt's variance):")
+    order = np.argsort(vm.ravel())[::-1]
+    n = order.size
+    for lo, hi in [(0, 0.01), (0.01, 0.05), (0.05, 0.25), (0.25, 1.0)]:
+        sel = order[int(lo * n):int(hi * n)]
+        print("  top %4.0f%%-%3.0f%%: %5.1f%% of mcpt's variance, %5.1f%% of Cycles'; ratio %.2f"
+              % (100 * lo, 100 * hi, 100 * vm.ravel()[sel].sum() / vm.sum(),
+                 100 * vc.ravel()[sel].sum() / vc.sum(), vm.ravel()[sel].sum() / max(vc.ravel()[sel].sum(), 1e-30)))
+    print("  all pixels: ratio %.2f; median pixel relative std: mcpt %.3f, Cycles %.3f"
+          % (vm.sum() / vc.sum(), float(np.median(np.sqrt(vm) / np.maximum(lum, 1e-9))),
+             float(np.median(np.sqrt(vc) / np.maximum(c.mean.mean(axis=2), 1e-9)))))
+    # A map of log2(mcpt / Cycles) per-sample variance, smoothed over 4x4 pixels: red where mcpt
+    # is noisier, blue where Cycles is.
+    k = 4
+    s = args.size // k
+    bm = vm[:s * k, :s * k].reshape(s, k, s, k).mean(axis=(1, 3))
+    bc = vc[:s * k, :s * k].reshape(s, k, s, k).mean(axis=(1, 3))
+    ratio = np.clip(np.log2(np.maximum(bm, 1e-12) / np.maximum(bc, 1e-12)) / 2, -1, 1)
+    ratio = np.kron(ratio, np.ones((k, k)))
+    rgba = np.ones((args.size, args.size, 4))
+    rgba[:, :, 0] = 1 - np.maximum(-ratio, 0)
+    rgba[:, :, 1] = 1 - np.abs(ratio)
+    rgba[:, :, 2] = 1 - np.maximum(ratio, 0)
+    img = bpy.data.images.new("ratio", args.size, args.size, float_buffer=False)
+    img.pixels = rgba.ravel().tolist()
+    img.filepath_raw = os.path.join(args.out, "variance-ratio.png")
+    img.file_format = "PNG"
+    img.save()
+
+    with open(os.path.join(args.out, "side-by-side.csv"), "w") as f:
+        f.write("\n".join(rows) + "\n")
+    write_svg(os.path.join(args.out, "side-by-side.svg"), runs, targets)
+    print("\nwrote %s/side-by-side.csv, side-by-side.svg, variance-ratio.png" % args.out)
+
+
+main()
