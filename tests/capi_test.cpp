@@ -182,7 +182,7 @@ TEST(CApi, WrongOrderAndBadArguments) {
     EXPECT_EQ(rs.spp, 2u);
     ASSERT_EQ(mcpt_session_set_sampler(s.s, "independent"), MCPT_OK);
     ASSERT_EQ(mcpt_session_render(s.s, 0, 0, 2, &rs), MCPT_OK) << s.error();
-    EXPECT_EQ(rs.spp, 2u);
+    EXPECT_GE(rs.spp, 1u);  // a new image (one pass: no time budget)
 }
 
 // An image beyond the host's memory is an error, not a crash; the session recovers.
