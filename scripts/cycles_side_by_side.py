@@ -365,23 +365,28 @@ def main():
     vc = c.pixel_var.mean(axis=2) * args.ref_spp
     vm = m.pixel_var.mean(axis=2) * args.ref_spp
     lum = m.mean.mean(axis=2)
-    print("\nper-sample variance, mcpt / Cycles, by region (pixels ranked by mcpt's variance):")
-    order = np.argsort(vm.ravel())[::-1]
-    n = order.size
-    for lo, hi in [(0, 0.01), (0.01, 0.05), (0.05, 0.25), (0.25, 1.0)]:
-        sel = order[int(lo * n):int(hi * n)]
-        print("  top %4.0f%%-%3.0f%%: %5.1f%% of mcpt's variance, %5.1f%% of Cycles'; ratio %.2f"
-              % (100 * lo, 100 * hi, 100 * vm.ravel()[sel].sum() / vm.sum(),
-                 100 * vc.ravel()[sel].sum() / vc.sum(), vm.ravel()[sel].sum() / max(vc.ravel()[sel].sum(), 1e-30)))
-    print("  all pixels: ratio %.2f; median pixel relative std: mcpt %.3f, Cycles %.3f"
-          % (vm.sum() / vc.sum(), float(np.median(np.sqrt(vm) / np.maximum(lum, 1e-9))),
-             float(np.median(np.sqrt(vc) / np.maximum(c.mean.mean(axis=2), 1e-9)))))
-    # A map of log2(mcpt / Cycles) per-sample variance, smoothed over 4x4 pixels: red where mcpt
-    # is noisier, blue where Cycles is.
+    # Ranked on 4x4 blocks (48 values each) by both renderers' variance shares alike, so that
+    # neither renderer's noise picks the regions.
     k = 4
     s = args.size // k
     bm = vm[:s * k, :s * k].reshape(s, k, s, k).mean(axis=(1, 3))
     bc = vc[:s * k, :s * k].reshape(s, k, s, k).mean(axis=(1, 3))
+    order = np.argsort((bm / bm.sum() + bc / bc.sum()).ravel())[::-1]
+    n = order.size
+    print("\nper-sample variance, mcpt / Cycles, by region (4x4 blocks ranked by their share of the "
+          "variance):")
+    for lo, hi in [(0, 0.01), (0.01, 0.05), (0.05, 0.25), (0.25, 1.0)]:
+        sel = order[int(lo * n):int(hi * n)]
+        print("  blocks %3.0f%%-%3.0f%%: %5.1f%% of mcpt's variance, %5.1f%% of Cycles'; ratio %.2f"
+              % (100 * lo, 100 * hi, 100 * bm.ravel()[sel].sum() / bm.sum(),
+                 100 * bc.ravel()[sel].sum() / bc.sum(),
+                 bm.ravel()[sel].sum() / max(bc.ravel()[sel].sum(), 1e-30)))
+    print("  all pixels: ratio %.2f; median block relative std: mcpt %.3f, Cycles %.3f"
+          % (vm.sum() / vc.sum(),
+             float(np.median(np.sqrt(bm) / np.maximum(lum[:s * k, :s * k].reshape(s, k, s, k).mean(axis=(1, 3)), 1e-9))),
+             float(np.median(np.sqrt(bc) / np.maximum(c.mean.mean(axis=2)[:s * k, :s * k].reshape(s, k, s, k).mean(axis=(1, 3)), 1e-9)))))
+    # A map of log2(mcpt / Cycles) per-sample variance over the 4x4 blocks: red where mcpt is
+    # noisier, blue where Cycles is (full colour at 4x).
     ratio = np.clip(np.log2(np.maximum(bm, 1e-12) / np.maximum(bc, 1e-12)) / 2, -1, 1)
     ratio = np.kron(ratio, np.ones((k, k)))
     rgba = np.ones((args.size, args.size, 4))
