@@ -171,6 +171,8 @@ class OpenClBackend final : public Backend {
                            "u -DMCPT_FEATURES=" + std::to_string(features) + "u";
         if (options_.fast_math) opts += " -cl-fast-relaxed-math";
         if (dev_.info.type == "gpu") opts += " -DMCPT_TRIANGLE_WORDS";  // scene_access.h
+        // NVIDIA's compiler takes inline PTX (sampler.h: one instruction for a bit reversal).
+        if (dev_.info.platform.find("NVIDIA") != std::string::npos) opts += " -DMCPT_NVIDIA_OPENCL";
         if (!options_.extra_defines.empty()) opts += " " + options_.extra_defines;
         if (program_() != nullptr && opts == built_options_) return;
         const auto t0 = std::chrono::steady_clock::now();

@@ -307,7 +307,7 @@ def main():
     refs["cycles"] = Reference(*imgs)
     imgs = []
     for seed in (90001, 90002):
-        render_mcpt(args, backends[0], "independent", args.ref_spp, seed, exr("mcpt-ref-%d" % seed))
+        render_mcpt(args, backends[0], "sobol", args.ref_spp, seed, exr("mcpt-ref-%d" % seed))
         imgs.append(read_exr(exr("mcpt-ref-%d" % seed), args.size))
     refs["mcpt"] = Reference(*imgs)
     for name, ref in refs.items():

@@ -36,14 +36,16 @@ TEST(Sampler, SobolDirectionsFollowTheirPolynomials) {
     const auto d2 = directions(2, 1, {1, 3}, SOBOL_BLOCK_BITS);
     const auto d3 = directions(3, 1, {1, 3, 1}, SOBOL_BLOCK_BITS);
     for (uint bit = 0; bit < SOBOL_BLOCK_BITS; ++bit) {
-        const uvec4 x = sobol4_bits(1u << bit);
+        const uvec4 r = sobol4_reversed(1u << bit);
+        const uvec4 x(reverse_bits(r.x), reverse_bits(r.y), reverse_bits(r.z), reverse_bits(r.w));
         EXPECT_EQ(x.x, 0x80000000u >> bit) << "bit " << bit;
         EXPECT_EQ(x.y, d1[bit]) << "bit " << bit;
         EXPECT_EQ(x.z, d2[bit]) << "bit " << bit;
         EXPECT_EQ(x.w, d3[bit]) << "bit " << bit;
     }
     // Linear over GF(2): point a ^ b is point a ^ point b.
-    EXPECT_EQ(sobol4_bits(0x1234u ^ 0x0f0fu), sobol4_bits(0x1234u) ^ sobol4_bits(0x0f0fu));
+    EXPECT_EQ(sobol4_reversed(0x1234u ^ 0x0f0fu),
+              sobol4_reversed(0x1234u) ^ sobol4_reversed(0x0f0fu));
 }
 
 TEST(Sampler, BitReversalAndScramblesAreBijective) {
@@ -83,9 +85,9 @@ const Sampler independent = [](uint p, uint i, uint g, uint s) { return rng4(p, 
 // blocks together (a multiplication), so the first 2^k samples are no net.
 const Sampler bad_shuffle = [](uint p, uint i, uint g, uint s) {
     const uvec4 h = pcg4d(UV4(p, g, s, 0u));
-    const uvec4 x = sobol4_bits((i * 0x9e37u + h.x) & 0xffffu);
-    return vec4(uint_to_unit_float(x.x), uint_to_unit_float(x.y), uint_to_unit_float(x.z),
-                uint_to_unit_float(x.w));
+    const uvec4 x = sobol4_reversed((i * 0x9e37u + h.x) & 0xffffu);
+    return vec4(uint_to_unit_float(reverse_bits(x.x)), uint_to_unit_float(reverse_bits(x.y)),
+                uint_to_unit_float(reverse_bits(x.z)), uint_to_unit_float(reverse_bits(x.w)));
 };
 
 TEST(Sampler, EveryPowerOfTwoIsANet) {
@@ -152,7 +154,7 @@ TEST(Sampler, DimensionGroupsAreIndependent) {
     // scramble, so their points are functions of one another.
     auto same_index = [](uint i, uint out_seed) {
         const uint index = nested_uniform_scramble(i, 0x1234567u) & 0xffffu;
-        return uint_to_unit_float(nested_uniform_scramble(sobol4_bits(index).x, out_seed));
+        return uint_to_unit_float(nested_uniform_scramble(reverse_bits(index), out_seed));
     };
     EXPECT_LT(
         uniformity_p([&](uint i) { return vec2(same_index(i, 11), same_index(i, 29)); }, 4096),

@@ -20,7 +20,11 @@ MCPT_FN uint reverse_bits(uint x) {
 #if defined(MCPT_GLSL)
     return bitfieldReverse(x);
 #elif defined(__clang__)
-    return __builtin_bitreverse32(x);
+    return __builtin_bitreverse32(x);  // PoCL, clang C++
+#elif defined(MCPT_NVIDIA_OPENCL)
+    uint r;
+    __asm__("brev.b32 %0, %1;" : "=r"(r) : "r"(x));  // one PTX instruction
+    return r;
 #else
     x = ((x >> 1u) & 0x55555555u) | ((x & 0x55555555u) << 1u);
     x = ((x >> 2u) & 0x33333333u) | ((x & 0x33333333u) << 2u);
@@ -46,36 +50,38 @@ MCPT_FN uint nested_uniform_scramble(uint x, uint seed) {
     return reverse_bits(laine_karras_permutation(reverse_bits(x), seed));
 }
 
-// Sobol point `index` (< 2^SOBOL_BLOCK_BITS) in dimensions 0 to 3, as 32-bit fixed point.
-// Dimension 0 is the bit reversal; each line below adds the direction numbers of dimensions
-// 1, 2 and 3 for one bit of the index: primitive polynomials x + 1, x^2 + x + 1 and
-// x^3 + x + 1 with initial m = (1), (1, 3), (1, 3, 1) (Joe & Kuo 2008; sampler_test.cpp derives
-// them again). Written out, not a table: constants need no memory, and no lane diverges.
+// Sobol point `index` (< 2^SOBOL_BLOCK_BITS) in dimensions 0 to 3, as 32-bit fixed point
+// with the bits reversed (bit 0 the most significant digit), the order Owen scrambling works
+// in. Dimension 0 is the index itself (van der Corput); each line below adds the reversed
+// direction numbers of dimensions 1, 2 and 3 for one bit of the index: primitive polynomials
+// x + 1, x^2 + x + 1 and x^3 + x + 1 with initial m = (1), (1, 3), (1, 3, 1) (Joe & Kuo 2008;
+// sampler_test.cpp derives them again). Written out, not a table: constants need no memory,
+// and no lane diverges.
 #define SOBOL_BIT(bit, v1, v2, v3)     \
     take = 0u - ((index >> bit) & 1u); \
     x.y ^= (v1)&take;                  \
     x.z ^= (v2)&take;                  \
     x.w ^= (v3)&take
-MCPT_FN uvec4 sobol4_bits(uint index) {
-    uvec4 x = UV4(reverse_bits(index), 0u, 0u, 0u);
+MCPT_FN uvec4 sobol4_reversed(uint index) {
+    uvec4 x = UV4(index, 0u, 0u, 0u);
     uint take;
     // clang-format off
-    SOBOL_BIT( 0u, 0x80000000u, 0x80000000u, 0x80000000u);
-    SOBOL_BIT( 1u, 0xc0000000u, 0xc0000000u, 0xc0000000u);
-    SOBOL_BIT( 2u, 0xa0000000u, 0x60000000u, 0x20000000u);
-    SOBOL_BIT( 3u, 0xf0000000u, 0x90000000u, 0x50000000u);
-    SOBOL_BIT( 4u, 0x88000000u, 0xe8000000u, 0xf8000000u);
-    SOBOL_BIT( 5u, 0xcc000000u, 0x5c000000u, 0x74000000u);
-    SOBOL_BIT( 6u, 0xaa000000u, 0x8e000000u, 0xa2000000u);
-    SOBOL_BIT( 7u, 0xff000000u, 0xc5000000u, 0x93000000u);
-    SOBOL_BIT( 8u, 0x80800000u, 0x68800000u, 0xd8800000u);
-    SOBOL_BIT( 9u, 0xc0c00000u, 0x9cc00000u, 0x25400000u);
-    SOBOL_BIT(10u, 0xa0a00000u, 0xee600000u, 0x59e00000u);
-    SOBOL_BIT(11u, 0xf0f00000u, 0x55900000u, 0xe6d00000u);
-    SOBOL_BIT(12u, 0x88880000u, 0x80680000u, 0x78080000u);
-    SOBOL_BIT(13u, 0xcccc0000u, 0xc09c0000u, 0xb40c0000u);
-    SOBOL_BIT(14u, 0xaaaa0000u, 0x60ee0000u, 0x82020000u);
-    SOBOL_BIT(15u, 0xffff0000u, 0x90550000u, 0xc3050000u);
+    SOBOL_BIT( 0u, 0x00000001u, 0x00000001u, 0x00000001u);
+    SOBOL_BIT( 1u, 0x00000003u, 0x00000003u, 0x00000003u);
+    SOBOL_BIT( 2u, 0x00000005u, 0x00000006u, 0x00000004u);
+    SOBOL_BIT( 3u, 0x0000000fu, 0x00000009u, 0x0000000au);
+    SOBOL_BIT( 4u, 0x00000011u, 0x00000017u, 0x0000001fu);
+    SOBOL_BIT( 5u, 0x00000033u, 0x0000003au, 0x0000002eu);
+    SOBOL_BIT( 6u, 0x00000055u, 0x00000071u, 0x00000045u);
+    SOBOL_BIT( 7u, 0x000000ffu, 0x000000a3u, 0x000000c9u);
+    SOBOL_BIT( 8u, 0x00000101u, 0x00000116u, 0x0000011bu);
+    SOBOL_BIT( 9u, 0x00000303u, 0x00000339u, 0x000002a4u);
+    SOBOL_BIT(10u, 0x00000505u, 0x00000677u, 0x0000079au);
+    SOBOL_BIT(11u, 0x00000f0fu, 0x000009aau, 0x00000b67u);
+    SOBOL_BIT(12u, 0x00001111u, 0x00001601u, 0x0000101eu);
+    SOBOL_BIT(13u, 0x00003333u, 0x00003903u, 0x0000302du);
+    SOBOL_BIT(14u, 0x00005555u, 0x00007706u, 0x00004041u);
+    SOBOL_BIT(15u, 0x0000ffffu, 0x0000aa09u, 0x0000a0c3u);
     // clang-format on
     return x;
 }
@@ -87,16 +93,17 @@ MCPT_FN vec4 sobol4(uint pixel, uint sample_index, uint group, uint seed) {
     // the dimensions.
     uvec4 h = pcg4d(UV4(pixel, group, seed, sample_index >> SOBOL_BLOCK_BITS));
     uvec4 s = pcg4d(h);
-    // Shuffle the index within its block (Owen scrambling of the index keeps the first 2^k
-    // samples an aligned block of 2^k Sobol points), then scramble each dimension.
+    // Shuffle the index within its block by Owen scrambling (the first 2^k samples stay an
+    // aligned block of 2^k Sobol points): bits above the block come out constant, masked off.
     uint block_mask = (1u << SOBOL_BLOCK_BITS) - 1u;
     uint index = nested_uniform_scramble(sample_index & block_mask, h.x) & block_mask;
-    uvec4 x = sobol4_bits(index);
+    // The point, Owen-scrambled per dimension in reversed order, then turned back.
+    uvec4 x = sobol4_reversed(index);
     vec4 u;
-    u.x = uint_to_unit_float(nested_uniform_scramble(x.x, s.x));
-    u.y = uint_to_unit_float(nested_uniform_scramble(x.y, s.y));
-    u.z = uint_to_unit_float(nested_uniform_scramble(x.z, s.z));
-    u.w = uint_to_unit_float(nested_uniform_scramble(x.w, s.w));
+    u.x = uint_to_unit_float(reverse_bits(laine_karras_permutation(x.x, s.x)));
+    u.y = uint_to_unit_float(reverse_bits(laine_karras_permutation(x.y, s.y)));
+    u.z = uint_to_unit_float(reverse_bits(laine_karras_permutation(x.z, s.z)));
+    u.w = uint_to_unit_float(reverse_bits(laine_karras_permutation(x.w, s.w)));
     return u;
 }
 
