@@ -275,8 +275,8 @@ def write_svg(path, runs, targets):
             s.append('<text x="%d" y="%.1f" text-anchor="end">%g</text>' % (m - 4, sy(10 ** k) + 4, 10 ** k))
     for i, (name, curve) in enumerate(runs):
         col = colours[i % len(colours)]
-        path = " ".join("%.1f,%.1f" % (sx(t), sy(e)) for t, e in curve if t > 0 and e > 0)
-        s.append('<polyline fill="none" stroke="%s" stroke-width="2" points="%s"/>' % (col, path))
+        points = " ".join("%.1f,%.1f" % (sx(t), sy(e)) for t, e in curve if t > 0 and e > 0)
+        s.append('<polyline fill="none" stroke="%s" stroke-width="2" points="%s"/>' % (col, points))
         s.append('<text x="%d" y="%d" fill="%s">%s</text>' % (w - m - 220, m + 16 * i, col, name))
     s.append('<rect x="%d" y="%d" width="%d" height="%d" fill="none" stroke="black"/>'
              % (m, m - 10, w - 2 * m, h - 2 * m + 10))
@@ -335,7 +335,6 @@ def main():
                 t = render_mcpt(args, backend, sampler, spp, 1, path)
             err = refs["cycles" if backend is None else "mcpt"].rel_rmse(read_exr(path, args.size))
             curve.append((t, err))
-            rows.append("%s,%d,%.4f,%.6f" % (name, spp, t, err))
             print("  %-22s %5d spp %8.3f s  rel RMSE %6.2f%%" % (name, spp, t, 100 * err), flush=True)
         if backend is None:
             # Cycles' time includes its scene sync: take off the extrapolation to 0 spp.
@@ -343,6 +342,7 @@ def main():
             sync = max(0.0, 2 * t1 - t2)
             curve = [(t - sync, e) for t, e in curve]
             print("  (cycles: %.3f s of scene synchronisation taken off each time)" % sync)
+        rows += ["%s,%d,%.4f,%.6f" % (name, spp, t, e) for spp, (t, e) in zip(spps, curve)]
         runs.append((name, curve))
 
     # Time to each target, and the ratio to Cycles.
