@@ -54,6 +54,7 @@ TEST(Cli, SceneWithoutLight) {
 TEST(Cli, BadOptionsAreRejected) {
     // Bad input: exit status 1, as documented (CLI11's own codes are 105 and up).
     EXPECT_EQ(run_mcpt("render --tree octree").status, 1);
+    EXPECT_EQ(run_mcpt("render --sampler halton").status, 1);
     EXPECT_EQ(run_mcpt("render --width 0").status, 1);
     EXPECT_EQ(run_mcpt("render --spp 4 --time 1").status, 1);
     EXPECT_EQ(run_mcpt("frobnicate").status, 1);
@@ -76,6 +77,24 @@ TEST(Cli, RendersDefaultSceneToExr) {
     EXPECT_EQ(r.status, 0) << r.output;
     EXPECT_TRUE(std::filesystem::exists(out));
     EXPECT_NE(r.output.find("non-finite samples: 0"), std::string::npos) << r.output;
+}
+
+// The sampler is a build choice: -v names the independent sampler when asked for, and the two
+// samplers draw different images from one seed.
+TEST(Cli, SamplerChoice) {
+    const auto dir = std::filesystem::temp_directory_path();
+    const std::string a = (dir / "mcpt_cli_sobol.exr").string();
+    const std::string b = (dir / "mcpt_cli_independent.exr").string();
+    const std::string common = "render --spp 2 --width 16 --height 16 -q -v -o ";
+    const CliRun sobol = run_mcpt(common + a);
+    const CliRun independent = run_mcpt(common + b + " --sampler independent");
+    ASSERT_EQ(sobol.status, 0) << sobol.output;
+    ASSERT_EQ(independent.status, 0) << independent.output;
+    EXPECT_EQ(sobol.output.find("independent sampler"), std::string::npos) << sobol.output;
+    EXPECT_NE(independent.output.find("compiled for: "), std::string::npos);
+    EXPECT_NE(independent.output.find("independent sampler"), std::string::npos)
+        << independent.output;
+    EXPECT_NE(mcpt::test::read_file(a), mcpt::test::read_file(b));
 }
 
 TEST(Cli, DevicesListsOpenCl) {

@@ -142,6 +142,12 @@ JNI_FN(nativeSetTree)(JNIEnv* env, jclass, jlong s, jstring kind, jint depth)->v
         check(env, s, mcpt_session_set_tree(handle(s), k.c_str(), depth));
 }
 
+JNI_FN(nativeSetSampler)(JNIEnv* env, jclass, jlong s, jstring sampler)->void {
+    std::string name;
+    if (open(env, s) && utf8(env, sampler, name))
+        check(env, s, mcpt_session_set_sampler(handle(s), name.c_str()));
+}
+
 JNI_FN(nativeSetSeed)(JNIEnv* env, jclass, jlong s, jint seed)->void {
     if (open(env, s)) check(env, s, mcpt_session_set_seed(handle(s), uint32_t(seed)));
 }

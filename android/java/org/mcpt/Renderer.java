@@ -57,6 +57,9 @@ public final class Renderer implements AutoCloseable {
 
     public void setSeed(int seed) { nativeSetSeed(session, seed); }
 
+    /** "sobol" (Owen-scrambled Sobol points, the default) or "independent". */
+    public void setSampler(String sampler) { nativeSetSampler(session, sampler); }
+
     public void setSpecialize(boolean on) { nativeSetSpecialize(session, on); }
 
     /** The image depends only on seed and sample count, not on the passes' timing. */
@@ -128,6 +131,7 @@ public final class Renderer implements AutoCloseable {
     private static native void nativeSetMaxBounces(long s, int bounces);
     private static native void nativeSetTree(long s, String kind, int depth);
     private static native void nativeSetSeed(long s, int seed);
+    private static native void nativeSetSampler(long s, String sampler);
     private static native void nativeSetSpecialize(long s, boolean on);
     private static native void nativeSetReproducible(long s, boolean on);
     private static native RenderStats nativeRender(long s, double budgetMs, double targetError,
