@@ -4,7 +4,9 @@
 #include <cstdio>
 
 #include "app/commands.h"
+#include "common/accel/cpu_trace.h"
 #include "common/error.h"
+#include "common/render/gpu_scene.h"
 
 namespace mcpt {
 
@@ -50,6 +52,33 @@ FrameTiming time_frames(Backend& backend, const GpuScene& g, const Camera& camer
     ft.msamples = double(ro.width) * ro.height * double(spp) / sec * 1e-6;
     ft.mrays = rays / sec * 1e-6;
     return ft;
+}
+
+// Camera rays through a grid and a few hundred full paths, fewer when a ray is expensive.
+Counts count_work(const GpuScene& g, const Scene& scene, const RenderOptions& ro,
+                  const std::string& tree_kind) {
+    gpu::GpuParams p = g.params;
+    set_camera(p, scene.camera, ro.width, ro.height);
+    p.max_depth = ro.max_depth, p.rr_depth = ro.rr_depth, p.seed = 12345;
+    const double n_tris = double(std::max<size_t>(1, g.triangles.size()));
+    const double per_ray = tree_kind == "none" ? n_tris : tree_kind == "median" ? n_tris / 4 : 64;
+    const int side = std::clamp(int(std::sqrt(2e8 / per_ray)), 8, 64);
+    const int paths = std::clamp(side * side / 16, 16, 256);
+    Counts c;
+    for (int y = 0; y < side; ++y) {
+        for (int x = 0; x < side; ++x) {
+            const float fx = (x + 0.5f) / side * 2 - 1, fy = 1 - (y + 0.5f) / side * 2;
+            c.camera.add(cpu_trace(g, cpu_camera_ray(g, p, fx, fy), false));
+        }
+    }
+    const uint32_t npix = uint32_t(ro.width) * uint32_t(ro.height);
+    for (int i = 0; i < paths; ++i) {
+        // Pixels spread over the image by a multiplicative hash.
+        const uint32_t pixel = uint32_t((uint64_t(i) * 2654435761u) % npix);
+        c.paths.add(cpu_path_work(g, p, pixel, uint32_t(i)));
+    }
+    c.rays_per_path = c.paths.rays / paths;
+    return c;
 }
 
 std::string fmt(const char* format, double v) {

@@ -4,8 +4,10 @@
 #include <string>
 #include <vector>
 
+#include "common/gpu/ray_types.h"
 #include "common/render/backend.h"
 #include "common/render/render_loop.h"
+#include "common/scene/scene.h"
 
 namespace mcpt {
 
@@ -27,6 +29,18 @@ struct FrameTiming {
 // frames of ro.spp samples per pixel.
 FrameTiming time_frames(Backend& backend, const GpuScene& g, const Camera& camera, RenderOptions ro,
                         int frames);
+
+// Work per ray counted by the shared traversal on the CPU (untimed): camera rays, and the
+// rays of full paths.
+struct Counts {
+    gpu::RayWork camera, paths;
+    double rays_per_path = 0;
+};
+
+// Camera rays through a grid and a few hundred full paths, fewer when a ray is expensive
+// (tree_kind: none, median or sah, for the estimate of that cost).
+Counts count_work(const GpuScene& g, const Scene& scene, const RenderOptions& ro,
+                  const std::string& tree_kind);
 
 // printf-style formatting of one number.
 std::string fmt(const char* format, double v);

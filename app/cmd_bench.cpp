@@ -13,6 +13,7 @@
 
 #include "app/bench_common.h"
 #include "app/bench_specialize.h"
+#include "app/bench_throughput.h"
 #include "app/commands.h"
 #include "common/accel/cpu_trace.h"
 #include "common/error.h"
@@ -32,6 +33,9 @@ namespace {
 struct BenchArgs {
     bool quick = false;
     bool specialize = false;
+    bool throughput = false;
+    double seconds = 0;                 // --throughput: timed seconds per row (0: 5, quick 0.3)
+    std::string tree = "auto";          // --throughput
     std::vector<std::string> backends;  // empty: every device found
     std::string models = "models";
     std::string output = "bench";
@@ -47,11 +51,6 @@ struct TreeConfig {
     int depth;
 };
 const TreeConfig kTrees[] = {{"none", "none", -1}, {"median-3", "median", 3}, {"sah", "sah", -1}};
-
-struct Counts {
-    gpu::RayWork camera, paths;
-    double rays_per_path = 0;
-};
 
 struct Row {
     std::string model, tree, backend, device;
@@ -83,35 +82,6 @@ std::vector<std::pair<std::string, Scene>> bench_scenes(const BenchArgs& a) {
         out.emplace_back("generated-sphere", mesh);
     }
     return out;
-}
-
-// Camera rays through a grid and a few hundred full paths, fewer when a ray is expensive.
-Counts count_work(const GpuScene& g, const Scene& scene, const RenderOptions& ro,
-                  const TreeConfig& tc) {
-    gpu::GpuParams p = g.params;
-    set_camera(p, scene.camera, ro.width, ro.height);
-    p.max_depth = ro.max_depth, p.rr_depth = ro.rr_depth, p.seed = 12345;
-    const double n_tris = double(std::max<size_t>(1, g.triangles.size()));
-    const double per_ray = tc.kind == std::string("none")     ? n_tris
-                           : tc.kind == std::string("median") ? n_tris / 4
-                                                              : 64;
-    const int side = std::clamp(int(std::sqrt(2e8 / per_ray)), 8, 64);
-    const int paths = std::clamp(side * side / 16, 16, 256);
-    Counts c;
-    for (int y = 0; y < side; ++y) {
-        for (int x = 0; x < side; ++x) {
-            const float fx = (x + 0.5f) / side * 2 - 1, fy = 1 - (y + 0.5f) / side * 2;
-            c.camera.add(cpu_trace(g, cpu_camera_ray(g, p, fx, fy), false));
-        }
-    }
-    const uint32_t npix = uint32_t(ro.width) * uint32_t(ro.height);
-    for (int i = 0; i < paths; ++i) {
-        // Pixels spread over the image by a multiplicative hash.
-        const uint32_t pixel = uint32_t((uint64_t(i) * 2654435761u) % npix);
-        c.paths.add(cpu_path_work(g, p, pixel, uint32_t(i)));
-    }
-    c.rays_per_path = c.paths.rays / paths;
-    return c;
 }
 
 std::string markdown_table(const std::vector<Row>& rows) {
@@ -178,6 +148,18 @@ void write_plot(const std::string& path, const std::vector<Row>& rows, const Ren
 }
 
 void run_bench(const BenchArgs& a) {
+    if (a.throughput) {
+        ThroughputBenchArgs t;
+        t.backends = a.backends, t.models = a.models, t.quick = a.quick;
+        t.output = a.output == "bench" ? "bench-throughput" : a.output;
+        t.width = a.width > 0 ? a.width : (a.quick ? 64 : 1024);
+        t.height = a.height > 0 ? a.height : (a.quick ? 64 : 1024);
+        t.seconds = a.seconds > 0 ? a.seconds : (a.quick ? 0.3 : 5);
+        t.warmup_seconds = a.quick ? 0.1 : 1;
+        t.tree = a.tree;
+        run_throughput_bench(t);
+        return;
+    }
     if (a.specialize) {
         SpecializeBenchArgs s;
         s.backends = a.backends, s.models = a.models;
@@ -208,7 +190,7 @@ void run_bench(const BenchArgs& a) {
             // Tree, then the untimed counting pass (work per ray, rays per sample).
             const KdTree tree = build_kdtree(scene.triangles, tree_options(tc.kind, tc.depth));
             const GpuScene g = pack_scene(scene, tree);
-            const Counts counts = count_work(g, scene, sro, tc);
+            const Counts counts = count_work(g, scene, sro, tc.kind);
             const double tests_per_frame = counts.paths.tests_per_ray() * counts.rays_per_path *
                                            double(sro.width) * sro.height * double(sro.spp);
             for (OpenBackend& ob : backends) {
@@ -260,6 +242,14 @@ void add_bench_command(CLI::App& app) {
     sub->add_flag("--specialize", a->specialize,
                   "Full kernel vs builds for each scene's features (and --tree auto), with "
                   "cold and cached compile times");
+    sub->add_flag("--throughput", a->throughput,
+                  "Long renders (1024^2, 5 s after a warm-up) per scene and backend: rays/s, "
+                  "Vulkan/OpenCL, work and bytes per ray");
+    sub->add_option("--time", a->seconds, "--throughput: timed seconds per row (default 5)")
+        ->check(CLI::PositiveNumber);
+    sub->add_option("--tree", a->tree, "--throughput: auto (per device), sah, median or none")
+        ->check(CLI::IsMember({"auto", "sah", "median", "none"}))
+        ->capture_default_str();
     sub->add_option("--backend", a->backends,
                     "opencl|vulkan[:device], repeatable (default: every device found)");
     sub->add_option("--models", a->models, "Directory of models (scripts/fetch-models)")

@@ -92,6 +92,57 @@ TEST(BenchCli, SpecializeTableHasEveryScene) {
     EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 4) << csv;
 }
 
+// Long-run throughput, shortened: every scene on both CPU drivers, with the Vulkan/OpenCL ratio
+// of the two (the same kind of device) equal to the ratio of their rays/s cells.
+TEST(BenchCli, ThroughputTableHasRatios) {
+    const auto dir = std::filesystem::temp_directory_path() / "mcpt_bench_throughput_test";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir / "no-models");
+    const std::string prefix = (dir / "tp").string();
+    std::string backends = " --backend opencl:" + test::test_opencl_device();
+#if MCPT_WITH_VULKAN
+    backends += " --backend vulkan";
+#endif
+    const CliRun r = run_mcpt("bench --throughput --quick --tree sah --time 0.2 --models " +
+                              (dir / "no-models").string() + backends + " -o " + prefix);
+    ASSERT_EQ(r.status, 0) << r.output;
+    const std::string csv = read_file(prefix + ".csv");
+    std::istringstream lines(csv);
+    std::string line;
+    std::getline(lines, line);  // header
+    std::vector<std::vector<std::string>> rows;
+    for (; std::getline(lines, line);) {
+        std::vector<std::string> cells;
+        std::string cell;
+        bool quoted = false;
+        for (char ch : line) {
+            if (ch == '"')
+                quoted = !quoted;
+            else if (ch == ',' && !quoted)
+                cells.push_back(cell), cell.clear();
+            else
+                cell += ch;
+        }
+        cells.push_back(cell);
+        ASSERT_EQ(cells.size(), 15u) << line;
+        EXPECT_EQ(cells[2], "sah") << line;
+        EXPECT_GT(std::stod(cells[9]), 0.0) << line;   // M rays/s
+        EXPECT_GT(std::stod(cells[12]), 0.0) << line;  // triangle tests per ray
+        rows.push_back(cells);
+    }
+#if MCPT_WITH_VULKAN
+    ASSERT_EQ(rows.size(), 4u) << csv;
+    for (size_t i = 0; i < rows.size(); i += 2) {
+        EXPECT_EQ(rows[i][3], "opencl");
+        EXPECT_EQ(rows[i + 1][3], "vulkan");
+        EXPECT_NEAR(std::stod(rows[i + 1][10]), std::stod(rows[i + 1][9]) / std::stod(rows[i][9]),
+                    1e-3 * std::stod(rows[i + 1][10]) + 1e-3);
+    }
+#else
+    ASSERT_EQ(rows.size(), 2u) << csv;
+#endif
+}
+
 TEST(BenchSvg, LogLogPlotHasSeriesLegendAndEscapes) {
     SvgPlot plot;
     plot.title = "a <b> & c";

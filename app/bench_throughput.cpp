@@ -1,0 +1,183 @@
+// mcpt bench --throughput: long renders (a warm-up, then seconds of tracing at 1024^2) on the
+// Cornell box and the seed meshes for every backend given, with the tree --tree picks for each
+// device (auto by default): samples/s and rays/s, the Vulkan/OpenCL ratio per scene and device,
+// node visits and triangle tests per ray (counted on the CPU), the node and triangle bytes that
+// implies per ray and the bandwidth at the measured rate. Writes prefix.md, prefix.csv and
+// prefix.svg.
+#include "app/bench_throughput.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+
+#include "app/bench_common.h"
+#include "app/commands.h"
+#include "common/io/atomic_file.h"
+#include "common/io/svg_plot.h"
+#include "common/render/prepare.h"
+#include "common/scene/builtin_scenes.h"
+#include "common/scene/scene.h"
+
+namespace mcpt {
+
+namespace {
+
+// Bytes the traversal reads per node visit and per triangle test (an 8-byte node; a leaf index
+// and a 40-byte triangle): a lower bound on the memory traffic a ray causes.
+constexpr double kNodeBytes = sizeof(gpu::KdNode);
+constexpr double kTestBytes = sizeof(uint32_t) + sizeof(gpu::GpuTriangle);
+
+struct ThroughputRow {
+    std::string scene, tree, backend, device, type;
+    size_t triangles = 0;
+    double seconds = 0, msamples = 0, mrays = 0;
+    double visits_per_ray = 0, tests_per_ray = 0;
+    // Vulkan rows: rays/s over the OpenCL rays/s of the same device, else of the same kind of
+    // device (a CPU driver against a CPU driver); 0: none.
+    double ratio = 0;
+    double bytes_per_ray() const {
+        return visits_per_ray * kNodeBytes + tests_per_ray * kTestBytes;
+    }
+    double gbytes_per_s() const { return bytes_per_ray() * mrays * 1e-3; }
+};
+
+std::vector<std::pair<std::string, Scene>> throughput_scenes(const ThroughputBenchArgs& a) {
+    std::vector<std::pair<std::string, Scene>> out;
+    out.emplace_back("cornell", load_scene_argument("cornell"));
+    const std::vector<std::string> names =
+        a.quick ? std::vector<std::string>{}
+                : std::vector<std::string>{"bunny", "dragon-48k", "dragon-871k"};
+    for (const std::string& n : names) {
+        const std::string path = a.models + "/" + n + ".glb";
+        if (std::filesystem::exists(path))
+            out.emplace_back(n, load_scene_argument(path));
+        else
+            std::printf("note: %s missing (scripts/fetch-models): skipped\n", path.c_str());
+    }
+    if (out.size() == 1) {
+        Scene mesh = make_bumpy_sphere_scene(a.quick ? 16 : 128);
+        validate_scene(mesh);
+        out.emplace_back("generated-sphere", mesh);
+    }
+    return out;
+}
+
+std::string markdown_table(const std::vector<ThroughputRow>& rows) {
+    std::string t =
+        "| scene | triangles | tree | backend/device | M samples/s | M rays/s | Vulkan/OpenCL | "
+        "node visits/ray | tri tests/ray | bytes/ray | GB/s |\n"
+        "|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|\n";
+    for (const ThroughputRow& r : rows) {
+        t += "| " + r.scene + " | " + std::to_string(r.triangles) + " | " + r.tree + " | " +
+             r.backend + ": " + r.device + " | " + fmt("%.1f", r.msamples) + " | " +
+             fmt("%.1f", r.mrays) + " | " + (r.ratio > 0 ? fmt("%.2f", r.ratio) : "") + " | " +
+             fmt("%.1f", r.visits_per_ray) + " | " + fmt("%.1f", r.tests_per_ray) + " | " +
+             fmt("%.0f", r.bytes_per_ray()) + " | " + fmt("%.1f", r.gbytes_per_s()) + " |\n";
+    }
+    return t;
+}
+
+void write_csv(const std::string& path, const std::vector<ThroughputRow>& rows, int w, int h) {
+    std::ostringstream f;
+    f << "scene,triangles,tree,backend,device,width,height,seconds,msamples_per_s,mrays_per_s,"
+         "vulkan_over_opencl,node_visits_per_ray,tri_tests_per_ray,bytes_per_ray,gbytes_per_s\n";
+    for (const ThroughputRow& r : rows) {
+        f << r.scene << "," << r.triangles << "," << r.tree << "," << r.backend << ",\"" << r.device
+          << "\"," << w << "," << h << "," << fmt("%.3f", r.seconds) << ","
+          << fmt("%.3f", r.msamples) << "," << fmt("%.3f", r.mrays) << "," << fmt("%.4f", r.ratio)
+          << "," << fmt("%.3f", r.visits_per_ray) << "," << fmt("%.3f", r.tests_per_ray) << ","
+          << fmt("%.1f", r.bytes_per_ray()) << "," << fmt("%.3f", r.gbytes_per_s()) << "\n";
+    }
+    write_text_atomically(path, f.str());
+}
+
+// M rays/s against triangle count, one line per backend/device.
+void write_plot(const std::string& path, const std::vector<ThroughputRow>& rows) {
+    SvgPlot plot;
+    plot.title = "Throughput: M rays/s against triangles (long renders)";
+    plot.x_label = "triangles";
+    plot.y_label = "M rays/s";
+    std::vector<std::string> keys;
+    for (const ThroughputRow& r : rows) {
+        const std::string key = r.backend + ": " + r.device;
+        size_t k = 0;
+        while (k < keys.size() && keys[k] != key) ++k;
+        if (k == keys.size()) keys.push_back(key), plot.series.push_back({});
+        plot.series[k].label = key.substr(0, 60);
+        plot.series[k].x.push_back(double(std::max<size_t>(1, r.triangles)));
+        plot.series[k].y.push_back(r.mrays);
+    }
+    write_svg(path, plot);
+}
+
+}  // namespace
+
+void run_throughput_bench(const ThroughputBenchArgs& a) {
+    std::vector<OpenBackend> backends = open_backends(a.backends);
+    const auto scenes = throughput_scenes(a);
+    std::printf("bench --throughput: %dx%d, tree %s, %.1f s warm-up, %.1f s timed per row\n",
+                a.width, a.height, a.tree.c_str(), a.warmup_seconds, a.seconds);
+    std::fflush(stdout);
+    std::vector<ThroughputRow> rows;
+    for (const auto& [name, scene] : scenes) {
+        const size_t first = rows.size();
+        for (OpenBackend& ob : backends) {
+            Backend& backend = *ob.backend;
+            const GpuScene g =
+                prepare_scene(scene, backend.device(), tree_options(a.tree), a.width, a.height);
+            backend.load(g, a.width, a.height);
+            RenderOptions ro;
+            ro.width = a.width, ro.height = a.height;
+            ro.max_depth = uint32_t(default_max_depth(scene));
+            // Warm-up (compilation done, clocks up, dispatch sizes settled), then the timed run.
+            ro.seconds = a.warmup_seconds, ro.seed = 99;
+            render_loaded(backend, g, scene.camera, ro);
+            ro.seconds = a.seconds, ro.seed = 1;
+            const RenderResult r = render_loaded(backend, g, scene.camera, ro);
+            ThroughputRow row;
+            row.scene = name;
+            row.tree = tree_kind_name(g.tree_kind);
+            row.backend = backend.device().backend, row.device = backend.device().name;
+            row.type = backend.device().type;
+            row.triangles = g.triangles.size();
+            row.seconds = r.seconds;
+            row.msamples = double(r.spp) * a.width * a.height / r.seconds * 1e-6;
+            row.mrays = r.rays / r.seconds * 1e-6;
+            const Counts c = count_work(g, scene, ro, row.tree);
+            row.visits_per_ray = c.paths.visits_per_ray();
+            row.tests_per_ray = c.paths.tests_per_ray();
+            std::printf("  %-16s %-6s %-40.40s %9.1f M samples/s %9.1f M rays/s\n", name.c_str(),
+                        row.tree.c_str(), (row.backend + ": " + row.device).c_str(), row.msamples,
+                        row.mrays);
+            std::fflush(stdout);
+            rows.push_back(row);
+        }
+        // Vulkan against OpenCL per scene: the same device, else the same kind of device.
+        for (size_t i = first; i < rows.size(); ++i) {
+            if (rows[i].backend != "vulkan") continue;
+            for (int same_name = 1; same_name >= 0 && rows[i].ratio == 0; --same_name) {
+                for (size_t j = first; j < rows.size() && rows[i].ratio == 0; ++j) {
+                    const bool match =
+                        same_name ? rows[j].device == rows[i].device : rows[j].type == rows[i].type;
+                    if (rows[j].backend == "opencl" && match && rows[j].mrays > 0)
+                        rows[i].ratio = rows[i].mrays / rows[j].mrays;
+                }
+            }
+        }
+    }
+    const std::string table = markdown_table(rows);
+    std::printf("\n%s", table.c_str());
+    std::printf(
+        "\nnode visits and triangle tests per ray: full paths, counted on the CPU; bytes/ray: "
+        "%.0f per node visit, %.0f per triangle test (leaf index and triangle); GB/s: bytes/ray "
+        "x rays/s, a lower bound on the traffic; Vulkan/OpenCL: rays/s against OpenCL on the "
+        "same device, else on the same kind of device\n",
+        kNodeBytes, kTestBytes);
+    write_text_atomically(a.output + ".md", table);
+    write_csv(a.output + ".csv", rows, a.width, a.height);
+    write_plot(a.output + ".svg", rows);
+    std::printf("wrote %s.md, %s.csv, %s.svg\n", a.output.c_str(), a.output.c_str(),
+                a.output.c_str());
+}
+
+}  // namespace mcpt

@@ -1,0 +1,22 @@
+// mcpt bench --throughput: long renders per scene and backend, rays/s, the Vulkan/OpenCL
+// ratio, work and bytes per ray.
+#pragma once
+#include <string>
+#include <vector>
+
+namespace mcpt {
+
+struct ThroughputBenchArgs {
+    std::vector<std::string> backends;  // empty: every device found
+    std::string models = "models";
+    std::string output = "bench-throughput";
+    int width = 1024, height = 1024;
+    double seconds = 5;         // timed, per scene and backend
+    double warmup_seconds = 1;  // untimed, before it
+    bool quick = false;         // the Cornell box and a small generated mesh
+    std::string tree = "auto";  // auto (per device), sah, median or none
+};
+
+void run_throughput_bench(const ThroughputBenchArgs& args);
+
+}  // namespace mcpt
