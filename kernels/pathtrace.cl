@@ -13,9 +13,9 @@ __kernel void pathtrace(__global const GpuParams* params, __global const uint* t
     __global const uint* leaf_indices = tree + 2u * params->num_nodes;
     __global const GpuSphere* spheres = (__global const GpuSphere*)shading;
     __global const GpuMaterial* materials =
-        (__global const GpuMaterial*)(shading + 8u * params->num_spheres);
-    __global const GpuLight* lights =
-        (__global const GpuLight*)(shading + 8u * (params->num_spheres + params->num_materials));
+        (__global const GpuMaterial*)(shading + SHADING_MATERIALS_WORD(params->num_spheres));
+    __global const GpuLight* lights = (__global const GpuLight*)(
+        shading + SHADING_LIGHTS_WORD(params->num_spheres, params->num_materials));
     uint gid = get_global_id(0);
     if (gid >= params->pixel_count) return;
     uint pixel = params->pixel_offset + gid;

@@ -318,10 +318,12 @@ def light_mesh():
 def material(name, grey, emissive=False):
     m = {"name": name,
          "pbrMetallicRoughness": {"baseColorFactor": [grey, grey, grey, 1.0],
-                                  "metallicFactor": 0.0, "roughnessFactor": 1.0}}
+                                  "metallicFactor": 0.0, "roughnessFactor": 1.0},
+         # No specular layer: exactly Lambertian, as the thesis' scenes.
+         "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}}}
     if emissive:
         m["emissiveFactor"] = [1.0, 1.0, 1.0]
-        m["extensions"] = {"KHR_materials_emissive_strength": {"emissiveStrength": LIGHT_STRENGTH}}
+        m["extensions"]["KHR_materials_emissive_strength"] = {"emissiveStrength": LIGHT_STRENGTH}
     return m
 
 
@@ -363,8 +365,9 @@ def build_glb(objects, bare, extras):
             "attributes": {"POSITION": pos_acc}, "indices": idx_acc,
             "material": len(gltf["materials"]) - 1, "mode": 4}]})
         gltf["nodes"].append({"name": name, "mesh": len(gltf["meshes"]) - 1})
+    gltf["extensionsUsed"] = ["KHR_materials_specular"]
     if not bare:
-        gltf["extensionsUsed"] = ["KHR_materials_emissive_strength"]
+        gltf["extensionsUsed"].append("KHR_materials_emissive_strength")
         gltf["cameras"] = [{"name": "camera", "type": "perspective",
                             "perspective": {"yfov": CAMERA_YFOV, "znear": 0.01}}]
         gltf["nodes"].append({"name": "camera", "camera": 0, "translation": CAMERA_POS})
@@ -465,6 +468,9 @@ def check(path, quick, want):
         raise ConvertError("asset.version is not 2.0")
     if want and kind != want:
         raise ConvertError("scene kind %r, wanted %r" % (kind, want))
+    if "KHR_materials_specular" not in gltf.get("extensionsUsed", []):
+        raise ConvertError("written before its materials were made Lambertian "
+                           "(KHR_materials_specular); convert it again")
     if quick:
         return
     if len(gltf["buffers"]) != 1 or gltf["buffers"][0]["byteLength"] > len(binary):

@@ -1,8 +1,10 @@
 // Materials: Lambertian diffuse, perfect mirror, smooth dielectric (Fresnel, total internal
-// reflection). Directions point away from the surface; `n` faces the side of `wo`.
+// reflection), glTF metallic-roughness (microfacet.h). Directions point away from the
+// surface; `n` faces the side of `wo`.
 #ifndef MCPT_GPU_BSDF_H
 #define MCPT_GPU_BSDF_H
 
+#include "microfacet.h"
 #include "sampling.h"
 #include "scene_access.h"  // HAS_FEATURE
 
@@ -38,6 +40,24 @@ MCPT_FN vec3 diffuse_eval(GpuMaterial m, vec3 n, vec3 wi) {
 }
 MCPT_FN float diffuse_pdf(vec3 n, vec3 wi) { return MAXF(0.0f, dot(n, wi)) * MCPT_INV_PI; }
 
+// Whether next-event estimation and MIS apply: materials with a non-delta lobe.
+MCPT_FN bool has_smooth_lobe(GpuMaterial m) {
+    return (HAS_FEATURE(FEATURE_DIFFUSE) && m.type == MAT_DIFFUSE) ||
+           (HAS_FEATURE(FEATURE_MICROFACET) && m.type == MAT_PBR);
+}
+
+// f(wo, wi) and the pdf with which sample_bsdf() draws wi, for materials with a smooth lobe.
+MCPT_FN BsdfEval eval_bsdf(GpuMaterial m, vec3 n, vec3 wo, vec3 wi) {
+    BsdfEval e;
+    if (HAS_FEATURE(FEATURE_MICROFACET) && m.type == MAT_PBR) {
+        Frame fr = frame_from_normal(n);
+        return pbr_eval(m, frame_to_local(fr, wo), frame_to_local(fr, wi));
+    }
+    e.f = diffuse_eval(m, n, wi);
+    e.pdf = diffuse_pdf(n, wi);
+    return e;
+}
+
 // Sample the material at a point with normal n (facing wo); `entering` tells whether wo is
 // on the outside of the surface (for glass). u = three uniforms.
 MCPT_FN BsdfSample sample_bsdf(GpuMaterial m, vec3 n, vec3 wo, bool entering, vec3 u) {
@@ -55,6 +75,17 @@ MCPT_FN BsdfSample sample_bsdf(GpuMaterial m, vec3 n, vec3 wo, bool entering, ve
         s.weight = material_color(m);
         s.specular = false;
         s.valid = s.pdf > 0.0f;
+    } else if (HAS_FEATURE(FEATURE_MICROFACET) && m.type == MAT_PBR) {
+        // Metallic-roughness: one lobe drawn, weighted by the pdf of both.
+        Frame fr = frame_from_normal(n);
+        vec3 wo_l = frame_to_local(fr, wo);
+        vec3 wi_l = pbr_sample_direction(m, wo_l, u);
+        BsdfEval e = pbr_eval(m, wo_l, wi_l);
+        s.wi = frame_to_world(fr, wi_l);
+        s.pdf = e.pdf;
+        s.specular = false;
+        s.valid = e.pdf > 0.0f;
+        s.weight = s.valid ? e.f * (wi_l.z / e.pdf) : V3S(0.0f);
     } else if (HAS_FEATURE(FEATURE_MIRROR) && m.type == MAT_MIRROR) {
         s.wi = reflect_about(wo, n);
         s.weight = material_color(m);

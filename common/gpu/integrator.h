@@ -274,8 +274,8 @@ MCPT_FN PathState advance_path(SCENE_PARAMS_ PathState st, uint pixel, uint max_
         vec4 ua = sample4(pixel, st.sample_index, 2u * depth + 1u, seed);
         vec4 ub = sample4(pixel, st.sample_index, 2u * depth + 2u, seed);
 
-        // Next-event estimation at diffuse vertices.
-        if (HAS_FEATURE(FEATURE_DIFFUSE) && m.type == MAT_DIFFUSE && PARAM(num_lights) > 0u) {
+        // Next-event estimation at vertices with a smooth lobe.
+        if (has_smooth_lobe(m) && PARAM(num_lights) > 0u) {
             LightSample ls = sample_light(SCENE_ARGS_ s.p, V3(ua.z, ua.x, ua.y));
             float cos_x = dot(n, ls.wi);
             if (ls.valid && cos_x > 0.0f) {
@@ -291,9 +291,9 @@ MCPT_FN PathState advance_path(SCENE_PARAMS_ PathState st, uint pixel, uint max_
                     break;
                 }
                 if (blocker.prim == NO_HIT) {
-                    float w = power_heuristic(ls.pdf, diffuse_pdf(n, ls.wi));
-                    st.radiance += st.beta * diffuse_eval(m, n, ls.wi) * ls.le *
-                                   (light_scale * cos_x * w / ls.pdf);
+                    BsdfEval e = eval_bsdf(m, n, wo, ls.wi);
+                    float w = power_heuristic(ls.pdf, e.pdf);
+                    st.radiance += st.beta * e.f * ls.le * (light_scale * cos_x * w / ls.pdf);
                 }
             }
         }

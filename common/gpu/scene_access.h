@@ -36,8 +36,8 @@ layout(std430, binding = BINDING_SHADING) readonly buffer SphereBlock { GpuSpher
 layout(std430, binding = BINDING_SHADING) readonly buffer MatBlock { GpuMaterial shading_materials[]; };
 layout(std430, binding = BINDING_SHADING) readonly buffer LightBlock { GpuLight shading_lights[]; };
 #define LEAF_INDEX(i) tree_words[2u * params.num_nodes + (i)]
-#define MATERIAL(i) shading_materials[params.num_spheres + (i)]
-#define LIGHT(i) shading_lights[2u * (params.num_spheres + params.num_materials) + (i)]
+#define MATERIAL(i) shading_materials[SHADING_MATERIALS_WORD(params.num_spheres) / 16u + (i)]
+#define LIGHT(i) shading_lights[SHADING_LIGHTS_WORD(params.num_spheres, params.num_materials) / 4u + (i)]
 // Traversal stack entries, from the tree depth, and the scene's features (specialization
 // constants; id 1 is the workgroup size).
 layout(constant_id = 0) const uint KD_STACK_SIZE = 64u;

@@ -12,6 +12,7 @@ MCPT_NAMESPACE_BEGIN
 #define MAT_DIFFUSE 0u
 #define MAT_MIRROR 1u
 #define MAT_GLASS 2u
+#define MAT_PBR 3u  // glTF metallic-roughness: GGX specular (Schlick Fresnel) over a diffuse base
 
 // Light kinds (GpuLight.prim high bit).
 #define LIGHT_SPHERE_BIT 0x80000000u
@@ -26,11 +27,16 @@ MCPT_NAMESPACE_BEGIN
 #define FEATURE_TRIANGLE_LIGHTS 32u // emissive triangles
 #define FEATURE_SPHERE_LIGHTS 64u   // emissive spheres
 #define FEATURE_KDTREE 128u         // k-d traversal with its stack (else: test every triangle)
-#define FEATURE_ALL 255u           // every feature a scene can use: the full kernel
-#define FEATURE_TEST_NAN 256u      // tests only: poison samples of pixels 0 and 1 (never in ALL)
-#define FEATURE_INDEPENDENT_SAMPLER 512u  // independent uniforms, not Sobol (A/B, never in ALL)
-#define FEATURE_BITS 1023u         // every bit above
-#define FEATURE_COUNT 10
+#define FEATURE_MICROFACET 256u     // metallic-roughness materials (GGX, microfacet.h)
+#define FEATURE_ALL 511u           // every feature a scene can use: the full kernel
+#define FEATURE_TEST_NAN 512u      // tests only: poison samples of pixels 0 and 1 (never in ALL)
+#define FEATURE_INDEPENDENT_SAMPLER 1024u  // independent uniforms, not Sobol (A/B, never in ALL)
+#define FEATURE_BITS 2047u         // every bit above
+#define FEATURE_COUNT 11
+
+// The smallest GGX alpha a MAT_PBR material keeps (roughness 0.01): below it the lobe's peak
+// exceeds float range in NEE; roughness 0 metals are MAT_MIRROR.
+#define MIN_GGX_ALPHA 1.0e-4f
 
 // k-d node layout (pbrt): axis in the low 2 bits of `flags`, 3 = leaf; below child implicit.
 #define KD_LEAF 3u
@@ -38,15 +44,18 @@ MCPT_NAMESPACE_BEGIN
 // Binding slots, shared by the OpenCL kernel argument order and the Vulkan descriptor set.
 // Scene arrays share buffers so the shader binds 4 storage buffers, the minimum every Vulkan
 // device supports per stage: the tree buffer holds the k-d nodes, then the leaf index array
-// (from word 2 * num_nodes); the shading buffer holds the spheres, then the materials (from
-// 32-byte element num_spheres), then the lights (from 16-byte element
-// 2 * (num_spheres + num_materials)).
+// (from word 2 * num_nodes); the shading buffer holds the spheres (32 bytes each), then the
+// materials (64 bytes each, from the first 64-byte boundary after the spheres), then the
+// lights (16 bytes each), at the words below.
 #define BINDING_PARAMS 0
 #define BINDING_TREE 1
 #define BINDING_TRIANGLES 2
 #define BINDING_SHADING 3
 #define BINDING_ACCUM 4
 #define BINDING_COUNT 5
+#define SHADING_MATERIALS_WORD(num_spheres) (16u * (((num_spheres) + 1u) / 2u))
+#define SHADING_LIGHTS_WORD(num_spheres, num_materials) \
+    (SHADING_MATERIALS_WORD(num_spheres) + 16u * (num_materials))
 #define STORAGE_BUFFER_COUNT 4  // every binding but the parameters (a uniform buffer)
 
 // Default compute workgroup size along x (a device may lower it).
@@ -74,10 +83,15 @@ MCPT_STRUCT(GpuSphere) {
 };
 
 MCPT_STRUCT(GpuMaterial) {
-    float r, g, b;  // diffuse albedo, mirror tint or glass tint
+    float r, g, b;  // diffuse albedo, mirror tint, glass tint or metallic-roughness base color
     uint type;      // MAT_*
     float er, eg, eb;  // emitted radiance (front side of triangles, outside of spheres)
-    float ior;         // glass index of refraction
+    float ior;         // index of refraction (glass; the dielectric Fresnel of MAT_PBR)
+    float metallic;    // MAT_PBR: 0 dielectric over diffuse, 1 conductor
+    float alpha;       // MAT_PBR: GGX alpha = roughness^2 (at least MIN_GGX_ALPHA)
+    float specular;    // MAT_PBR: KHR_materials_specular factor (scales the dielectric Fresnel)
+    uint pad0;
+    uint pad1, pad2, pad3, pad4;  // reserved (texture indices)
 };
 
 // One entry of the light alias table (Walker/Vose): pick i uniformly, keep it with
@@ -136,7 +150,7 @@ static_assert(sizeof(mcpt::gpu::KdNode) == 8, "KdNode must be 8 bytes");
 static_assert(sizeof(mcpt::gpu::GpuTriangle) == 40, "GpuTriangle must be 40 bytes");
 static_assert(sizeof(mcpt::gpu::GpuTriangle) % 8 == 0, "GLSL reads triangles as uvec2 words");
 static_assert(sizeof(mcpt::gpu::GpuSphere) == 32, "GpuSphere must be 32 bytes");
-static_assert(sizeof(mcpt::gpu::GpuMaterial) == 32, "GpuMaterial must be 32 bytes");
+static_assert(sizeof(mcpt::gpu::GpuMaterial) == 64, "GpuMaterial must be 64 bytes");
 static_assert(sizeof(mcpt::gpu::GpuLight) == 16, "GpuLight must be 16 bytes");
 static_assert(sizeof(mcpt::gpu::GpuParams) == 40 * 4, "GpuParams must be 40 words");
 static_assert(offsetof(mcpt::gpu::GpuParams, light_power_total) == 14 * 4, "GpuParams layout");

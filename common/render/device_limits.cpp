@@ -13,7 +13,8 @@ std::vector<std::pair<std::string, uint64_t>> device_buffers(const GpuScene& sce
     const uint64_t tree = scene.nodes.size() * sizeof(gpu::KdNode) + scene.leaf_indices.size() * 4;
     const uint64_t shading = scene.spheres.size() * sizeof(gpu::GpuSphere) +
                              scene.materials.size() * sizeof(gpu::GpuMaterial) +
-                             scene.lights.size() * sizeof(gpu::GpuLight);
+                             scene.lights.size() * sizeof(gpu::GpuLight) +
+                             (scene.spheres.size() % 2) * sizeof(gpu::GpuSphere);
     return {{"k-d tree (nodes and leaf indices)", tree},
             {"triangles", scene.triangles.size() * sizeof(gpu::GpuTriangle)},
             {"shading data (spheres, materials, lights)", shading},

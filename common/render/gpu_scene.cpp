@@ -18,6 +18,9 @@ gpu::GpuMaterial pack_material(const Material& m) {
     g.type = static_cast<uint32_t>(m.type);
     g.er = m.emission.x, g.eg = m.emission.y, g.eb = m.emission.z;
     g.ior = m.ior;
+    g.metallic = m.metallic;
+    g.alpha = std::max(m.roughness * m.roughness, MIN_GGX_ALPHA);
+    g.specular = m.specular;
     return g;
 }
 
@@ -30,7 +33,8 @@ double mean_emission(const Material& m) {
 size_t GpuScene::device_bytes() const {
     return nodes.size() * sizeof(gpu::KdNode) + leaf_indices.size() * 4 +
            triangles.size() * sizeof(gpu::GpuTriangle) + spheres.size() * sizeof(gpu::GpuSphere) +
-           materials.size() * sizeof(gpu::GpuMaterial) + lights.size() * sizeof(gpu::GpuLight);
+           materials.size() * sizeof(gpu::GpuMaterial) + lights.size() * sizeof(gpu::GpuLight) +
+           (spheres.size() % 2) * sizeof(gpu::GpuSphere);  // materials on a 64-byte boundary
 }
 
 void build_alias_table(const std::vector<double>& weights, std::vector<gpu::GpuLight>& table) {
@@ -192,6 +196,7 @@ std::vector<uint32_t> tree_buffer(const GpuScene& s) {
 std::vector<uint32_t> shading_buffer(const GpuScene& s) {
     std::vector<uint32_t> out;
     append_words(out, s.spheres);
+    out.resize(SHADING_MATERIALS_WORD(uint32_t(s.spheres.size())), 0u);  // 64-byte boundary
     append_words(out, s.materials);
     append_words(out, s.lights);
     if (out.empty()) out.push_back(0);

@@ -9,7 +9,7 @@ namespace {
 
 const char* const kFeatureNames[FEATURE_COUNT] = {
     "triangles",     "spheres",  "diffuse",           "mirror", "glass", "triangle lights",
-    "sphere lights", "k-d tree", "test NaN injection", "independent sampler"};
+    "sphere lights", "k-d tree", "microfacet",      "test NaN injection", "independent sampler"};
 
 uint32_t material_feature(uint32_t type) {
     switch (type) {
@@ -17,6 +17,8 @@ uint32_t material_feature(uint32_t type) {
             return FEATURE_MIRROR;
         case MAT_GLASS:
             return FEATURE_GLASS;
+        case MAT_PBR:
+            return FEATURE_MICROFACET;
         default:
             return FEATURE_DIFFUSE;
     }

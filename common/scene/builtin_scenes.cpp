@@ -139,16 +139,47 @@ Scene make_spheres() {
     return s;
 }
 
+// A metallic-roughness material (glTF's pbrMetallicRoughness factors).
+Material pbr_material(const std::string& name, const glm::vec3& base, float metallic,
+                      float roughness) {
+    Material m;
+    m.name = name;
+    m.type = MaterialType::Pbr;
+    m.color = base;
+    m.metallic = metallic;
+    m.roughness = roughness;
+    return m;
+}
+
+// The Cornell box with glTF metallic-roughness spheres: rough gold, a glossy blue dielectric
+// (plastic) and a rough white dielectric, and a polished steel back wall.
+Scene make_materials() {
+    Scene s = make_cornell();
+    s.name = "materials";
+    s.spheres.clear();
+    const uint32_t gold = s.add_material(pbr_material("gold", {1.f, 0.78f, 0.34f}, 1.f, 0.35f));
+    const uint32_t plastic =
+        s.add_material(pbr_material("blue plastic", {0.1f, 0.2f, 0.6f}, 0.f, 0.15f));
+    const uint32_t chalk = s.add_material(pbr_material("rough white", glm::vec3(0.8f), 0.f, 0.7f));
+    const uint32_t steel = s.add_material(pbr_material("steel", glm::vec3(0.6f), 1.f, 0.2f));
+    s.triangles[4].material = s.triangles[5].material = steel;  // the back wall
+    s.spheres.push_back({{-0.5f, 0.3f, -0.3f}, 0.3f, gold});
+    s.spheres.push_back({{0.5f, 0.3f, -0.2f}, 0.3f, plastic});
+    s.spheres.push_back({{0.f, 0.25f, 0.45f}, 0.25f, chalk});
+    return s;
+}
+
 }  // namespace
 
 std::vector<std::string> builtin_scene_names() {
-    return {"cornell", "furnace", "spheres"};
+    return {"cornell", "furnace", "spheres", "materials"};
 }
 
 Scene make_builtin_scene(const std::string& name) {
     if (name == "cornell") return make_cornell();
     if (name == "furnace") return make_furnace_scene(0.5f, 1.f);
     if (name == "spheres") return make_spheres();
+    if (name == "materials") return make_materials();
     // Unknown: list the valid names.
     std::string valid;
     for (const std::string& n : builtin_scene_names()) valid += (valid.empty() ? "" : ", ") + n;

@@ -1,5 +1,6 @@
 // Scenes built in code: the Cornell box (the default), a closed white furnace whose exact
-// radiance is known, for testing the integrators, and a spheres-only scene.
+// radiance is known, for testing the integrators, a spheres-only scene, and the Cornell box
+// with glTF metallic-roughness materials.
 #pragma once
 #include <string>
 #include <vector>
@@ -11,7 +12,7 @@ namespace mcpt {
 // The valid names for make_builtin_scene(), the default ("cornell") first.
 std::vector<std::string> builtin_scene_names();
 
-// "cornell" | "furnace" | "spheres"; throws mcpt::Error listing the valid names otherwise.
+// "cornell" | "furnace" | "spheres" | "materials"; throws mcpt::Error listing the valid names otherwise.
 Scene make_builtin_scene(const std::string& name);
 
 // The Cornell box with its spheres replaced by a bumpy tessellated sphere of 2 * segments^2

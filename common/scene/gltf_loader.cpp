@@ -7,16 +7,19 @@
 //              clockwise under a mirroring node transform, as glTF defines it).
 //   KHR_materials_transmission.transmissionFactor > 0.5
 //       -> Glass, ior = KHR_materials_ior.ior (default 1.5), color = baseColorFactor.rgb
-//   otherwise metallicFactor >= 0.5 and roughnessFactor <= 0.1
-//       -> Mirror, color = baseColorFactor.rgb
+//          (roughness is ignored with a warning)
+//   otherwise metallicFactor = 1 and roughnessFactor <= 0.01
+//       -> Mirror, color = baseColorFactor.rgb (the limit of roughness 0, traced exactly)
+//   otherwise metallicFactor = 0 and KHR_materials_specular.specularFactor = 0
+//       -> Diffuse, color = baseColorFactor.rgb (no specular layer: exactly Lambertian)
 //   otherwise
-//       -> Diffuse, color = baseColorFactor.rgb; rough metals (metallicFactor >= 0.5) become
-//          Diffuse with a warning. glTF's defaults are metallicFactor = roughnessFactor = 1, so
-//          a material without pbrMetallicRoughness is a rough metal: set metallicFactor 0.
+//       -> Pbr: glTF's metallic-roughness BRDF (gpu/microfacet.h) with baseColorFactor,
+//          metallicFactor, roughnessFactor, KHR_materials_ior.ior and
+//          KHR_materials_specular.specularFactor (default 1).
 //   A primitive without a material gets a grey (0.8) Diffuse material.
 //   Ignored with a warning: textures (only the factors are used), normal maps, skins,
 //   animations, morph targets, non-perspective cameras, primitive modes other than TRIANGLES
-//   and extensions other than the three above. Alpha is ignored. A file that requires
+//   and extensions other than the four above. Alpha is ignored. A file that requires
 //   (extensionsRequired) any other extension is rejected.
 
 #include "common/scene/gltf_loader.h"
@@ -55,9 +58,11 @@ namespace tg = tinygltf;
 const char* const kEmissiveStrength = "KHR_materials_emissive_strength";
 const char* const kTransmission = "KHR_materials_transmission";
 const char* const kIor = "KHR_materials_ior";
+const char* const kSpecular = "KHR_materials_specular";
 
 bool supported_extension(const std::string& name) {
-    return name == kEmissiveStrength || name == kTransmission || name == kIor;
+    return name == kEmissiveStrength || name == kTransmission || name == kIor ||
+           name == kSpecular;
 }
 
 // The JSON parser recurses once per nesting level: a file nesting arrays tens of thousands
@@ -490,19 +495,22 @@ void GltfLoader::convert_materials() {
         const double strength =
             extension_number(g.extensions, kEmissiveStrength, "emissiveStrength", 1.0);
         m.emission = rgb(g.emissiveFactor, 0.f) * float(strength);
-        // Glass, mirror or diffuse.
+        // Glass, mirror, diffuse or metallic-roughness.
+        m.ior = float(extension_number(g.extensions, kIor, "ior", 1.5));
+        m.metallic = float(pbr.metallicFactor);
+        m.roughness = float(pbr.roughnessFactor);
+        m.specular = float(extension_number(g.extensions, kSpecular, "specularFactor", 1.0));
         if (extension_number(g.extensions, kTransmission, "transmissionFactor", 0.0) > 0.5) {
             m.type = MaterialType::Glass;
-            m.ior = float(extension_number(g.extensions, kIor, "ior", 1.5));
-        } else if (pbr.metallicFactor >= 0.5 && pbr.roughnessFactor <= 0.1) {
-            m.type = MaterialType::Mirror;
+            if (pbr.roughnessFactor > 0.1)
+                warn_once("rough transmission",
+                          "rough transmission is rendered as smooth glass, e.g. '" + m.name + "'");
+        } else if (pbr.metallicFactor >= 1.0 && pbr.roughnessFactor <= 0.01) {
+            m.type = MaterialType::Mirror;  // the limit of roughness 0, traced exactly
+        } else if (pbr.metallicFactor <= 0.0 && m.specular <= 0.f) {
+            m.type = MaterialType::Diffuse;  // no specular layer: exactly Lambertian
         } else {
-            m.type = MaterialType::Diffuse;
-            if (pbr.metallicFactor >= 0.5)
-                warn_once("rough metal",
-                          "rough metallic materials (roughnessFactor > 0.1) are "
-                          "rendered as diffuse, e.g. '" +
-                              m.name + "'");
+            m.type = MaterialType::Pbr;
         }
         scene_.add_material(m);
     }

@@ -47,10 +47,21 @@ void check_material(const Scene& scene, uint32_t i) {
     if (!non_negative(m.color)) throw Error(what + "negative color " + str(m.color));
     if (!non_negative(m.emission)) throw Error(what + "negative emission " + str(m.emission));
     const auto type = static_cast<uint32_t>(m.type);
-    if (type > static_cast<uint32_t>(MaterialType::Glass))
+    if (type > static_cast<uint32_t>(MaterialType::Pbr))
         throw Error(what + "unknown material type " + std::to_string(type));
-    if (m.type == MaterialType::Glass && m.ior <= 0.f)
-        throw Error(what + "glass ior must be > 0, got " + std::to_string(m.ior));
+    if ((m.type == MaterialType::Glass || m.type == MaterialType::Pbr) && !(m.ior > 0.f))
+        throw Error(what + "ior must be > 0, got " + std::to_string(m.ior));
+    if (m.type == MaterialType::Pbr) {
+        // Metallic-roughness factors are fractions, and so is the base color (it is a Fresnel
+        // reflectance of the metal).
+        const auto fraction = [](float x) { return x >= 0.f && x <= 1.f; };
+        if (!fraction(m.metallic) || !fraction(m.roughness) || !fraction(m.specular))
+            throw Error(what + "metallic, roughness and specular must be in [0, 1], got " +
+                        std::to_string(m.metallic) + ", " + std::to_string(m.roughness) + ", " +
+                        std::to_string(m.specular));
+        if (!(m.color.x <= 1.f && m.color.y <= 1.f && m.color.z <= 1.f))
+            throw Error(what + "base color above 1 " + str(m.color));
+    }
 }
 
 void check_material_index(const Scene& scene, uint32_t index, const std::string& owner) {

@@ -10,7 +10,8 @@
 
 namespace mcpt {
 
-enum class MaterialType : uint32_t { Diffuse = 0, Mirror = 1, Glass = 2 };
+// Pbr: glTF metallic-roughness (GGX specular over a diffuse base, blended with a GGX metal).
+enum class MaterialType : uint32_t { Diffuse = 0, Mirror = 1, Glass = 2, Pbr = 3 };
 
 struct Material {
     std::string name;
@@ -18,6 +19,9 @@ struct Material {
     glm::vec3 color{0.8f};    // diffuse albedo, mirror tint or glass transmission tint
     glm::vec3 emission{0.f};  // emitted radiance; front side of triangles, outside of spheres
     float ior = 1.5f;
+    float metallic = 0.f;   // Pbr: 0 dielectric over diffuse, 1 metal
+    float roughness = 1.f;  // Pbr: perceptual roughness (GGX alpha = roughness^2)
+    float specular = 1.f;   // Pbr: KHR_materials_specular's factor
     bool is_emissive() const { return emission.x > 0.f || emission.y > 0.f || emission.z > 0.f; }
 };
 

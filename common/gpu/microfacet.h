@@ -1,0 +1,132 @@
+// glTF 2.0 metallic-roughness (MAT_PBR): a GGX microfacet specular lobe with Schlick's Fresnel
+// over a Lambertian base (glTF's fresnel_mix, with KHR_materials_specular's factor), blended
+// with a GGX conductor tinted by the base color (glTF's conductor_fresnel) by `metallic`.
+// Visible normals are sampled as in Heitz 2018; the masking-shadowing term is Smith's
+// height-correlated one. Everything here works in the local frame of the normal (n = +z),
+// with wo.z > 0 (the integrator turns the normal toward wo).
+#ifndef MCPT_GPU_MICROFACET_H
+#define MCPT_GPU_MICROFACET_H
+
+#include "sampling.h"
+#include "shared_types.h"
+
+MCPT_NAMESPACE_BEGIN
+
+MCPT_FN vec3 frame_to_local(Frame f, vec3 v) { return V3(dot(v, f.t), dot(v, f.b), dot(v, f.n)); }
+
+// GGX normal distribution of a unit half vector h; written with tan^2 / alpha^2 so that it
+// stays exact for alpha near MIN_GGX_ALPHA.
+MCPT_FN float ggx_d(vec3 h, float alpha) {
+    if (h.z <= 0.0f) return 0.0f;
+    float a2 = alpha * alpha;
+    float t = (h.x * h.x + h.y * h.y) / a2 + h.z * h.z;
+    return 1.0f / (MCPT_PI * a2 * t * t);
+}
+
+// sqrt(cos^2 + alpha^2 sin^2) of a direction: Smith's Lambda(w) = (ggx_root(w) / cos - 1) / 2.
+MCPT_FN float ggx_root(vec3 w, float alpha) {
+    return sqrt(w.z * w.z + alpha * alpha * (w.x * w.x + w.y * w.y));
+}
+
+// Smith masking of one direction, G1 = 1 / (1 + Lambda) (no division by cos).
+MCPT_FN float ggx_g1(vec3 w, float alpha) {
+    float c = ABSF(w.z);
+    return 2.0f * c / (c + ggx_root(w, alpha));
+}
+
+// D * G2 / (4 cos_o cos_i) with Smith's height-correlated G2 = 1 / (1 + Lambda_o + Lambda_i):
+// the specular lobe without Fresnel (glTF's V_GGX * D_GGX). wo.z, wi.z > 0.
+MCPT_FN float ggx_dv(vec3 wo, vec3 wi, vec3 h, float alpha) {
+    float denom = wi.z * ggx_root(wo, alpha) + wo.z * ggx_root(wi, alpha);
+    return denom > 0.0f ? ggx_d(h, alpha) * 0.5f / denom : 0.0f;
+}
+
+// A visible normal of the GGX surface seen from wo (Heitz 2018): density
+// D_wo(h) = G1(wo) max(0, wo.h) D(h) / wo.z.
+MCPT_FN vec3 sample_ggx_vndf(vec3 wo, float alpha, float u1, float u2) {
+    // The direction in the hemisphere configuration (alpha = 1).
+    vec3 vh = normalize(V3(alpha * wo.x, alpha * wo.y, wo.z));
+    // An orthonormal basis around it.
+    float len2 = vh.x * vh.x + vh.y * vh.y;
+    vec3 t1 = len2 > 0.0f ? V3(-vh.y, vh.x, 0.0f) * inversesqrt(len2) : V3(1.0f, 0.0f, 0.0f);
+    vec3 t2 = cross(vh, t1);
+    // A point on the projected disk, warped to the visible half.
+    float r = sqrt(u1);
+    float phi = 2.0f * MCPT_PI * u2;
+    float p1 = r * COSF(phi);
+    float p2 = r * SINF(phi);
+    float s = 0.5f * (1.0f + vh.z);
+    p2 = (1.0f - s) * sqrt(MAXF(0.0f, 1.0f - p1 * p1)) + s * p2;
+    // Back onto the hemisphere, then to the ellipsoid configuration.
+    vec3 nh = t1 * p1 + t2 * p2 + vh * sqrt(MAXF(0.0f, 1.0f - p1 * p1 - p2 * p2));
+    return normalize(V3(alpha * nh.x, alpha * nh.y, MAXF(1.0e-7f, nh.z)));
+}
+
+// Solid-angle density of wi = reflect(wo, h) for h drawn by sample_ggx_vndf:
+// D_wo(h) / (4 wo.h) = G1(wo) D(h) / (4 wo.z).
+MCPT_FN float ggx_reflection_pdf(vec3 wo, vec3 h, float alpha) {
+    return ggx_g1(wo, alpha) * ggx_d(h, alpha) / (4.0f * wo.z);
+}
+
+MCPT_FN float pow5(float x) {
+    float x2 = x * x;
+    return x2 * x2 * x;
+}
+
+// The dielectric Fresnel reflectance at normal incidence: ((ior - 1) / (ior + 1))^2.
+MCPT_FN float dielectric_f0(float ior) {
+    float r = (ior - 1.0f) / (ior + 1.0f);
+    return r * r;
+}
+
+// BSDF value (f, without the cosine) and the solid-angle pdf with which pbr_sample() draws wi.
+MCPT_STRUCT(BsdfEval) {
+    vec3 f;
+    float pdf;
+};
+
+// Probability that pbr_sample() takes the specular lobe: its Fresnel-weighted share at wo.
+MCPT_FN float pbr_specular_probability(GpuMaterial m, vec3 base, float cos_o) {
+    float fw = pow5(1.0f - cos_o);
+    float f0 = dielectric_f0(m.ior);
+    float fd = m.specular * (f0 + (1.0f - f0) * fw);
+    float spec = (1.0f - m.metallic) * fd + m.metallic * mean_component(base + (V3S(1.0f) - base) * fw);
+    float diff = (1.0f - m.metallic) * (1.0f - fd) * mean_component(base);
+    return spec + diff > 0.0f ? spec / (spec + diff) : 1.0f;
+}
+
+// f(wo, wi) and pdf of MAT_PBR in the local frame (glTF 2.0 Appendix B).
+MCPT_FN BsdfEval pbr_eval(GpuMaterial m, vec3 wo, vec3 wi) {
+    BsdfEval e;
+    e.f = V3S(0.0f);
+    e.pdf = 0.0f;
+    if (wo.z <= 0.0f || wi.z <= 0.0f) return e;
+    vec3 base = V3(m.r, m.g, m.b);
+    vec3 h = normalize(wo + wi);
+    float fw = pow5(1.0f - MINF(1.0f, MAXF(0.0f, dot(wo, h))));
+    // Fresnel of the dielectric layer and of the conductor.
+    float f0 = dielectric_f0(m.ior);
+    float fd = m.specular * (f0 + (1.0f - f0) * fw);
+    vec3 fm = base + (V3S(1.0f) - base) * fw;
+    float dv = ggx_dv(wo, wi, h, m.alpha);
+    e.f = base * ((1.0f - m.metallic) * (1.0f - fd) * MCPT_INV_PI) +
+          (fm * m.metallic + V3S((1.0f - m.metallic) * fd)) * dv;
+    float p_spec = pbr_specular_probability(m, base, wo.z);
+    e.pdf = p_spec * ggx_reflection_pdf(wo, h, m.alpha) + (1.0f - p_spec) * wi.z * MCPT_INV_PI;
+    return e;
+}
+
+// Draws wi (local frame) for MAT_PBR: the specular lobe by visible normals or the diffuse base
+// by cosine, chosen by u.z; wi.z <= 0 (a reflection below the surface) means no sample.
+MCPT_FN vec3 pbr_sample_direction(GpuMaterial m, vec3 wo, vec3 u) {
+    float p_spec = pbr_specular_probability(m, V3(m.r, m.g, m.b), wo.z);
+    if (u.z < p_spec) {
+        vec3 h = sample_ggx_vndf(wo, m.alpha, u.x, u.y);
+        return h * (2.0f * dot(wo, h)) - wo;
+    }
+    return sample_cosine_hemisphere(u.x, u.y);
+}
+
+MCPT_NAMESPACE_END
+
+#endif  // MCPT_GPU_MICROFACET_H
