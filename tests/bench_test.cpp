@@ -75,9 +75,9 @@ TEST(BenchCli, SpecializeTableHasEveryScene) {
                  " --backend opencl:" + test::test_opencl_device() + " -o " + prefix);
     ASSERT_EQ(r.status, 0) << r.output;
     const char* expected[][2] = {
-        {"walls only (diffuse mesh)", "spheres, mirror, glass, sphere lights"},
-        {"cornell", "sphere lights"},
-        {"spheres", "triangles, triangle lights, k-d tree"}};
+        {"walls only (diffuse mesh)", "spheres, mirror, glass, sphere lights, microfacet"},
+        {"cornell", "sphere lights, microfacet"},
+        {"spheres", "triangles, triangle lights, k-d tree, microfacet"}};
     for (const auto& [scene, left_out] : expected) {
         const std::string head = std::string("| ") + scene + " | opencl: ";
         const size_t at = r.output.find(head);

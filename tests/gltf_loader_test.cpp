@@ -257,32 +257,37 @@ TEST(GltfLoader, MaterialMapping) {
     Gltf g;
     const int pos = g.positions({kQuad[0], kQuad[1], kQuad[2]});
     const json pbr_metal = {{"metallicFactor", 1.0},
-                            {"roughnessFactor", 0.05},
+                            {"roughnessFactor", 0.01},
                             {"baseColorFactor", {0.9, 0.8, 0.7, 1}}};
+    const json no_specular = {{"KHR_materials_specular", {{"specularFactor", 0.0}}}};
     const json mats[] = {
         // 0: emissive with KHR_materials_emissive_strength
         {{"name", "lamp"},
          {"emissiveFactor", {1, 0.5, 0.25}},
          {"pbrMetallicRoughness", {{"metallicFactor", 0}}},
          {"extensions", {{"KHR_materials_emissive_strength", {{"emissiveStrength", 4.0}}}}}},
-        // 1: glass with an ior
-        {{"pbrMetallicRoughness", {{"baseColorFactor", {0.9, 1, 0.9, 1}}, {"metallicFactor", 0}}},
+        // 1: rough glass with an ior -> smooth glass with a warning
+        {{"name", "frosted"},
+         {"pbrMetallicRoughness", {{"baseColorFactor", {0.9, 1, 0.9, 1}}, {"metallicFactor", 0}}},
          {"extensions",
           {{"KHR_materials_transmission", {{"transmissionFactor", 1.0}}},
            {"KHR_materials_ior", {{"ior", 1.33}}}}}},
-        // 2: mirror
+        // 2: mirror (metal of roughness 0.01)
         {{"pbrMetallicRoughness", pbr_metal}},
-        // 3: diffuse
-        {{"pbrMetallicRoughness",
-          {{"baseColorFactor", {0.2, 0.4, 0.6, 1}}, {"metallicFactor", 0}}}},
-        // 4: rough metal -> diffuse with a warning
+        // 3: diffuse: a dielectric without a specular layer
+        {{"pbrMetallicRoughness", {{"baseColorFactor", {0.2, 0.4, 0.6, 1}}, {"metallicFactor", 0}}},
+         {"extensions", no_specular}},
+        // 4: rough metal (glTF's defaults: metallic 1)
         {{"name", "brushed"}, {"pbrMetallicRoughness", {{"roughnessFactor", 0.5}}}},
-        // 5: weak transmission -> not glass (default pbr: metallic 1, roughness 1 -> diffuse)
-        {{"extensions", {{"KHR_materials_transmission", {{"transmissionFactor", 0.3}}}}},
-         {"pbrMetallicRoughness", {{"metallicFactor", 0}}}},
+        // 5: weak transmission -> not glass: a dielectric with a half specular layer
+        {{"extensions",
+          {{"KHR_materials_transmission", {{"transmissionFactor", 0.3}}},
+           {"KHR_materials_specular", {{"specularFactor", 0.5}}},
+           {"KHR_materials_ior", {{"ior", 1.4}}}}},
+         {"pbrMetallicRoughness", {{"metallicFactor", 0}, {"roughnessFactor", 0.25}}}},
     };
     g.doc["extensionsUsed"] = {"KHR_materials_emissive_strength", "KHR_materials_transmission",
-                               "KHR_materials_ior"};
+                               "KHR_materials_ior", "KHR_materials_specular"};
     for (const json& m : mats) g.push("materials", m);
     json prims = json::array();
     for (int i = 0; i < 6; ++i)
@@ -297,10 +302,12 @@ TEST(GltfLoader, MaterialMapping) {
     const Material& lamp = s.materials[s.triangles[0].material];
     EXPECT_EQ(lamp.name, "lamp");
     expect_vec(lamp.emission, {4, 2, 1});
+    EXPECT_EQ(lamp.type, MaterialType::Pbr);  // glTF's default dielectric has a specular layer
     const Material& glass = s.materials[s.triangles[1].material];
     EXPECT_EQ(glass.type, MaterialType::Glass);
     EXPECT_FLOAT_EQ(glass.ior, 1.33f);
     expect_vec(glass.color, {0.9f, 1, 0.9f});
+    EXPECT_TRUE(has_warning(s, "frosted"));
     const Material& mirror = s.materials[s.triangles[2].material];
     EXPECT_EQ(mirror.type, MaterialType::Mirror);
     expect_vec(mirror.color, {0.9f, 0.8f, 0.7f});
@@ -308,9 +315,16 @@ TEST(GltfLoader, MaterialMapping) {
     EXPECT_EQ(diffuse.type, MaterialType::Diffuse);
     expect_vec(diffuse.color, {0.2f, 0.4f, 0.6f});
     expect_vec(diffuse.emission, {0, 0, 0});
-    EXPECT_EQ(s.materials[s.triangles[4].material].type, MaterialType::Diffuse);
-    EXPECT_TRUE(has_warning(s, "brushed"));
-    EXPECT_EQ(s.materials[s.triangles[5].material].type, MaterialType::Diffuse);
+    const Material& brushed = s.materials[s.triangles[4].material];
+    EXPECT_EQ(brushed.type, MaterialType::Pbr);
+    EXPECT_FLOAT_EQ(brushed.metallic, 1.f);
+    EXPECT_FLOAT_EQ(brushed.roughness, 0.5f);
+    const Material& plastic = s.materials[s.triangles[5].material];
+    EXPECT_EQ(plastic.type, MaterialType::Pbr);
+    EXPECT_FLOAT_EQ(plastic.metallic, 0.f);
+    EXPECT_FLOAT_EQ(plastic.roughness, 0.25f);
+    EXPECT_FLOAT_EQ(plastic.specular, 0.5f);
+    EXPECT_FLOAT_EQ(plastic.ior, 1.4f);
     const Material& fallback = s.materials[s.triangles[6].material];
     EXPECT_EQ(fallback.type, MaterialType::Diffuse);
     expect_vec(fallback.color, glm::vec3(0.8f));

@@ -79,6 +79,16 @@ MCPT_FN float dielectric_f0(float ior) {
     return r * r;
 }
 
+// The material's GGX alpha. Tests build a variant 1.x times rougher in one backend
+// (MCPT_NEGATIVE_CONTROL_GGX_ALPHA=x), which mcpt compare must reject.
+MCPT_FN float material_alpha(GpuMaterial m) {
+#ifdef MCPT_NEGATIVE_CONTROL_GGX_ALPHA
+    return m.alpha * MCPT_NEGATIVE_CONTROL_GGX_ALPHA;
+#else
+    return m.alpha;
+#endif
+}
+
 // BSDF value (f, without the cosine) and the solid-angle pdf with which pbr_sample() draws wi.
 MCPT_STRUCT(BsdfEval) {
     vec3 f;
@@ -108,11 +118,12 @@ MCPT_FN BsdfEval pbr_eval(GpuMaterial m, vec3 wo, vec3 wi) {
     float f0 = dielectric_f0(m.ior);
     float fd = m.specular * (f0 + (1.0f - f0) * fw);
     vec3 fm = base + (V3S(1.0f) - base) * fw;
-    float dv = ggx_dv(wo, wi, h, m.alpha);
+    float alpha = material_alpha(m);
+    float dv = ggx_dv(wo, wi, h, alpha);
     e.f = base * ((1.0f - m.metallic) * (1.0f - fd) * MCPT_INV_PI) +
           (fm * m.metallic + V3S((1.0f - m.metallic) * fd)) * dv;
     float p_spec = pbr_specular_probability(m, base, wo.z);
-    e.pdf = p_spec * ggx_reflection_pdf(wo, h, m.alpha) + (1.0f - p_spec) * wi.z * MCPT_INV_PI;
+    e.pdf = p_spec * ggx_reflection_pdf(wo, h, alpha) + (1.0f - p_spec) * wi.z * MCPT_INV_PI;
     return e;
 }
 
@@ -121,7 +132,7 @@ MCPT_FN BsdfEval pbr_eval(GpuMaterial m, vec3 wo, vec3 wi) {
 MCPT_FN vec3 pbr_sample_direction(GpuMaterial m, vec3 wo, vec3 u) {
     float p_spec = pbr_specular_probability(m, V3(m.r, m.g, m.b), wo.z);
     if (u.z < p_spec) {
-        vec3 h = sample_ggx_vndf(wo, m.alpha, u.x, u.y);
+        vec3 h = sample_ggx_vndf(wo, material_alpha(m), u.x, u.y);
         return h * (2.0f * dot(wo, h)) - wo;
     }
     return sample_cosine_hemisphere(u.x, u.y);
