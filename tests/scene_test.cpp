@@ -105,6 +105,22 @@ TEST(Scene, RejectsBadMaterialsAndSpheres) {
     EXPECT_NE(validation_error(s).find("ior"), std::string::npos);
     s.materials[1].ior = 1.5f;
     EXPECT_EQ(validation_error(s), "");
+    // Metallic-roughness factors are fractions (NaN included), and so is the base color.
+    s.materials[1].type = MaterialType::Pbr;
+    EXPECT_EQ(validation_error(s), "");
+    s.materials[1].roughness = nan;
+    EXPECT_NE(validation_error(s).find("roughness"), std::string::npos);
+    s.materials[1].roughness = 0.5f;
+    s.materials[1].metallic = 1.5f;
+    EXPECT_NE(validation_error(s).find("metallic"), std::string::npos);
+    s.materials[1].metallic = 1.f;
+    s.materials[1].color = glm::vec3(1.f, 2.f, 1.f);
+    EXPECT_NE(validation_error(s).find("base color above 1"), std::string::npos);
+    s.materials[1].color = glm::vec3(1.f);
+    s.materials[1].ior = -1.f;
+    EXPECT_NE(validation_error(s).find("ior"), std::string::npos);
+    s.materials[1].ior = 1.5f;
+    EXPECT_EQ(validation_error(s), "");
 
     s.spheres.push_back({{0, 0, 0}, 0.f, 1});
     EXPECT_NE(validation_error(s).find("radius"), std::string::npos);
