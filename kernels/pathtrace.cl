@@ -16,6 +16,10 @@ __kernel void pathtrace(__global const GpuParams* params, __global const uint* t
         (__global const GpuMaterial*)(shading + SHADING_MATERIALS_WORD(params->num_spheres));
     __global const GpuLight* lights = (__global const GpuLight*)(
         shading + SHADING_LIGHTS_WORD(params->num_spheres, params->num_materials));
+    __global const GpuTriangleAttributes* attributes =
+        (__global const GpuTriangleAttributes*)(triangles + params->num_triangles);
+    __global const GpuTexture* textures = (__global const GpuTexture*)(lights + params->num_lights);
+    __global const uint* texels = shading + params->texels_word;
     uint gid = get_global_id(0);
     if (gid >= params->pixel_count) return;
     uint pixel = params->pixel_offset + gid;

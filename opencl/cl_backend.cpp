@@ -101,7 +101,7 @@ class OpenClBackend final : public Backend {
         // Upload (empty arrays get one dummy element: OpenCL has no empty buffers).
         params_ = make_buffer(&scene.params, sizeof(gpu::GpuParams), CL_MEM_READ_ONLY);
         tree_ = upload(tree_buffer(scene));
-        tris_ = upload(scene.triangles);
+        tris_ = upload(triangle_buffer(scene));
         shading_ = upload(shading_buffer(scene));
         accum_ = cl::Buffer(context_, CL_MEM_READ_WRITE, accum_bytes);
         // Kernel arguments in BINDING_* order.

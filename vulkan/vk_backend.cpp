@@ -230,7 +230,7 @@ struct VulkanBackend::Impl {
                                     vk::kHostMemory, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
         std::memcpy(params.mapped, &scene.params, sizeof(gpu::GpuParams));
         tree = upload(tree_buffer(scene));
-        tris = upload(scene.triangles);
+        tris = upload(triangle_buffer(scene));
         shading = upload(shading_buffer(scene));
         accum = dev->create_buffer(accum_bytes,
                                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |

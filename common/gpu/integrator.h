@@ -35,16 +35,23 @@ MCPT_FN float quiet_nan() {
     return uint_as_float(0x7fc00000u);
 }
 
-// A hit point with its rounding-error bound and geometric normal (front side / outside).
+// A hit point with its rounding-error bound, geometric normal (front side / outside), the
+// interpolated shading normal (on ng's side), texture coordinates and their derivatives.
 MCPT_STRUCT(SurfacePoint) {
     vec3 p;
     vec3 p_error;
     vec3 ng;
+    vec3 ns;
+    vec2 uv;
+    vec3 dpdu, dpdv;
     uint material;
 };
 
 MCPT_FN SurfacePoint surface_at(SCENE_PARAMS_ Ray ray, Hit hit) {
     SurfacePoint s;
+    s.uv = V2(0.0f, 0.0f);
+    s.dpdu = V3S(0.0f);
+    s.dpdv = V3S(0.0f);
     if (HAS_FEATURE(FEATURE_SPHERES) && (hit.prim & SPHERE_BIT) != 0u) {
         // Sphere: reproject onto the surface, error bound from pbrt-v4.
         GpuSphere sph = spheres[hit.prim & ~SPHERE_BIT];
@@ -54,6 +61,7 @@ MCPT_FN SurfacePoint surface_at(SCENE_PARAMS_ Ray ray, Hit hit) {
         s.p = c + rel;
         s.p_error = VABS(rel) * gamma_bound(5.0f) + VABS(s.p) * gamma_bound(2.0f);
         s.ng = rel / sph.radius;
+        s.ns = s.ng;
         s.material = sph.material;
     } else {
         // Triangle: barycentric interpolation, error bound from pbrt-v4.
@@ -64,7 +72,29 @@ MCPT_FN SurfacePoint surface_at(SCENE_PARAMS_ Ray ray, Hit hit) {
         s.p = p0 + p1 + p2;
         s.p_error = (VABS(p0) + VABS(p1) + VABS(p2)) * gamma_bound(7.0f);
         s.ng = normalize(cross(v1 - v0, v2 - v0));
+        s.ns = s.ng;
         s.material = tri.material;
+        if (HAS_FEATURE(FEATURE_SHADING_NORMALS) || HAS_FEATURE(FEATURE_TEXTURES)) {
+            GpuTriangleAttributes a = ATTRIBUTES(hit.prim);
+            if (HAS_FEATURE(FEATURE_SHADING_NORMALS)) {
+                // Interpolated vertex normals, turned to the geometric normal's side.
+                vec3 ns = normal_from_oct(a.n0) * b0 + normal_from_oct(a.n1) * hit.b1 +
+                          normal_from_oct(a.n2) * hit.b2;
+                float len = length(ns);
+                if (len > 0.0f) s.ns = dot(ns, s.ng) < 0.0f ? -ns / len : ns / len;
+            }
+            if (HAS_FEATURE(FEATURE_TEXTURES)) {
+                // Texture coordinates and the surface's derivatives along them (tangents).
+                s.uv = V2(a.u0, a.v0) * b0 + V2(a.u1, a.v1) * hit.b1 + V2(a.u2, a.v2) * hit.b2;
+                float du1 = a.u1 - a.u0, dv1 = a.v1 - a.v0, du2 = a.u2 - a.u0, dv2 = a.v2 - a.v0;
+                float det = du1 * dv2 - du2 * dv1;
+                if (det != 0.0f) {
+                    vec3 e1 = v1 - v0, e2 = v2 - v0;
+                    s.dpdu = (e1 * dv2 - e2 * dv1) / det;
+                    s.dpdv = (e2 * du1 - e1 * du2) / det;
+                }
+            }
+        }
     }
     return s;
 }
@@ -151,6 +181,13 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
         if (cos_l <= 0.0f || dist2 <= 0.0f) return ls;
         GpuMaterial m = MATERIAL(tri.material);
         ls.le = material_emission(m);
+        if (HAS_FEATURE(FEATURE_TEXTURES) && m.tex_emission != NO_TEXTURE) {
+            // Emission texture at the point (the pdf stays the factor's, as for hits).
+            GpuTriangleAttributes a = ATTRIBUTES(prim);
+            vec2 uv = V2(a.u0, a.v0) * b0 + V2(a.u1, a.v1) * b.x + V2(a.u2, a.v2) * b.y;
+            vec4 t = sample_texture(SCENE_ARGS_ m.tex_emission, uv);
+            ls.le = ls.le * V3(t.x, t.y, t.z);
+        }
         ls.pdf = emitter_area_pdf(SCENE_ARGS_ m) * dist2 / cos_l;
         ls.valid = true;
     }
@@ -252,9 +289,20 @@ MCPT_FN PathState advance_path(SCENE_PARAMS_ PathState st, uint pixel, uint max_
         }
         SurfacePoint s = surface_at(SCENE_ARGS_ ray, hit);
         GpuMaterial m = MATERIAL(s.material);
+        if (HAS_FEATURE(FEATURE_TEXTURES)) m = textured_material(SCENE_ARGS_ m, s.uv);
         vec3 wo = -ray.d;
         bool front = dot(s.ng, wo) > 0.0f;
         vec3 n = front ? s.ng : -s.ng;
+        // The shading normal on wo's side (interpolated, normal-mapped); the geometric one
+        // where it faces away from wo.
+        vec3 ns = n;
+        if (HAS_FEATURE(FEATURE_SHADING_NORMALS)) {
+            vec3 sn = s.ns;
+            if (HAS_FEATURE(FEATURE_TEXTURES) && m.tex_normal != NO_TEXTURE)
+                sn = normal_mapped(SCENE_ARGS_ m.tex_normal, s.uv, sn, s.dpdu, s.dpdv);
+            sn = front ? sn : -sn;
+            if (dot(sn, wo) > 0.0f) ns = sn;
+        }
 
         // Emission seen by this ray, MIS-weighted unless NEE could not have sampled it.
         vec3 le = material_emission(m) * light_scale;
@@ -277,8 +325,9 @@ MCPT_FN PathState advance_path(SCENE_PARAMS_ PathState st, uint pixel, uint max_
         // Next-event estimation at vertices with a smooth lobe.
         if (has_smooth_lobe(m) && PARAM(num_lights) > 0u) {
             LightSample ls = sample_light(SCENE_ARGS_ s.p, V3(ua.z, ua.x, ua.y));
-            float cos_x = dot(n, ls.wi);
-            if (ls.valid && cos_x > 0.0f) {
+            // A light seen under the shading normal but behind the surface would leak.
+            float cos_x = dot(ns, ls.wi);
+            if (ls.valid && cos_x > 0.0f && dot(n, ls.wi) > 0.0f) {
                 Ray shadow;
                 shadow.o = offset_ray_origin(s.p, s.p_error, s.ng, ls.wi);
                 shadow.d = offset_ray_origin(ls.p, ls.p_error, ls.n, -ls.wi) - shadow.o;
@@ -291,7 +340,7 @@ MCPT_FN PathState advance_path(SCENE_PARAMS_ PathState st, uint pixel, uint max_
                     break;
                 }
                 if (blocker.prim == NO_HIT) {
-                    BsdfEval e = eval_bsdf(m, n, wo, ls.wi);
+                    BsdfEval e = eval_bsdf(m, ns, wo, ls.wi);
                     float w = power_heuristic(ls.pdf, e.pdf);
                     st.radiance += st.beta * e.f * ls.le * (light_scale * cos_x * w / ls.pdf);
                 }
@@ -299,7 +348,11 @@ MCPT_FN PathState advance_path(SCENE_PARAMS_ PathState st, uint pixel, uint max_
         }
 
         // Sample the BSDF for the next direction.
-        BsdfSample bs = sample_bsdf(m, n, wo, front, V3(ub.x, ub.y, ub.z));
+        BsdfSample bs = sample_bsdf(m, ns, wo, front, V3(ub.x, ub.y, ub.z));
+        // A direction on different sides of the shading and the geometric surface ends the
+        // path: light never leaks through the geometry.
+        if (HAS_FEATURE(FEATURE_SHADING_NORMALS) && dot(bs.wi, n) * dot(bs.wi, ns) <= 0.0f)
+            bs.valid = false;
         if (!bs.valid) {
             st.status = PATH_ENDED;
             break;

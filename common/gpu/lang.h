@@ -12,6 +12,7 @@
 
 // ---------------------------------------------------------------- C++
 #if defined(MCPT_CPP)
+#define V2(x, y) vec2(float(x), float(y))
 #define V3(x, y, z) vec3(float(x), float(y), float(z))
 #define V3S(s) vec3(float(s))
 #define V4(x, y, z, w) vec4(float(x), float(y), float(z), float(w))
@@ -31,6 +32,7 @@
 
 // ---------------------------------------------------------------- OpenCL C
 #elif defined(MCPT_OPENCL)
+#define V2(x, y) ((float2)((float)(x), (float)(y)))
 #define V3(x, y, z) ((float3)((float)(x), (float)(y), (float)(z)))
 #define V3S(s) ((float3)((float)(s)))
 #define V4(x, y, z, w) ((float4)((float)(x), (float)(y), (float)(z), (float)(w)))
@@ -54,6 +56,7 @@
 
 // ---------------------------------------------------------------- GLSL (Vulkan)
 #else
+#define V2(x, y) vec2(float(x), float(y))
 #define V3(x, y, z) vec3(float(x), float(y), float(z))
 #define V3S(s) vec3(float(s))
 #define V4(x, y, z, w) vec4(float(x), float(y), float(z), float(w))

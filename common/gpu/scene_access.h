@@ -51,6 +51,20 @@ GpuTriangle load_triangle(uint i) {
                                triangle_words[w + 3u], triangle_words[w + 4u]);
 }
 #define TRIANGLE(i) load_triangle(i)
+// Per-vertex data after the triangles, textures after the lights (shared_types.h).
+GpuTriangleAttributes load_attributes(uint i) {
+    uint w = 5u * (params.num_triangles + i);
+    uvec2 a = triangle_words[w], b = triangle_words[w + 1u], c = triangle_words[w + 2u];
+    uvec2 d = triangle_words[w + 3u], e = triangle_words[w + 4u];
+    return GpuTriangleAttributes(a.x, a.y, b.x, b.y, uintBitsToFloat(c.x), uintBitsToFloat(c.y),
+                                 uintBitsToFloat(d.x), uintBitsToFloat(d.y),
+                                 uintBitsToFloat(e.x), uintBitsToFloat(e.y));
+}
+#define ATTRIBUTES(i) load_attributes(i)
+layout(std430, binding = BINDING_SHADING) readonly buffer TextureBlock { GpuTexture shading_textures[]; };
+layout(std430, binding = BINDING_SHADING) readonly buffer TexelBlock { uvec2 shading_texels[]; };
+#define TEXTURE(i) shading_textures[SHADING_LIGHTS_WORD(params.num_spheres, params.num_materials) / 4u + params.num_lights + (i)]
+#define TEXEL(i) shading_texels[params.texels_word / 2u + (i)]
 #else
 #if defined(MCPT_CPP)
 #define MCPT_UNUSED [[maybe_unused]]
@@ -63,12 +77,22 @@ GpuTriangle load_triangle(uint i) {
         MCPT_UNUSED MCPT_CONST_BUF GpuTriangle *triangles,                                     \
         MCPT_UNUSED MCPT_CONST_BUF GpuSphere *spheres,                                         \
         MCPT_UNUSED MCPT_CONST_BUF GpuMaterial *materials,                                     \
-        MCPT_UNUSED MCPT_CONST_BUF GpuLight *lights,
-#define SCENE_ARGS_ params, nodes, leaf_indices, triangles, spheres, materials, lights,
+        MCPT_UNUSED MCPT_CONST_BUF GpuLight *lights,                                           \
+        MCPT_UNUSED MCPT_CONST_BUF GpuTriangleAttributes *attributes,                          \
+        MCPT_UNUSED MCPT_CONST_BUF GpuTexture *textures, MCPT_UNUSED MCPT_CONST_BUF uint *texels,
+#define SCENE_ARGS_ \
+    params, nodes, leaf_indices, triangles, spheres, materials, lights, attributes, textures, texels,
 #define PARAM(x) params->x
 #define LEAF_INDEX(i) leaf_indices[i]
 #define MATERIAL(i) materials[i]
 #define LIGHT(i) lights[i]
+#define ATTRIBUTES(i) attributes[i]
+#define TEXTURE(i) textures[i]
+#if defined(MCPT_OPENCL)
+#define TEXEL(i) vload2(i, texels)
+#else
+#define TEXEL(i) uvec2(texels[2u * (i)], texels[2u * (i) + 1u])
+#endif
 // OpenCL on GPUs reads words too (-DMCPT_TRIANGLE_WORDS); PoCL's CPU code is 6-11% faster
 // with the plain struct read (measured with mcpt compare --b-defines).
 #if defined(MCPT_OPENCL) && defined(MCPT_TRIANGLE_WORDS)

@@ -28,11 +28,14 @@ MCPT_NAMESPACE_BEGIN
 #define FEATURE_SPHERE_LIGHTS 64u   // emissive spheres
 #define FEATURE_KDTREE 128u         // k-d traversal with its stack (else: test every triangle)
 #define FEATURE_MICROFACET 256u     // metallic-roughness materials (GGX, microfacet.h)
-#define FEATURE_ALL 511u           // every feature a scene can use: the full kernel
-#define FEATURE_TEST_NAN 512u      // tests only: poison samples of pixels 0 and 1 (never in ALL)
-#define FEATURE_INDEPENDENT_SAMPLER 1024u  // independent uniforms, not Sobol (A/B, never in ALL)
-#define FEATURE_BITS 2047u         // every bit above
-#define FEATURE_COUNT 11
+#define FEATURE_SHADING_NORMALS 512u  // per-vertex normals (smooth shading) and normal maps
+#define FEATURE_TEXTURES 1024u      // texture coordinates and texture fetches (texture.h)
+#define FEATURE_ALPHA_MASK 2048u    // alphaMode MASK: cut-out surfaces rays pass through
+#define FEATURE_ALL 4095u          // every feature a scene can use: the full kernel
+#define FEATURE_TEST_NAN 4096u     // tests only: poison samples of pixels 0 and 1 (never in ALL)
+#define FEATURE_INDEPENDENT_SAMPLER 8192u  // independent uniforms, not Sobol (A/B, never in ALL)
+#define FEATURE_BITS 16383u        // every bit above
+#define FEATURE_COUNT 14
 
 // The smallest GGX alpha a MAT_PBR material keeps (roughness 0.01): below it the lobe's peak
 // exceeds float range in NEE; roughness 0 metals are MAT_MIRROR.
@@ -56,6 +59,14 @@ MCPT_NAMESPACE_BEGIN
 #define SHADING_MATERIALS_WORD(num_spheres) (16u * (((num_spheres) + 1u) / 2u))
 #define SHADING_LIGHTS_WORD(num_spheres, num_materials) \
     (SHADING_MATERIALS_WORD(num_spheres) + 16u * (num_materials))
+// After the lights: the texture table (GpuTexture), then the texels (GpuParams.texels_word,
+// even), two words per texel. The triangle buffer holds the triangles, then (scenes with
+// FEATURE_SHADING_NORMALS or FEATURE_TEXTURES) one GpuTriangleAttributes per triangle.
+#define NO_TEXTURE 0xffffffffu
+#define TEXTURE_WRAP_REPEAT 0u
+#define TEXTURE_WRAP_CLAMP 1u
+#define TEXTURE_WRAP_MIRROR 2u
+#define TEXTURE_NEAREST 16u  // GpuTexture.flags: wrap_s | wrap_t << 2 | TEXTURE_NEAREST
 #define STORAGE_BUFFER_COUNT 4  // every binding but the parameters (a uniform buffer)
 
 // Default compute workgroup size along x (a device may lower it).
@@ -76,6 +87,22 @@ MCPT_STRUCT(GpuTriangle) {
     uint material;
 };
 
+// Per-vertex data of a triangle: normals in octahedral snorm16x2 form (normal_from_oct in
+// texture.h), texture coordinates 0 (glTF's: v down the image).
+MCPT_STRUCT(GpuTriangleAttributes) {
+    uint n0, n1, n2;
+    uint pad;
+    float u0, v0, u1, v1, u2, v2;
+};
+
+// A texture: width x height texels of linear RGBA as half floats (two words: rg, ba), row 0 at
+// v = 0, from word `offset` of the texel array.
+MCPT_STRUCT(GpuTexture) {
+    uint width, height;
+    uint offset;
+    uint flags;
+};
+
 MCPT_STRUCT(GpuSphere) {
     float cx, cy, cz, radius;
     uint material;
@@ -90,8 +117,11 @@ MCPT_STRUCT(GpuMaterial) {
     float metallic;    // MAT_PBR: 0 dielectric over diffuse, 1 conductor
     float alpha;       // MAT_PBR: GGX alpha = roughness^2 (at least MIN_GGX_ALPHA)
     float specular;    // MAT_PBR: KHR_materials_specular factor (scales the dielectric Fresnel)
-    uint pad0;
-    uint pad1, pad2, pad3, pad4;  // reserved (texture indices)
+    float alpha_cutoff;  // alphaMode MASK: cut out where alpha < cutoff (0: opaque)
+    // Textures (GpuTexture index or NO_TEXTURE): base color (rgb, alpha) times r, g, b; glTF's
+    // metallic-roughness (b: metallic, g: roughness) times the factors; tangent-space normals;
+    // emission times er, eg, eb.
+    uint tex_base, tex_metal_rough, tex_normal, tex_emission;
 };
 
 // One entry of the light alias table (Walker/Vose): pick i uniformly, keep it with
@@ -131,6 +161,8 @@ MCPT_STRUCT(GpuParams) {
     // (state_slots pixels: images whose sums exceed the device's largest buffer; the host
     // reads the window back after each round).
     uint accum_window;
+    uint num_textures;
+    uint texels_word;  // first word of the texels in the shading buffer
 };
 
 // Accumulation buffer: two vec4 per pixel (every pixel, or the window's state_slots pixels
@@ -152,7 +184,9 @@ static_assert(sizeof(mcpt::gpu::GpuTriangle) % 8 == 0, "GLSL reads triangles as 
 static_assert(sizeof(mcpt::gpu::GpuSphere) == 32, "GpuSphere must be 32 bytes");
 static_assert(sizeof(mcpt::gpu::GpuMaterial) == 64, "GpuMaterial must be 64 bytes");
 static_assert(sizeof(mcpt::gpu::GpuLight) == 16, "GpuLight must be 16 bytes");
-static_assert(sizeof(mcpt::gpu::GpuParams) == 40 * 4, "GpuParams must be 40 words");
+static_assert(sizeof(mcpt::gpu::GpuParams) == 42 * 4, "GpuParams must be 42 words");
+static_assert(sizeof(mcpt::gpu::GpuTriangleAttributes) == 40, "GpuTriangleAttributes: 40 bytes");
+static_assert(sizeof(mcpt::gpu::GpuTexture) == 16, "GpuTexture must be 16 bytes");
 static_assert(offsetof(mcpt::gpu::GpuParams, light_power_total) == 14 * 4, "GpuParams layout");
 static_assert(offsetof(mcpt::gpu::GpuParams, cam_px) == 21 * 4, "GpuParams layout");
 static_assert(offsetof(mcpt::gpu::GpuParams, light_scale) == 33 * 4, "GpuParams layout");

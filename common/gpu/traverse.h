@@ -6,6 +6,7 @@
 
 #include "intersect.h"
 #include "scene_access.h"
+#include "texture.h"
 
 MCPT_NAMESPACE_BEGIN
 
@@ -20,7 +21,11 @@ MCPT_FN Hit closer_triangle_hit(SCENE_PARAMS_ Ray ray, WoopRay wr, uint tri_inde
 #endif
     Ray r = ray;
     r.tmax = hit.t;
-    TriHit th = intersect_triangle(r, wr, TRIANGLE(tri_index));
+    GpuTriangle tri = TRIANGLE(tri_index);
+    TriHit th = intersect_triangle(r, wr, tri);
+    // Cut-out parts of alphaMode MASK materials are not there.
+    if (HAS_FEATURE(FEATURE_ALPHA_MASK) && th.hit)
+        th.hit = opaque_at(SCENE_ARGS_ MATERIAL(tri.material), tri_index, th.b1, th.b2);
     if (th.hit) {
         hit.t = th.t;
         hit.b1 = th.b1;

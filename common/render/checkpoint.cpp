@@ -81,6 +81,16 @@ uint64_t scene_hash(const Scene& s) {
         h = fnv1a(&m.color, sizeof m.color, h);
         h = fnv1a(&m.emission, sizeof m.emission, h);
         h = fnv1a(&m.ior, sizeof m.ior, h);
+        const float pbr[] = {m.metallic, m.roughness, m.specular, m.alpha_cutoff};
+        const int tex[] = {m.tex_base, m.tex_metal_rough, m.tex_normal, m.tex_emission};
+        h = fnv1a(pbr, sizeof pbr, h);
+        h = fnv1a(tex, sizeof tex, h);
+    }
+    for (const VertexAttributes& a : s.attributes) h = fnv1a(&a, sizeof a, h);
+    for (const Texture& t : s.textures) {
+        const int head[] = {t.width, t.height, int(t.wrap_s), int(t.wrap_t), int(t.nearest)};
+        h = fnv1a(head, sizeof head, h);
+        if (!t.rgba.empty()) h = fnv1a(t.rgba.data(), t.rgba.size() * sizeof(float), h);
     }
     h = fnv1a(&s.camera, sizeof s.camera, h);
     h = fnv1a(&s.has_camera, sizeof s.has_camera, h);

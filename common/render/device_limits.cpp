@@ -14,10 +14,14 @@ std::vector<std::pair<std::string, uint64_t>> device_buffers(const GpuScene& sce
     const uint64_t shading = scene.spheres.size() * sizeof(gpu::GpuSphere) +
                              scene.materials.size() * sizeof(gpu::GpuMaterial) +
                              scene.lights.size() * sizeof(gpu::GpuLight) +
-                             (scene.spheres.size() % 2) * sizeof(gpu::GpuSphere);
+                             (scene.spheres.size() % 2) * sizeof(gpu::GpuSphere) +
+                             scene.textures.size() * sizeof(gpu::GpuTexture) +
+                             scene.texels.size() * 4;
+    const uint64_t triangles = scene.triangles.size() * sizeof(gpu::GpuTriangle) +
+                               scene.attributes.size() * sizeof(gpu::GpuTriangleAttributes);
     return {{"k-d tree (nodes and leaf indices)", tree},
-            {"triangles", scene.triangles.size() * sizeof(gpu::GpuTriangle)},
-            {"shading data (spheres, materials, lights)", shading},
+            {"triangles (and per-vertex data)", triangles},
+            {"shading data (spheres, materials, lights, textures)", shading},
             {"accumulation buffer", accum},
             {"parameters", sizeof(gpu::GpuParams)}};
 }

@@ -5,6 +5,8 @@
 #include <cstring>
 #include <numeric>
 
+#include <glm/gtc/packing.hpp>
+
 #include "common/error.h"
 #include "common/render/scene_features.h"
 
@@ -21,6 +23,12 @@ gpu::GpuMaterial pack_material(const Material& m) {
     g.metallic = m.metallic;
     g.alpha = std::max(m.roughness * m.roughness, MIN_GGX_ALPHA);
     g.specular = m.specular;
+    g.alpha_cutoff = m.alpha_cutoff;
+    const auto tex = [](int i) { return i < 0 ? NO_TEXTURE : uint32_t(i); };
+    g.tex_base = tex(m.tex_base);
+    g.tex_metal_rough = tex(m.tex_metal_rough);
+    g.tex_normal = tex(m.tex_normal);
+    g.tex_emission = tex(m.tex_emission);
     return g;
 }
 
@@ -34,7 +42,9 @@ size_t GpuScene::device_bytes() const {
     return nodes.size() * sizeof(gpu::KdNode) + leaf_indices.size() * 4 +
            triangles.size() * sizeof(gpu::GpuTriangle) + spheres.size() * sizeof(gpu::GpuSphere) +
            materials.size() * sizeof(gpu::GpuMaterial) + lights.size() * sizeof(gpu::GpuLight) +
-           (spheres.size() % 2) * sizeof(gpu::GpuSphere);  // materials on a 64-byte boundary
+           (spheres.size() % 2) * sizeof(gpu::GpuSphere) +  // materials on a 64-byte boundary
+           attributes.size() * sizeof(gpu::GpuTriangleAttributes) +
+           textures.size() * sizeof(gpu::GpuTexture) + texels.size() * 4;
 }
 
 void build_alias_table(const std::vector<double>& weights, std::vector<gpu::GpuLight>& table) {
@@ -86,6 +96,35 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
         g.spheres.push_back({s.center.x, s.center.y, s.center.z, s.radius, s.material, 0, 0, 0});
     }
     for (const Material& m : scene.materials) g.materials.push_back(pack_material(m));
+    // Per-vertex data: normals (the face normal where the scene has none) and coordinates.
+    g.attributes.reserve(scene.attributes.size());
+    g.vertex_normals = scene.vertex_normals && !scene.attributes.empty();
+    for (size_t i = 0; i < scene.attributes.size(); ++i) {
+        const VertexAttributes& a = scene.attributes[i];
+        const Triangle& t = scene.triangles[i];
+        const glm::vec3 face = glm::normalize(glm::cross(t.v1 - t.v0, t.v2 - t.v0));
+        gpu::GpuTriangleAttributes p{};
+        uint32_t* n[3] = {&p.n0, &p.n1, &p.n2};
+        for (int k = 0; k < 3; ++k) {
+            const float len = glm::length(a.n[k]);
+            *n[k] = oct_encode(scene.vertex_normals && len > 0.f ? a.n[k] / len : face);
+        }
+        p.u0 = a.uv[0].x, p.v0 = a.uv[0].y, p.u1 = a.uv[1].x, p.v1 = a.uv[1].y;
+        p.u2 = a.uv[2].x, p.v2 = a.uv[2].y;
+        g.attributes.push_back(p);
+    }
+    // Textures: linear RGBA as halves, one after the other.
+    for (const Texture& t : scene.textures) {
+        gpu::GpuTexture d{};
+        d.width = uint32_t(t.width), d.height = uint32_t(t.height);
+        d.offset = uint32_t(g.texels.size());
+        d.flags = uint32_t(t.wrap_s) | (uint32_t(t.wrap_t) << 2) | (t.nearest ? TEXTURE_NEAREST : 0u);
+        g.textures.push_back(d);
+        for (size_t i = 0; i + 3 < t.rgba.size(); i += 4) {
+            g.texels.push_back(glm::packHalf2x16(glm::vec2(t.rgba[i], t.rgba[i + 1])));
+            g.texels.push_back(glm::packHalf2x16(glm::vec2(t.rgba[i + 2], t.rgba[i + 3])));
+        }
+    }
     // Emitters weighted by power: area * mean(Le).
     std::vector<double> weights;
     std::vector<uint32_t> prims;
@@ -118,6 +157,9 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
     p.num_lights = uint32_t(g.lights.size());
     p.num_nodes = uint32_t(g.nodes.size());
     p.num_materials = uint32_t(g.materials.size());
+    p.num_textures = uint32_t(g.textures.size());
+    p.texels_word = SHADING_LIGHTS_WORD(p.num_spheres, p.num_materials) + 4u * p.num_lights +
+                    4u * p.num_textures;
     p.light_power_total = float(total);
     p.scene_min_x = tree.bounds.min.x, p.scene_min_y = tree.bounds.min.y;
     p.scene_min_z = tree.bounds.min.z;
@@ -199,8 +241,31 @@ std::vector<uint32_t> shading_buffer(const GpuScene& s) {
     out.resize(SHADING_MATERIALS_WORD(uint32_t(s.spheres.size())), 0u);  // 64-byte boundary
     append_words(out, s.materials);
     append_words(out, s.lights);
+    append_words(out, s.textures);
+    append_words(out, s.texels);
     if (out.empty()) out.push_back(0);
     return out;
+}
+
+std::vector<uint32_t> triangle_buffer(const GpuScene& s) {
+    std::vector<uint32_t> out;
+    append_words(out, s.triangles);
+    append_words(out, s.attributes);
+    if (out.empty()) out.push_back(0);
+    return out;
+}
+
+uint32_t oct_encode(glm::vec3 n) {
+    n /= std::fabs(n.x) + std::fabs(n.y) + std::fabs(n.z);
+    glm::vec2 e(n.x, n.y);
+    if (n.z < 0.f) {
+        e = glm::vec2((1.f - std::fabs(n.y)) * (n.x >= 0.f ? 1.f : -1.f),
+                      (1.f - std::fabs(n.x)) * (n.y >= 0.f ? 1.f : -1.f));
+    }
+    const auto snorm = [](float v) {
+        return uint32_t(uint16_t(int16_t(std::lround(std::clamp(v, -1.f, 1.f) * 32767.f))));
+    };
+    return snorm(e.x) | (snorm(e.y) << 16);
 }
 
 }  // namespace mcpt

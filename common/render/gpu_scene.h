@@ -18,6 +18,10 @@ struct GpuScene {
     std::vector<gpu::GpuSphere> spheres;
     std::vector<gpu::GpuMaterial> materials;
     std::vector<gpu::GpuLight> lights;  // alias table over emitters, by power
+    std::vector<gpu::GpuTriangleAttributes> attributes;  // empty, or one per triangle
+    std::vector<gpu::GpuTexture> textures;
+    std::vector<uint32_t> texels;  // RGBA halves, two words per texel
+    bool vertex_normals = false;   // attributes carry the scene's vertex normals
     gpu::GpuParams params{};            // scene fields set; per-dispatch fields zero
     uint32_t stack_size = 1;            // k-d traversal stack entries (tree depth + 1)
     uint32_t features = FEATURE_ALL;    // FEATURE_* bits the scene uses (scene_features.h)
@@ -31,10 +35,16 @@ struct GpuScene {
 GpuScene pack_scene(const Scene& scene, const KdTree& tree);
 
 // The shared device buffers of shared_types.h (what both backends upload): the tree buffer
-// (k-d nodes, then leaf indices) and the shading buffer (spheres, materials, lights), as
+// (k-d nodes, then leaf indices) and the shading buffer (spheres, materials, lights, textures
+// and texels), as
 // 32-bit words. Never empty: one zero word stands for no data.
 std::vector<uint32_t> tree_buffer(const GpuScene& scene);
 std::vector<uint32_t> shading_buffer(const GpuScene& scene);
+// The triangle buffer: the triangles, then their attributes (when the scene has any).
+std::vector<uint32_t> triangle_buffer(const GpuScene& scene);
+
+// A unit vector in octahedral snorm16x2 form (gpu::normal_from_oct decodes it).
+uint32_t oct_encode(glm::vec3 n);
 
 // The accumulation buffer of an image of npix pixels on a device whose largest buffer is
 // max_buffer_bytes (MemoryLimits::max_buffer_bytes; 0 = unknown): the sums of every pixel and

@@ -9,18 +9,26 @@ namespace {
 
 const char* const kFeatureNames[FEATURE_COUNT] = {
     "triangles",     "spheres",  "diffuse",           "mirror", "glass", "triangle lights",
-    "sphere lights", "k-d tree", "microfacet",      "test NaN injection", "independent sampler"};
+    "sphere lights", "k-d tree", "microfacet", "shading normals", "textures", "alpha mask",
+    "test NaN injection", "independent sampler"};
 
-uint32_t material_feature(uint32_t type) {
-    switch (type) {
+// The features of a material: its kind, then its textures and alpha mask.
+uint32_t material_features(const gpu::GpuMaterial& m) {
+    uint32_t f = 0;
+    if (m.tex_base != NO_TEXTURE || m.tex_metal_rough != NO_TEXTURE ||
+        m.tex_emission != NO_TEXTURE)
+        f |= FEATURE_TEXTURES;
+    if (m.tex_normal != NO_TEXTURE) f |= FEATURE_TEXTURES | FEATURE_SHADING_NORMALS;
+    if (m.alpha_cutoff > 0.f) f |= FEATURE_ALPHA_MASK;
+    switch (m.type) {
         case MAT_MIRROR:
-            return FEATURE_MIRROR;
+            return f | FEATURE_MIRROR;
         case MAT_GLASS:
-            return FEATURE_GLASS;
+            return f | FEATURE_GLASS;
         case MAT_PBR:
-            return FEATURE_MICROFACET;
+            return f | FEATURE_MICROFACET;
         default:
-            return FEATURE_DIFFUSE;
+            return f | FEATURE_DIFFUSE;
     }
 }
 
@@ -31,9 +39,12 @@ uint32_t scene_features(const GpuScene& g) {
     // Geometry and the materials it references.
     if (!g.triangles.empty()) f |= FEATURE_TRIANGLES;
     if (!g.spheres.empty()) f |= FEATURE_SPHERES;
-    for (const gpu::GpuTriangle& t : g.triangles)
-        f |= material_feature(g.materials[t.material].type);
-    for (const gpu::GpuSphere& s : g.spheres) f |= material_feature(g.materials[s.material].type);
+    // (textures on spheres have no coordinates: only triangles bring texture features)
+    const uint32_t texture_bits = FEATURE_TEXTURES | FEATURE_SHADING_NORMALS | FEATURE_ALPHA_MASK;
+    for (const gpu::GpuTriangle& t : g.triangles) f |= material_features(g.materials[t.material]);
+    for (const gpu::GpuSphere& s : g.spheres)
+        f |= material_features(g.materials[s.material]) & ~texture_bits;
+    if (g.vertex_normals) f |= FEATURE_SHADING_NORMALS;
     // Emitters.
     for (const gpu::GpuLight& l : g.lights)
         f |= (l.prim & LIGHT_SPHERE_BIT) ? FEATURE_SPHERE_LIGHTS : FEATURE_TRIANGLE_LIGHTS;

@@ -64,6 +64,43 @@ void check_material(const Scene& scene, uint32_t i) {
     }
 }
 
+// Attributes one per triangle and finite, texture indices valid, textures whole and finite.
+void check_attributes_and_textures(const Scene& scene) {
+    if (!scene.attributes.empty() && scene.attributes.size() != scene.triangles.size())
+        throw Error("per-vertex attributes of " + std::to_string(scene.attributes.size()) +
+                    " triangles for " + std::to_string(scene.triangles.size()) + " triangles");
+    for (size_t i = 0; i < scene.attributes.size(); ++i) {
+        const VertexAttributes& a = scene.attributes[i];
+        for (int k = 0; k < 3; ++k)
+            if (!finite(a.n[k]) || !std::isfinite(a.uv[k].x) || !std::isfinite(a.uv[k].y))
+                throw Error("triangle " + std::to_string(i) + ": non-finite normal or texture "
+                            "coordinate at vertex " + std::to_string(k));
+    }
+    for (size_t i = 0; i < scene.textures.size(); ++i) {
+        const Texture& t = scene.textures[i];
+        const std::string what = "texture " + std::to_string(i) +
+                                 (t.name.empty() ? "" : " '" + t.name + "'") + ": ";
+        if (t.width <= 0 || t.height <= 0 || t.width > 16384 || t.height > 16384)
+            throw Error(what + "size " + std::to_string(t.width) + "x" + std::to_string(t.height) +
+                        " outside 1x1 to 16384x16384");
+        if (t.rgba.size() != size_t(t.width) * size_t(t.height) * 4)
+            throw Error(what + "texel count does not match its size");
+        for (float v : t.rgba)
+            if (!std::isfinite(v) || std::fabs(v) > 65504.f)
+                throw Error(what + "texel outside the range of half floats");
+    }
+    for (uint32_t i = 0; i < scene.materials.size(); ++i) {
+        const Material& m = scene.materials[i];
+        for (int tex : {m.tex_base, m.tex_metal_rough, m.tex_normal, m.tex_emission})
+            if (tex < -1 || tex >= int(scene.textures.size()))
+                throw Error(material_label(scene, i) + ": texture index " + std::to_string(tex) +
+                            " out of range (scene has " + std::to_string(scene.textures.size()) +
+                            " textures)");
+        if (!(m.alpha_cutoff >= 0.f))
+            throw Error(material_label(scene, i) + ": alpha cutoff must be >= 0");
+    }
+}
+
 void check_material_index(const Scene& scene, uint32_t index, const std::string& owner) {
     if (index >= scene.materials.size())
         throw Error(owner + ": material index " + std::to_string(index) +
@@ -139,6 +176,10 @@ ValidationReport validate_scene(Scene& scene) {
         const std::string owner = "sphere " + std::to_string(i);
         check_material_index(scene, s.material, owner);
         const std::string what = owner + " (" + material_label(scene, s.material) + "): ";
+        const Material& m = scene.materials[s.material];
+        if (m.tex_base >= 0 || m.tex_metal_rough >= 0 || m.tex_normal >= 0 ||
+            m.tex_emission >= 0 || m.alpha_cutoff > 0.f)
+            throw Error(what + "spheres have no texture coordinates: no textures or alpha mask");
         if (!finite(s.center)) throw Error(what + "non-finite center " + str(s.center));
         if (!std::isfinite(s.radius) || s.radius <= 0.f)
             throw Error(what + "radius must be finite and > 0, got " + std::to_string(s.radius));
@@ -149,11 +190,21 @@ ValidationReport validate_scene(Scene& scene) {
     if (scene.max_depth_hint < 0)
         throw Error("max_depth_hint must be >= 0, got " + std::to_string(scene.max_depth_hint));
 
-    // Drop degenerate triangles, keeping the order of the rest.
+    // Per-vertex data and textures.
+    check_attributes_and_textures(scene);
+
+    // Drop degenerate triangles (and their attributes), keeping the order of the rest.
     const size_t before = scene.triangles.size();
-    scene.triangles.erase(
-        std::remove_if(scene.triangles.begin(), scene.triangles.end(), degenerate),
-        scene.triangles.end());
+    const bool with_attributes = !scene.attributes.empty();
+    size_t kept = 0;
+    for (size_t i = 0; i < before; ++i) {
+        if (degenerate(scene.triangles[i])) continue;
+        scene.triangles[kept] = scene.triangles[i];
+        if (with_attributes) scene.attributes[kept] = scene.attributes[i];
+        ++kept;
+    }
+    scene.triangles.resize(kept);
+    if (with_attributes) scene.attributes.resize(kept);
     report.degenerate_dropped = before - scene.triangles.size();
     if (scene.triangles.empty() && scene.spheres.empty())
         throw Error("scene '" + scene.name + "' is empty: all " + std::to_string(before) +

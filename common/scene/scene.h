@@ -22,12 +22,37 @@ struct Material {
     float metallic = 0.f;   // Pbr: 0 dielectric over diffuse, 1 metal
     float roughness = 1.f;  // Pbr: perceptual roughness (GGX alpha = roughness^2)
     float specular = 1.f;   // Pbr: KHR_materials_specular's factor
+    // Textures (indices into Scene::textures, -1: none): base color (rgb times color; alpha),
+    // metallic-roughness (b times metallic, g times roughness), tangent-space normals, emission
+    // (rgb times emission).
+    int tex_base = -1, tex_metal_rough = -1, tex_normal = -1, tex_emission = -1;
+    // alphaMode MASK: cut out where the base alpha (factor times texture) < alpha_cutoff;
+    // 0: opaque. Kept here as cutoff / alpha factor (the loader folds the factor in).
+    float alpha_cutoff = 0.f;
     bool is_emissive() const { return emission.x > 0.f || emission.y > 0.f || emission.z > 0.f; }
 };
 
 struct Triangle {
     glm::vec3 v0, v1, v2;  // counter-clockwise seen from the front (emitting) side
     uint32_t material = 0;
+};
+
+// Per-corner data of a triangle (Scene::attributes): unit normals and texture coordinates 0.
+struct VertexAttributes {
+    glm::vec3 n[3]{glm::vec3(0.f), glm::vec3(0.f), glm::vec3(0.f)};
+    glm::vec2 uv[3]{glm::vec2(0.f), glm::vec2(0.f), glm::vec2(0.f)};
+};
+
+// glTF's sampler wrap modes.
+enum class TextureWrap : uint32_t { Repeat = 0, Clamp = 1, Mirror = 2 };
+
+// A decoded texture: linear RGBA floats, row 0 at v = 0 (the top of the image, as glTF).
+struct Texture {
+    std::string name;
+    int width = 0, height = 0;
+    std::vector<float> rgba;
+    TextureWrap wrap_s = TextureWrap::Repeat, wrap_t = TextureWrap::Repeat;
+    bool nearest = false;  // magnification filter NEAREST (else bilinear)
 };
 
 struct Sphere {
@@ -55,6 +80,9 @@ struct Scene {
     std::vector<Material> materials;
     std::vector<Triangle> triangles;
     std::vector<Sphere> spheres;
+    std::vector<VertexAttributes> attributes;  // empty, or one per triangle
+    bool vertex_normals = false;               // attributes carry normals (else zero)
+    std::vector<Texture> textures;
     Camera camera;
     bool has_camera = false;  // false: frame the scene bounds automatically
     int max_depth_hint = 0;   // > 0: a bounce limit the scene asks for (0: the renderer's default)

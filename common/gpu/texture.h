@@ -1,0 +1,140 @@
+// Texture fetches and per-vertex data, decoded the same way in OpenCL C, GLSL and C++ from
+// plain words (no samplers or image objects, so both APIs filter bit for bit alike): half
+// floats, octahedral normals, bilinear filtering with glTF's wrap modes.
+#ifndef MCPT_GPU_TEXTURE_H
+#define MCPT_GPU_TEXTURE_H
+
+#include "sampling.h"
+#include "scene_access.h"
+
+MCPT_NAMESPACE_BEGIN
+
+// IEEE half (low 16 bits of h) to float; textures hold finite halves only.
+MCPT_FN float half_to_float(uint h) {
+    uint sign = (h & 0x8000u) << 16u;
+    uint e = (h >> 10u) & 0x1fu;
+    uint m = h & 0x3ffu;
+    if (e == 0u) {
+        float v = F32(m) * 5.9604645e-8f;  // 2^-24: subnormal
+        return sign != 0u ? -v : v;
+    }
+    return uint_as_float(sign | ((e + 112u) << 23u) | (m << 13u));
+}
+
+// A signed 16-bit integer in [-32767, 32767] to [-1, 1] (snorm16).
+MCPT_FN float snorm16(uint bits) {
+    int v = I32(bits << 16u) >> 16;
+    return MAXF(F32(v) * (1.0f / 32767.0f), -1.0f);
+}
+
+// A unit vector from its octahedral encoding (x in the low, y in the high 16 bits).
+MCPT_FN vec3 normal_from_oct(uint w) {
+    float x = snorm16(w & 0xffffu);
+    float y = snorm16(w >> 16u);
+    float z = 1.0f - ABSF(x) - ABSF(y);
+    if (z < 0.0f) {
+        float ox = x;
+        x = (1.0f - ABSF(y)) * (ox >= 0.0f ? 1.0f : -1.0f);
+        y = (1.0f - ABSF(ox)) * (y >= 0.0f ? 1.0f : -1.0f);
+    }
+    return normalize(V3(x, y, z));
+}
+
+// A texel coordinate (|i| <= 2^24) wrapped into [0, size) by glTF's wrap mode. Remainders are
+// taken of non-negative values (GLSL leaves % of negative integers undefined).
+MCPT_FN uint wrap_texel(int i, uint size, uint mode) {
+    if (mode == TEXTURE_WRAP_CLAMP) return U32(clamp(i, 0, I32(size) - 1));
+    uint period = mode == TEXTURE_WRAP_MIRROR ? 2u * size : size;
+    uint k = U32(i + I32(period * (16777216u / period + 1u))) % period;
+    return k < size ? k : period - 1u - k;
+}
+
+MCPT_FN vec4 texel_rgba(SCENE_PARAMS_ GpuTexture t, uint x, uint y) {
+#ifdef MCPT_NEGATIVE_CONTROL_TEXEL_SHIFT
+    x = min(x + 1u, t.width - 1u);  // tests: every read one texel to the right
+#endif
+    uvec2 w = TEXEL(t.offset / 2u + y * t.width + x);
+    return V4(half_to_float(w.x & 0xffffu), half_to_float(w.x >> 16u),
+              half_to_float(w.y & 0xffffu), half_to_float(w.y >> 16u));
+}
+
+// Texture `index` at (u, v): bilinear between the four nearest texel centers (or the nearest
+// texel), wrapped per axis.
+MCPT_FN vec4 sample_texture(SCENE_PARAMS_ uint index, vec2 uv) {
+    GpuTexture t = TEXTURE(index);
+    uint wrap_s = t.flags & 3u, wrap_t = (t.flags >> 2u) & 3u;
+    // Texel space; keep the integer part small so that floats stay exact for tiled UVs.
+    float fx = uv.x * F32(t.width) - 0.5f;
+    float fy = uv.y * F32(t.height) - 0.5f;
+    fx = clamp(fx, -16777216.0f, 16777216.0f);
+    fy = clamp(fy, -16777216.0f, 16777216.0f);
+    if ((t.flags & TEXTURE_NEAREST) != 0u) {
+        uint x = wrap_texel(I32(floor(fx + 0.5f)), t.width, wrap_s);
+        uint y = wrap_texel(I32(floor(fy + 0.5f)), t.height, wrap_t);
+        return texel_rgba(SCENE_ARGS_ t, x, y);
+    }
+    float x0f = floor(fx), y0f = floor(fy);
+    float ax = fx - x0f, ay = fy - y0f;
+    int x0 = I32(x0f), y0 = I32(y0f);
+    uint xa = wrap_texel(x0, t.width, wrap_s), xb = wrap_texel(x0 + 1, t.width, wrap_s);
+    uint ya = wrap_texel(y0, t.height, wrap_t), yb = wrap_texel(y0 + 1, t.height, wrap_t);
+    vec4 top = texel_rgba(SCENE_ARGS_ t, xa, ya) * (1.0f - ax) + texel_rgba(SCENE_ARGS_ t, xb, ya) * ax;
+    vec4 bottom = texel_rgba(SCENE_ARGS_ t, xa, yb) * (1.0f - ax) + texel_rgba(SCENE_ARGS_ t, xb, yb) * ax;
+    return top * (1.0f - ay) + bottom * ay;
+}
+
+// A material with its textures applied at uv (factors times texels, as glTF).
+MCPT_FN GpuMaterial textured_material(SCENE_PARAMS_ GpuMaterial m, vec2 uv) {
+    if (m.tex_base != NO_TEXTURE) {
+        vec4 t = sample_texture(SCENE_ARGS_ m.tex_base, uv);
+        m.r *= t.x;
+        m.g *= t.y;
+        m.b *= t.z;
+    }
+    if (m.tex_metal_rough != NO_TEXTURE) {
+        vec4 t = sample_texture(SCENE_ARGS_ m.tex_metal_rough, uv);
+        m.metallic *= t.z;
+        float roughness = sqrt(m.alpha) * t.y;
+        m.alpha = MAXF(roughness * roughness, MIN_GGX_ALPHA);
+    }
+    if (m.tex_emission != NO_TEXTURE) {
+        vec4 t = sample_texture(SCENE_ARGS_ m.tex_emission, uv);
+        m.er *= t.x;
+        m.eg *= t.y;
+        m.eb *= t.z;
+    }
+    return m;
+}
+
+// The shading normal ns bent by a tangent-space normal texture; the tangent follows u, the
+// bitangent points up the image (toward -v), as glTF's normal textures expect.
+MCPT_FN vec3 normal_mapped(SCENE_PARAMS_ uint tex, vec2 uv, vec3 ns, vec3 dpdu, vec3 dpdv) {
+    vec3 t = dpdu - ns * dot(ns, dpdu);
+    float len = length(t);
+    if (!(len > 0.0f)) return ns;
+    t = t / len;
+    vec3 b = cross(ns, t);
+    if (dot(b, dpdv) > 0.0f) b = -b;
+    vec4 c = sample_texture(SCENE_ARGS_ tex, uv);
+    vec3 m = t * (2.0f * c.x - 1.0f) + b * (2.0f * c.y - 1.0f) + ns * (2.0f * c.z - 1.0f);
+    float ml = length(m);
+    return ml > 0.0f ? m / ml : ns;
+}
+
+// Whether a triangle of a material with alphaMode MASK is there at (b1, b2): the base alpha
+// (texture, or 1) against the cutoff, which holds cutoff / alpha factor (0: opaque).
+MCPT_FN bool opaque_at(SCENE_PARAMS_ GpuMaterial m, uint tri, float b1, float b2) {
+    if (!(m.alpha_cutoff > 0.0f)) return true;
+    float a = 1.0f;
+    if (HAS_FEATURE(FEATURE_TEXTURES) && m.tex_base != NO_TEXTURE) {
+        GpuTriangleAttributes at = ATTRIBUTES(tri);
+        float b0 = 1.0f - b1 - b2;
+        vec2 uv = V2(at.u0, at.v0) * b0 + V2(at.u1, at.v1) * b1 + V2(at.u2, at.v2) * b2;
+        a = sample_texture(SCENE_ARGS_ m.tex_base, uv).w;
+    }
+    return a >= m.alpha_cutoff;
+}
+
+MCPT_NAMESPACE_END
+
+#endif  // MCPT_GPU_TEXTURE_H
