@@ -74,7 +74,8 @@ MCPT_FN SurfacePoint surface_at(SCENE_PARAMS_ Ray ray, Hit hit) {
         s.ng = normalize(cross(v1 - v0, v2 - v0));
         s.ns = s.ng;
         s.material = tri.material;
-        if (HAS_FEATURE(FEATURE_SHADING_NORMALS) || HAS_FEATURE(FEATURE_TEXTURES)) {
+        if ((HAS_FEATURE(FEATURE_SHADING_NORMALS) || HAS_FEATURE(FEATURE_TEXTURES)) &&
+            PARAM(vertex_data) != 0u) {
             GpuTriangleAttributes a = ATTRIBUTES(hit.prim);
             if (HAS_FEATURE(FEATURE_SHADING_NORMALS)) {
                 // Interpolated vertex normals, turned to the geometric normal's side.
@@ -183,8 +184,11 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
         ls.le = material_emission(m);
         if (HAS_FEATURE(FEATURE_TEXTURES) && m.tex_emission != NO_TEXTURE) {
             // Emission texture at the point (the pdf stays the factor's, as for hits).
-            GpuTriangleAttributes a = ATTRIBUTES(prim);
-            vec2 uv = V2(a.u0, a.v0) * b0 + V2(a.u1, a.v1) * b.x + V2(a.u2, a.v2) * b.y;
+            vec2 uv = V2(0.0f, 0.0f);
+            if (PARAM(vertex_data) != 0u) {
+                GpuTriangleAttributes a = ATTRIBUTES(prim);
+                uv = V2(a.u0, a.v0) * b0 + V2(a.u1, a.v1) * b.x + V2(a.u2, a.v2) * b.y;
+            }
             vec4 t = sample_texture(SCENE_ARGS_ m.tex_emission, uv);
             ls.le = ls.le * V3(t.x, t.y, t.z);
         }

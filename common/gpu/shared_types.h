@@ -163,6 +163,8 @@ MCPT_STRUCT(GpuParams) {
     uint accum_window;
     uint num_textures;
     uint texels_word;  // first word of the texels in the shading buffer
+    uint vertex_data;  // 1: the triangle buffer holds GpuTriangleAttributes after the triangles
+    uint pad_params;
 };
 
 // Accumulation buffer: two vec4 per pixel (every pixel, or the window's state_slots pixels
@@ -184,7 +186,7 @@ static_assert(sizeof(mcpt::gpu::GpuTriangle) % 8 == 0, "GLSL reads triangles as 
 static_assert(sizeof(mcpt::gpu::GpuSphere) == 32, "GpuSphere must be 32 bytes");
 static_assert(sizeof(mcpt::gpu::GpuMaterial) == 64, "GpuMaterial must be 64 bytes");
 static_assert(sizeof(mcpt::gpu::GpuLight) == 16, "GpuLight must be 16 bytes");
-static_assert(sizeof(mcpt::gpu::GpuParams) == 42 * 4, "GpuParams must be 42 words");
+static_assert(sizeof(mcpt::gpu::GpuParams) == 44 * 4, "GpuParams must be 44 words");
 static_assert(sizeof(mcpt::gpu::GpuTriangleAttributes) == 40, "GpuTriangleAttributes: 40 bytes");
 static_assert(sizeof(mcpt::gpu::GpuTexture) == 16, "GpuTexture must be 16 bytes");
 static_assert(offsetof(mcpt::gpu::GpuParams, light_power_total) == 14 * 4, "GpuParams layout");

@@ -127,9 +127,12 @@ MCPT_FN bool opaque_at(SCENE_PARAMS_ GpuMaterial m, uint tri, float b1, float b2
     if (!(m.alpha_cutoff > 0.0f)) return true;
     float a = 1.0f;
     if (HAS_FEATURE(FEATURE_TEXTURES) && m.tex_base != NO_TEXTURE) {
-        GpuTriangleAttributes at = ATTRIBUTES(tri);
-        float b0 = 1.0f - b1 - b2;
-        vec2 uv = V2(at.u0, at.v0) * b0 + V2(at.u1, at.v1) * b1 + V2(at.u2, at.v2) * b2;
+        vec2 uv = V2(0.0f, 0.0f);
+        if (PARAM(vertex_data) != 0u) {
+            GpuTriangleAttributes at = ATTRIBUTES(tri);
+            float b0 = 1.0f - b1 - b2;
+            uv = V2(at.u0, at.v0) * b0 + V2(at.u1, at.v1) * b1 + V2(at.u2, at.v2) * b2;
+        }
         a = sample_texture(SCENE_ARGS_ m.tex_base, uv).w;
     }
     return a >= m.alpha_cutoff;
