@@ -90,7 +90,7 @@ uint64_t scene_hash(const Scene& s) {
     for (const Texture& t : s.textures) {
         const int head[] = {t.width, t.height, int(t.wrap_s), int(t.wrap_t), int(t.nearest)};
         h = fnv1a(head, sizeof head, h);
-        if (!t.rgba.empty()) h = fnv1a(t.rgba.data(), t.rgba.size() * sizeof(float), h);
+        if (!t.rgba.empty()) h = fnv1a(t.rgba.data(), t.rgba.size() * sizeof(uint16_t), h);
     }
     h = fnv1a(&s.camera, sizeof s.camera, h);
     h = fnv1a(&s.has_camera, sizeof s.has_camera, h);

@@ -5,8 +5,6 @@
 #include <cstring>
 #include <numeric>
 
-#include <glm/gtc/packing.hpp>
-
 #include "common/error.h"
 #include "common/render/scene_features.h"
 
@@ -120,10 +118,8 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
         d.offset = uint32_t(g.texels.size());
         d.flags = uint32_t(t.wrap_s) | (uint32_t(t.wrap_t) << 2) | (t.nearest ? TEXTURE_NEAREST : 0u);
         g.textures.push_back(d);
-        for (size_t i = 0; i + 3 < t.rgba.size(); i += 4) {
-            g.texels.push_back(glm::packHalf2x16(glm::vec2(t.rgba[i], t.rgba[i + 1])));
-            g.texels.push_back(glm::packHalf2x16(glm::vec2(t.rgba[i + 2], t.rgba[i + 3])));
-        }
+        for (size_t i = 0; i + 1 < t.rgba.size(); i += 2)
+            g.texels.push_back(uint32_t(t.rgba[i]) | (uint32_t(t.rgba[i + 1]) << 16));
     }
     // Emitters weighted by power: area * mean(Le).
     std::vector<double> weights;

@@ -24,13 +24,14 @@
 
 #include "common/scene/gltf_loader.h"
 
-// tinygltf's implementation lives here. Images are never decoded (no stb_image): textures are
-// unsupported anyway, and it keeps stb's implementation out of this translation unit.
+// tinygltf's implementation lives here. It hands images over undecoded (its image callback
+// keeps the bytes); the loader decodes the ones materials use with stb_image (common/io).
 #define TINYGLTF_IMPLEMENTATION
 #define TINYGLTF_NO_STB_IMAGE
 #define TINYGLTF_NO_STB_IMAGE_WRITE
-#define TINYGLTF_NO_EXTERNAL_IMAGE
 #include <tiny_gltf.h>
+
+#include <stb_image.h>
 
 #include <algorithm>
 #include <cctype>
@@ -43,6 +44,8 @@
 #include <glm/gtc/quaternion.hpp>
 #include <glm/gtc/type_ptr.hpp>
 #include <iterator>
+#include <limits>
+#include <map>
 #include <set>
 #include <sstream>
 #include <utility>
@@ -188,10 +191,27 @@ tg::FsCallbacks folder_callbacks(const FolderFs* fs) {
     return cb;
 }
 
-// Image callback that keeps images undecoded.
-bool skip_image(tg::Image*, const int, std::string*, std::string*, int, int, const unsigned char*,
-                int, void*) {
+// Image callback that keeps each image's encoded bytes (user_data: the map to keep them in).
+using ImageBytes = std::map<int, std::vector<unsigned char>>;
+bool keep_image(tg::Image*, const int index, std::string*, std::string*, int, int,
+                const unsigned char* bytes, int size, void* user_data) {
+    if (bytes && size > 0) (*static_cast<ImageBytes*>(user_data))[index].assign(bytes, bytes + size);
     return true;
+}
+
+// Decoded textures in all (texels) at most: 2^26, 512 MiB as halves.
+constexpr uint64_t kMaxTexels = uint64_t(1) << 26;
+
+// glTF sampler wrap codes.
+TextureWrap texture_wrap(int code) {
+    switch (code) {
+        case TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE:
+            return TextureWrap::Clamp;
+        case TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT:
+            return TextureWrap::Mirror;
+        default:
+            return TextureWrap::Repeat;
+    }
 }
 
 // A number inside a material extension object, or `fallback`.
@@ -294,6 +314,10 @@ class GltfLoader {
     std::vector<T> read_accessor(const tg::Accessor& a, size_t elem, const std::string& what,
                                  Decode decode) const;
     std::vector<glm::vec3> read_positions(int accessor, const std::string& where) const;
+    std::vector<glm::vec3> read_normals(int accessor, const std::string& where) const;
+    std::vector<glm::vec2> read_texcoords(int accessor, const std::string& where) const;
+    int texture_for(const tg::TextureInfo& info, bool srgb, const std::string& what);
+    int texture_for(int texture, int tex_coord, bool srgb, const std::string& what);
     std::vector<uint32_t> read_indices(int accessor, const std::string& where) const;
 
     void parse_memory();
@@ -307,6 +331,9 @@ class GltfLoader {
     Scene scene_;
     std::set<std::string> warned_;
     int default_material_ = -1;
+    ImageBytes image_bytes_;
+    std::map<std::pair<int, bool>, int> textures_;  // (glTF texture, sRGB) -> scene texture
+    uint64_t texels_ = 0;
 };
 
 Scene GltfLoader::load() {
@@ -361,7 +388,7 @@ void GltfLoader::read_model() {
     scene_.name = std::filesystem::path(path_).stem().string();
 
     tg::TinyGLTF loader;
-    loader.SetImageLoader(&skip_image, nullptr);
+    loader.SetImageLoader(&keep_image, &image_bytes_);
     FolderFs folder;
     {
         std::error_code ec2;
@@ -406,7 +433,7 @@ void GltfLoader::parse_memory() {
     if (json_depth(text, length) > kMaxJsonDepth)
         fail("JSON nested deeper than " + std::to_string(kMaxJsonDepth) + " levels");
     tg::TinyGLTF loader;
-    loader.SetImageLoader(&skip_image, nullptr);
+    loader.SetImageLoader(&keep_image, &image_bytes_);
     FolderFs folder;
     if (base_dir_.empty()) {
         // No folder given: a URI that is not a data URI is an error, not a file read.
@@ -465,22 +492,15 @@ void GltfLoader::check_features() {
     if (!model_.animations.empty())
         warn_once("animations", "animations are not supported; using the static pose");
 
-    // Textures: any texture reference of a material (normal maps counted apart).
-    bool textures = false, normal_maps = false;
+    // Textures other than the four a material uses are not read.
     for (const tg::Material& m : model_.materials) {
-        textures = textures || m.pbrMetallicRoughness.baseColorTexture.index >= 0 ||
-                   m.pbrMetallicRoughness.metallicRoughnessTexture.index >= 0 ||
-                   m.emissiveTexture.index >= 0 || m.occlusionTexture.index >= 0;
-        normal_maps = normal_maps || m.normalTexture.index >= 0;
-        for (const auto& ext : m.extensions)
-            for (const std::string& key : ext.second.Keys())
-                if (key.size() >= 7 && key.compare(key.size() - 7, 7, "Texture") == 0)
-                    textures = true;
+        if (m.occlusionTexture.index >= 0)
+            warn_once("occlusion", "occlusion textures are not used (paths trace occlusion)");
+        if (m.alphaMode == "BLEND")
+            warn_once("blend", "alphaMode BLEND is rendered opaque, e.g. '" + m.name + "'");
+        if (m.normalTexture.index >= 0 && m.normalTexture.scale != 1.0)
+            warn_once("normal scale", "normal texture scale is not supported; using 1");
     }
-    if (!textures && !normal_maps && !model_.textures.empty()) textures = true;
-    if (textures) warn_once("textures", "textures are not supported; using factors only");
-    if (normal_maps)
-        warn_once("normalTexture", "normal maps (normalTexture) are not supported; ignored");
 }
 
 // One scene material per glTF material, same index.
@@ -500,12 +520,27 @@ void GltfLoader::convert_materials() {
         m.metallic = float(pbr.metallicFactor);
         m.roughness = float(pbr.roughnessFactor);
         m.specular = float(extension_number(g.extensions, kSpecular, "specularFactor", 1.0));
+        // Textures (texture coordinates 0), color ones sRGB-decoded.
+        const std::string what = "material '" + m.name + "'";
+        m.tex_base = texture_for(pbr.baseColorTexture, true, what + " baseColorTexture");
+        m.tex_metal_rough =
+            texture_for(pbr.metallicRoughnessTexture, false, what + " metallicRoughnessTexture");
+        m.tex_normal = texture_for(g.normalTexture.index, g.normalTexture.texCoord, false,
+                                   what + " normalTexture");
+        m.tex_emission = texture_for(g.emissiveTexture, true, what + " emissiveTexture");
+        // alphaMode MASK: the cutoff against texture alpha, the factor folded in.
+        if (g.alphaMode == "MASK" && g.alphaCutoff > 0.0) {
+            const double factor = pbr.baseColorFactor.size() == 4 ? pbr.baseColorFactor[3] : 1.0;
+            m.alpha_cutoff = factor > 0.0 ? float(g.alphaCutoff / factor)
+                                          : std::numeric_limits<float>::infinity();
+        }
         if (extension_number(g.extensions, kTransmission, "transmissionFactor", 0.0) > 0.5) {
             m.type = MaterialType::Glass;
             if (pbr.roughnessFactor > 0.1)
                 warn_once("rough transmission",
                           "rough transmission is rendered as smooth glass, e.g. '" + m.name + "'");
-        } else if (pbr.metallicFactor >= 1.0 && pbr.roughnessFactor <= 0.01) {
+        } else if (pbr.metallicFactor >= 1.0 && pbr.roughnessFactor <= 0.01 &&
+                   m.tex_metal_rough < 0) {
             m.type = MaterialType::Mirror;  // the limit of roughness 0, traced exactly
         } else if (pbr.metallicFactor <= 0.0 && m.specular <= 0.f) {
             m.type = MaterialType::Diffuse;  // no specular layer: exactly Lambertian
@@ -709,6 +744,21 @@ void GltfLoader::add_mesh(int mesh, const glm::dmat4& world) {
         }
         const uint32_t material = material_index(prim.material, where);
         const std::vector<glm::vec3> v = read_positions(pos->second, where);
+        // Per-vertex normals and texture coordinates 0, when the primitive has them.
+        const auto nrm = prim.attributes.find("NORMAL");
+        const auto tc = prim.attributes.find("TEXCOORD_0");
+        std::vector<glm::vec3> normals;
+        std::vector<glm::vec2> uvs;
+        if (nrm != prim.attributes.end()) normals = read_normals(nrm->second, where);
+        if (tc != prim.attributes.end()) uvs = read_texcoords(tc->second, where);
+        if ((!normals.empty() && normals.size() != v.size()) ||
+            (!uvs.empty() && uvs.size() != v.size()))
+            fail(where + ": NORMAL or TEXCOORD_0 count differs from POSITION's");
+        const bool attributes = !normals.empty() || !uvs.empty() || !scene_.attributes.empty();
+        if (!normals.empty()) scene_.vertex_normals = true;
+        if (attributes) scene_.attributes.resize(scene_.triangles.size());
+        // Normals transform by the inverse transpose.
+        const glm::dmat3 normal_matrix = glm::transpose(glm::inverse(glm::dmat3(world)));
         // Corner list: the indices, or 0, 1, 2, ... when not indexed.
         std::vector<uint32_t> idx;
         if (prim.indices >= 0 || prim.indices < -1) {
@@ -722,15 +772,27 @@ void GltfLoader::add_mesh(int mesh, const glm::dmat4& world) {
                                      " is not a multiple of 3; extra corners ignored");
         for (size_t i = 0; i + 2 < idx.size(); i += 3) {
             glm::vec3 c[3];
+            VertexAttributes va;
             for (int k = 0; k < 3; ++k) {
                 const uint32_t j = idx[i + size_t(k)];
                 if (j >= v.size())
                     fail(where + ": index " + std::to_string(j) + " out of range (POSITION has " +
                          std::to_string(v.size()) + " vertices)");
                 c[k] = glm::vec3(world * glm::dvec4(glm::dvec3(v[j]), 1.0));
+                if (!normals.empty()) {
+                    const glm::dvec3 n = normal_matrix * glm::dvec3(normals[j]);
+                    const double len = glm::length(n);
+                    va.n[k] = len > 0.0 && std::isfinite(len) ? glm::vec3(n / len) : glm::vec3(0.f);
+                }
+                if (!uvs.empty()) va.uv[k] = uvs[j];
             }
-            if (flip) std::swap(c[1], c[2]);
+            if (flip) {
+                std::swap(c[1], c[2]);
+                std::swap(va.n[1], va.n[2]);
+                std::swap(va.uv[1], va.uv[2]);
+            }
             scene_.triangles.push_back({c[0], c[1], c[2], material});
+            if (attributes) scene_.attributes.push_back(va);
         }
     }
 }
@@ -843,6 +905,115 @@ std::vector<glm::vec3> GltfLoader::read_positions(int accessor, const std::strin
         }
     }
     return out;
+}
+
+std::vector<glm::vec3> GltfLoader::read_normals(int accessor, const std::string& where) const {
+    const std::string what = where + " NORMAL accessor " + std::to_string(accessor);
+    if (accessor < 0 || size_t(accessor) >= model_.accessors.size())
+        fail(what + " out of range (file has " + std::to_string(model_.accessors.size()) +
+             " accessors)");
+    const tg::Accessor& a = model_.accessors[size_t(accessor)];
+    if (a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT || a.type != TINYGLTF_TYPE_VEC3)
+        fail(what + ": NORMAL must be float VEC3");
+    std::vector<glm::vec3> out = read_accessor<glm::vec3>(a, 12, what, [](const unsigned char* p) {
+        glm::vec3 v;
+        std::memcpy(&v[0], p, 12);
+        return v;
+    });
+    for (glm::vec3& n : out)
+        if (!std::isfinite(n.x) || !std::isfinite(n.y) || !std::isfinite(n.z)) n = glm::vec3(0.f);
+    return out;
+}
+
+std::vector<glm::vec2> GltfLoader::read_texcoords(int accessor, const std::string& where) const {
+    const std::string what = where + " TEXCOORD_0 accessor " + std::to_string(accessor);
+    if (accessor < 0 || size_t(accessor) >= model_.accessors.size())
+        fail(what + " out of range (file has " + std::to_string(model_.accessors.size()) +
+             " accessors)");
+    const tg::Accessor& a = model_.accessors[size_t(accessor)];
+    if (a.type != TINYGLTF_TYPE_VEC2) fail(what + ": TEXCOORD_0 must be VEC2");
+    // Float, or normalized unsigned byte / short.
+    std::vector<glm::vec2> out;
+    if (a.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT) {
+        out = read_accessor<glm::vec2>(a, 8, what, [](const unsigned char* p) {
+            glm::vec2 v;
+            std::memcpy(&v[0], p, 8);
+            return v;
+        });
+    } else if (a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE && a.normalized) {
+        out = read_accessor<glm::vec2>(
+            a, 2, what, [](const unsigned char* p) { return glm::vec2(p[0], p[1]) / 255.f; });
+    } else if (a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT && a.normalized) {
+        out = read_accessor<glm::vec2>(a, 4, what, [](const unsigned char* p) {
+            uint16_t u[2];
+            std::memcpy(u, p, 4);
+            return glm::vec2(u[0], u[1]) / 65535.f;
+        });
+    } else {
+        fail(what + ": TEXCOORD_0 must be float or normalized unsigned byte/short");
+    }
+    for (glm::vec2& t : out)
+        if (!std::isfinite(t.x) || !std::isfinite(t.y) || std::fabs(t.x) > 1e6f ||
+            std::fabs(t.y) > 1e6f)
+            fail(what + ": texture coordinate not finite or beyond 1e6");
+    return out;
+}
+
+int GltfLoader::texture_for(const tg::TextureInfo& info, bool srgb, const std::string& what) {
+    return texture_for(info.index, info.texCoord, srgb, what);
+}
+
+// The scene texture of glTF texture `texture` decoded as sRGB color or linear data (each pair
+// decoded once); -1 for none.
+int GltfLoader::texture_for(int texture, int tex_coord, bool srgb, const std::string& what) {
+    if (texture < 0) return -1;
+    if (size_t(texture) >= model_.textures.size())
+        fail(what + ": texture " + std::to_string(texture) + " out of range (file has " +
+             std::to_string(model_.textures.size()) + " textures)");
+    if (tex_coord != 0) {
+        warn_once("texcoord", "only texture coordinates 0 are supported; " + what + " ignored");
+        return -1;
+    }
+    const auto cached = textures_.find({texture, srgb});
+    if (cached != textures_.end()) return cached->second;
+    const tg::Texture& t = model_.textures[size_t(texture)];
+    if (t.source < 0 || size_t(t.source) >= model_.images.size()) {
+        warn_once("texsource", what + ": texture without a PNG/JPEG image; ignored");
+        return -1;
+    }
+    const auto bytes = image_bytes_.find(t.source);
+    if (bytes == image_bytes_.end() || bytes->second.empty())
+        fail(what + ": image " + std::to_string(t.source) + " has no data");
+    // Decode to 8-bit RGBA (size checked before stb allocates).
+    const std::vector<unsigned char>& b = bytes->second;
+    int w = 0, h = 0, channels = 0;
+    if (b.size() > size_t(std::numeric_limits<int>::max()) ||
+        !stbi_info_from_memory(b.data(), int(b.size()), &w, &h, &channels))
+        fail(what + ": image " + std::to_string(t.source) + " is not a PNG or JPEG file (" +
+             (stbi_failure_reason() ? stbi_failure_reason() : "unknown format") + ")");
+    if (w <= 0 || h <= 0 || w > 16384 || h > 16384 ||
+        texels_ + uint64_t(w) * uint64_t(h) > kMaxTexels)
+        fail(what + ": image " + std::to_string(t.source) + " of " + std::to_string(w) + "x" +
+             std::to_string(h) + " texels exceeds 16384x16384, or 64 M texels in all");
+    unsigned char* rgba = stbi_load_from_memory(b.data(), int(b.size()), &w, &h, &channels, 4);
+    if (!rgba)
+        fail(what + ": cannot decode image " + std::to_string(t.source) + " (" +
+             (stbi_failure_reason() ? stbi_failure_reason() : "unknown error") + ")");
+    const tg::Image& image = model_.images[size_t(t.source)];
+    Texture tex = texture_from_rgba8(image.name.empty() ? image.uri : image.name, w, h, rgba, srgb);
+    stbi_image_free(rgba);
+    texels_ += uint64_t(w) * uint64_t(h);
+    // Wrap modes and magnification filter from its sampler.
+    if (t.sampler >= 0 && size_t(t.sampler) < model_.samplers.size()) {
+        const tg::Sampler& smp = model_.samplers[size_t(t.sampler)];
+        tex.wrap_s = texture_wrap(smp.wrapS);
+        tex.wrap_t = texture_wrap(smp.wrapT);
+        tex.nearest = smp.magFilter == TINYGLTF_TEXTURE_FILTER_NEAREST;
+    }
+    scene_.textures.push_back(std::move(tex));
+    const int index = int(scene_.textures.size() - 1);
+    textures_[{texture, srgb}] = index;
+    return index;
 }
 
 std::vector<uint32_t> GltfLoader::read_indices(int accessor, const std::string& where) const {

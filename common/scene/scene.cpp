@@ -8,6 +8,8 @@
 
 #include "common/error.h"
 
+#include <glm/gtc/packing.hpp>
+
 namespace mcpt {
 namespace {
 
@@ -85,9 +87,8 @@ void check_attributes_and_textures(const Scene& scene) {
                         " outside 1x1 to 16384x16384");
         if (t.rgba.size() != size_t(t.width) * size_t(t.height) * 4)
             throw Error(what + "texel count does not match its size");
-        for (float v : t.rgba)
-            if (!std::isfinite(v) || std::fabs(v) > 65504.f)
-                throw Error(what + "texel outside the range of half floats");
+        for (uint16_t v : t.rgba)
+            if ((v & 0x7c00u) == 0x7c00u) throw Error(what + "non-finite texel");
     }
     for (uint32_t i = 0; i < scene.materials.size(); ++i) {
         const Material& m = scene.materials[i];
@@ -147,6 +148,26 @@ Bounds Scene::bounds() const {
         b.extend(s.center + r);
     }
     return b;
+}
+
+Texture texture_from_rgba8(const std::string& name, int width, int height,
+                           const unsigned char* rgba8, bool srgb) {
+    // The 256 values of a channel, as halves.
+    uint16_t linear[256], decoded[256];
+    for (int i = 0; i < 256; ++i) {
+        const float c = float(i) / 255.f;
+        const float l = c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+        linear[i] = glm::packHalf1x16(c);
+        decoded[i] = glm::packHalf1x16(l);
+    }
+    Texture t;
+    t.name = name;
+    t.width = width, t.height = height;
+    const size_t n = size_t(width) * size_t(height) * 4;
+    t.rgba.resize(n);
+    for (size_t i = 0; i < n; ++i)
+        t.rgba[i] = (srgb && i % 4 != 3) ? decoded[rgba8[i]] : linear[rgba8[i]];
+    return t;
 }
 
 ValidationReport validate_scene(Scene& scene) {

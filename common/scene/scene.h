@@ -46,11 +46,12 @@ struct VertexAttributes {
 // glTF's sampler wrap modes.
 enum class TextureWrap : uint32_t { Repeat = 0, Clamp = 1, Mirror = 2 };
 
-// A decoded texture: linear RGBA floats, row 0 at v = 0 (the top of the image, as glTF).
+// A decoded texture: linear RGBA as IEEE half floats, row 0 at v = 0 (the top of the image,
+// as glTF), exactly what the devices read.
 struct Texture {
     std::string name;
     int width = 0, height = 0;
-    std::vector<float> rgba;
+    std::vector<uint16_t> rgba;
     TextureWrap wrap_s = TextureWrap::Repeat, wrap_t = TextureWrap::Repeat;
     bool nearest = false;  // magnification filter NEAREST (else bilinear)
 };
@@ -98,6 +99,11 @@ struct Scene {
 struct ValidationReport {
     size_t degenerate_dropped = 0;  // zero-area or collinear triangles removed
 };
+
+// A texture from 8-bit RGBA texels (row 0 first); sRGB-encoded color channels are decoded to
+// linear (alpha never is).
+Texture texture_from_rgba8(const std::string& name, int width, int height,
+                           const unsigned char* rgba8, bool srgb);
 
 // Checks a scene before rendering: throws mcpt::Error on non-finite vertices, bad material
 // indices, an empty scene or no emitter; drops degenerate triangles and counts them.
