@@ -403,10 +403,10 @@ TEST(GltfLoader, BinaryGlb) {
 TEST(GltfLoader, UnsupportedFeaturesWarnOnce) {
     Gltf g = quad_gltf();
     g.doc["extensionsUsed"] = {"KHR_lights_punctual", "KHR_texture_transform"};
-    g.doc["images"] = {{{"uri", "missing.png"}}};  // never read
+    g.doc["images"] = {{{"uri", "data:image/png;base64,AAAA"}}};  // never decoded
     g.doc["textures"] = {{{"source", 0}}};
-    g.doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
-    g.doc["materials"][0]["normalTexture"] = {{"index", 0}};
+    g.doc["materials"][0]["occlusionTexture"] = {{"index", 0}};
+    g.doc["materials"][0]["alphaMode"] = "BLEND";
     // A LINES primitive (skipped) and a morph target.
     g.doc["meshes"][0]["primitives"].push_back({{"attributes", {{"POSITION", 0}}}, {"mode", 1}});
     g.doc["meshes"][0]["primitives"].push_back({{"attributes", {{"POSITION", 0}}}, {"mode", 1}});
@@ -417,10 +417,26 @@ TEST(GltfLoader, UnsupportedFeaturesWarnOnce) {
     Scene s = load_gltf(g.write("warnings.gltf"));
     EXPECT_EQ(s.triangles.size(), 2u);
     for (const char* w : {"KHR_lights_punctual", "KHR_texture_transform",
-                          "textures are not supported; using factors only", "normalTexture",
+                          "occlusion textures are not used", "alphaMode BLEND",
                           "LINES", "morph targets", "skins", "animations"})
         EXPECT_TRUE(has_warning(s, w)) << w << " in " << ::testing::PrintToString(s.warnings);
     EXPECT_EQ(s.warnings.size(), 8u) << ::testing::PrintToString(s.warnings);
+}
+
+// A texture whose image file is missing, or is not an image, is an error that names it.
+TEST(GltfLoader, BadTextureImagesAreErrors) {
+    Gltf g = quad_gltf();
+    g.doc["images"] = {{{"uri", "missing.png"}}};
+    g.doc["textures"] = {{{"source", 0}}};
+    g.doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
+    std::string e = load_error(g.write("missing_image.gltf"));
+    EXPECT_NE(e.find("missing.png"), std::string::npos) << e;
+    g.doc["images"] = {{{"uri", "data:image/png;base64,aGVsbG8gd29ybGQ="}}};  // "hello world"
+    e = load_error(g.write("not_png.gltf"));
+    EXPECT_NE(e.find("not a PNG or JPEG"), std::string::npos) << e;
+    g.doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 3}};
+    e = load_error(g.write("bad_texture_index.gltf"));
+    EXPECT_NE(e.find("texture 3 out of range"), std::string::npos) << e;
 }
 
 TEST(GltfLoader, MissingFile) {

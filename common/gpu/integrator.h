@@ -75,7 +75,7 @@ MCPT_FN SurfacePoint surface_at(SCENE_PARAMS_ Ray ray, Hit hit) {
         s.ns = s.ng;
         s.material = tri.material;
         if ((HAS_FEATURE(FEATURE_SHADING_NORMALS) || HAS_FEATURE(FEATURE_TEXTURES)) &&
-            PARAM(vertex_data) != 0u) {
+            (PARAM(scene_flags) & SCENE_VERTEX_DATA) != 0u) {
             GpuTriangleAttributes a = ATTRIBUTES(hit.prim);
             if (HAS_FEATURE(FEATURE_SHADING_NORMALS)) {
                 // Interpolated vertex normals, turned to the geometric normal's side.
@@ -185,7 +185,7 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
         if (HAS_FEATURE(FEATURE_TEXTURES) && m.tex_emission != NO_TEXTURE) {
             // Emission texture at the point (the pdf stays the factor's, as for hits).
             vec2 uv = V2(0.0f, 0.0f);
-            if (PARAM(vertex_data) != 0u) {
+            if ((PARAM(scene_flags) & SCENE_VERTEX_DATA) != 0u) {
                 GpuTriangleAttributes a = ATTRIBUTES(prim);
                 uv = V2(a.u0, a.v0) * b0 + V2(a.u1, a.v1) * b.x + V2(a.u2, a.v2) * b.y;
             }

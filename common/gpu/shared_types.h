@@ -163,9 +163,13 @@ MCPT_STRUCT(GpuParams) {
     uint accum_window;
     uint num_textures;
     uint texels_word;  // first word of the texels in the shading buffer
-    uint vertex_data;  // 1: the triangle buffer holds GpuTriangleAttributes after the triangles
+    uint scene_flags;  // SCENE_* below
     uint pad_params;
 };
+// GpuParams.scene_flags: the triangle buffer holds GpuTriangleAttributes after the triangles;
+// some material has an alpha mask (the traversal reads materials only then).
+#define SCENE_VERTEX_DATA 1u
+#define SCENE_ALPHA_MASK 2u
 
 // Accumulation buffer: two vec4 per pixel (every pixel, or the window's state_slots pixels
 // from state_base when accum_window is set).

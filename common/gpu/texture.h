@@ -128,7 +128,7 @@ MCPT_FN bool opaque_at(SCENE_PARAMS_ GpuMaterial m, uint tri, float b1, float b2
     float a = 1.0f;
     if (HAS_FEATURE(FEATURE_TEXTURES) && m.tex_base != NO_TEXTURE) {
         vec2 uv = V2(0.0f, 0.0f);
-        if (PARAM(vertex_data) != 0u) {
+        if ((PARAM(scene_flags) & SCENE_VERTEX_DATA) != 0u) {
             GpuTriangleAttributes at = ATTRIBUTES(tri);
             float b0 = 1.0f - b1 - b2;
             uv = V2(at.u0, at.v0) * b0 + V2(at.u1, at.v1) * b1 + V2(at.u2, at.v2) * b2;

@@ -24,7 +24,7 @@ MCPT_FN Hit closer_triangle_hit(SCENE_PARAMS_ Ray ray, WoopRay wr, uint tri_inde
     GpuTriangle tri = TRIANGLE(tri_index);
     TriHit th = intersect_triangle(r, wr, tri);
     // Cut-out parts of alphaMode MASK materials are not there.
-    if (HAS_FEATURE(FEATURE_ALPHA_MASK) && th.hit)
+    if (HAS_FEATURE(FEATURE_ALPHA_MASK) && th.hit && (PARAM(scene_flags) & SCENE_ALPHA_MASK) != 0u)
         th.hit = opaque_at(SCENE_ARGS_ MATERIAL(tri.material), tri_index, th.b1, th.b2);
     if (th.hit) {
         hit.t = th.t;

@@ -982,8 +982,13 @@ int GltfLoader::texture_for(int texture, int tex_coord, bool srgb, const std::st
         return -1;
     }
     const auto bytes = image_bytes_.find(t.source);
-    if (bytes == image_bytes_.end() || bytes->second.empty())
-        fail(what + ": image " + std::to_string(t.source) + " has no data");
+    if (bytes == image_bytes_.end() || bytes->second.empty()) {
+        const std::string& uri = model_.images[size_t(t.source)].uri;
+        fail(what + ": image " + std::to_string(t.source) + " has no data" +
+             (uri.empty() || uri.rfind("data:", 0) == 0
+                  ? std::string()
+                  : " (file '" + uri + "' missing, unreadable or outside the scene's folder)"));
+    }
     // Decode to 8-bit RGBA (size checked before stb allocates).
     const std::vector<unsigned char>& b = bytes->second;
     int w = 0, h = 0, channels = 0;
