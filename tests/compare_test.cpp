@@ -8,6 +8,7 @@
 
 #include "common/analysis/stats.h"
 #include "common/render/device_registry.h"
+#include "common/scene/gltf_loader.h"
 #include "test_scenes.h"
 #include "test_util.h"
 
@@ -98,6 +99,25 @@ TEST(CompareBackends, RejectsRougherMicrofacets) {
     EXPECT_FALSE(g.agree) << g.verdict();
 }
 
+// Textures (filtering, wrap modes, sRGB), normal maps, smooth normals, an alpha mask and an
+// emission texture: tests/data/textured.glb (scripts/make_textured_glb.py).
+Scene textured_scene() {
+    return load_gltf(std::string(MCPT_TEST_DATA_DIR) + "/textured.glb");
+}
+
+TEST(CompareBackends, TexturedSceneAgrees) {
+    const Agreement g = compare(make_case(textured_scene()));
+    EXPECT_TRUE(g.agree) << g.verdict();
+}
+
+// Every texel read one texel to the right in one backend: a shift of 1/64 of the checker and
+// of the bumps, 1/16 of the glow.
+TEST(CompareBackends, RejectsTexturesShiftedByOneTexel) {
+    const Agreement g =
+        compare(make_case(textured_scene()), "-DMCPT_NEGATIVE_CONTROL_TEXEL_SHIFT");
+    EXPECT_FALSE(g.agree) << g.verdict();
+}
+
 // The same-seed check, OpenCL against Vulkan: unbiased renders diverge in at most
 // kSameSeedDivergedLimit of the pixels on scenes with glass, mirrors, a furnace and a mesh;
 // a light 0.2% brighter on one side (below what the statistical test sees in the furnace)
@@ -108,7 +128,8 @@ TEST(CompareBackends, SameSeedCountsAndCatchesASmallBias) {
     o.spp = 4;
     o.seed = 7;
     for (Scene scene : {make_builtin_scene("cornell"), make_builtin_scene("spheres"),
-                        make_furnace_scene(0.8f, 1.f), make_builtin_scene("materials")}) {
+                        make_furnace_scene(0.8f, 1.f), make_builtin_scene("materials"),
+                        textured_scene()}) {
         Case c = make_case(scene);
         o.max_depth = c.options.max_depth;
         auto a = test::test_opencl_backend();

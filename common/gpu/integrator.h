@@ -331,7 +331,11 @@ MCPT_FN PathState advance_path(SCENE_PARAMS_ PathState st, uint pixel, uint max_
             LightSample ls = sample_light(SCENE_ARGS_ s.p, V3(ua.z, ua.x, ua.y));
             // A light seen under the shading normal but behind the surface would leak.
             float cos_x = dot(ns, ls.wi);
+#ifdef MCPT_NEGATIVE_CONTROL_LEAK
+            if (ls.valid && cos_x > 0.0f) {  // tests: a variant that lets light leak
+#else
             if (ls.valid && cos_x > 0.0f && dot(n, ls.wi) > 0.0f) {
+#endif
                 Ray shadow;
                 shadow.o = offset_ray_origin(s.p, s.p_error, s.ng, ls.wi);
                 shadow.d = offset_ray_origin(ls.p, ls.p_error, ls.n, -ls.wi) - shadow.o;
@@ -355,8 +359,10 @@ MCPT_FN PathState advance_path(SCENE_PARAMS_ PathState st, uint pixel, uint max_
         BsdfSample bs = sample_bsdf(m, ns, wo, front, V3(ub.x, ub.y, ub.z));
         // A direction on different sides of the shading and the geometric surface ends the
         // path: light never leaks through the geometry.
+#ifndef MCPT_NEGATIVE_CONTROL_LEAK
         if (HAS_FEATURE(FEATURE_SHADING_NORMALS) && dot(bs.wi, n) * dot(bs.wi, ns) <= 0.0f)
             bs.valid = false;
+#endif
         if (!bs.valid) {
             st.status = PATH_ENDED;
             break;
