@@ -20,7 +20,7 @@ std::vector<std::pair<std::string, uint64_t>> device_buffers(const GpuScene& sce
     const uint64_t triangles = scene.triangles.size() * sizeof(gpu::GpuTriangle) +
                                scene.attributes.size() * sizeof(gpu::GpuTriangleAttributes);
     return {{"k-d tree (nodes and leaf indices)", tree},
-            {"triangles (and per-vertex data)", triangles},
+            {"triangles", triangles},  // with their per-vertex data
             {"shading data (spheres, materials, lights, textures)", shading},
             {"accumulation buffer", accum},
             {"parameters", sizeof(gpu::GpuParams)}};
