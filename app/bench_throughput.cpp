@@ -44,17 +44,22 @@ struct ThroughputRow {
 std::vector<std::pair<std::string, Scene>> throughput_scenes(const ThroughputBenchArgs& a) {
     std::vector<std::pair<std::string, Scene>> out;
     out.emplace_back("cornell", load_scene_argument("cornell"));
+    // Metallic-roughness spheres, and the textured scene (fetch-models writes it).
+    if (!a.quick) out.emplace_back("materials", load_scene_argument("materials"));
     const std::vector<std::string> names =
         a.quick ? std::vector<std::string>{}
-                : std::vector<std::string>{"bunny", "dragon-48k", "dragon-871k"};
+                : std::vector<std::string>{"textured", "bunny", "dragon-48k", "dragon-871k"};
+    bool meshes = false;  // a scanned mesh among them
     for (const std::string& n : names) {
         const std::string path = a.models + "/" + n + ".glb";
-        if (std::filesystem::exists(path))
+        if (std::filesystem::exists(path)) {
             out.emplace_back(n, load_scene_argument(path));
-        else
+            meshes = meshes || n != "textured";
+        } else {
             std::printf("note: %s missing (scripts/fetch-models): skipped\n", path.c_str());
+        }
     }
-    if (out.size() == 1) {
+    if (!meshes) {
         Scene mesh = make_bumpy_sphere_scene(a.quick ? 16 : 128);
         validate_scene(mesh);
         out.emplace_back("generated-sphere", mesh);

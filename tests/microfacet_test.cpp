@@ -155,6 +155,7 @@ TEST(Microfacet, SampledDirectionsFollowTheirDensity) {
     for (const Lobe& lobe : kLobes) {
         const double p = sampling_p_value(lobe, device_sampler);
         EXPECT_GT(p, level) << lobe.name;
+        std::printf("chi-square, %s: p = %.3f\n", lobe.name, p);
     }
     // Control: the half vector drawn from D(h) cos(h) (Walter 2007), not from the visible
     // normals, against the same density.
@@ -164,8 +165,11 @@ TEST(Microfacet, SampledDirectionsFollowTheirDensity) {
         const vec3 h = direction(std::acos(cos_h), 2 * kPi * u.y);
         return h * (2.f * dot(wo, h)) - wo;
     };
-    EXPECT_LT(sampling_p_value(kLobes[0], walter), 1e-6);
-    EXPECT_LT(sampling_p_value(kLobes[1], walter), 1e-6);
+    for (int k : {0, 1}) {
+        const double p = sampling_p_value(kLobes[k], walter);
+        EXPECT_LT(p, 1e-6);
+        std::printf("chi-square, control (Walter sampling), %s: p = %.3g\n", kLobes[k].name, p);
+    }
 }
 
 // ------------------------------------------------------------- weights and the furnace
@@ -237,6 +241,17 @@ TEST(Microfacet, WhiteFurnaceLosesOnlySingleScatteringEnergy) {
         EXPECT_GT(loss_at_normal, previous_loss) << "loss grows with roughness";
         previous_loss = loss_at_normal;
     }
+    // glTF's dielectric over a white diffuse base (fresnel_mix) is not energy-conserving at
+    // grazing angles (its specular and diffuse parts take Fresnel at different half vectors);
+    // printed for docs/materials.md, bounded by 1 + F(grazing).
+    for (float roughness : {0.1f, 0.5f, 1.f}) {
+        for (float cos_o : {1.f, 0.5f, 0.1f}) {
+            const Albedo a = albedo(pbr(V3S(1.f), 0.f, roughness), cos_o, device_eval);
+            EXPECT_LT(a.sampled, 1.7);
+            std::printf("white plastic, roughness %.1f, cos(wo) %.1f: E = %.4f +- %.4f\n",
+                        roughness, cos_o, a.sampled, a.sampled_error);
+        }
+    }
     // Control: a lobe missing the 1/2 of the height-correlated V term reflects more than it
     // receives, and the furnace sees it.
     const Eval doubled = [](const GpuMaterial& m, vec3 wo, vec3 wi) {
@@ -269,7 +284,9 @@ double worst_asymmetry(const Eval& eval) {
 }
 
 TEST(Microfacet, BsdfIsReciprocal) {
-    EXPECT_LT(worst_asymmetry(device_eval), 1e-4);
+    const double worst = worst_asymmetry(device_eval);
+    EXPECT_LT(worst, 1e-4);
+    std::printf("reciprocity: largest relative |f(a,b) - f(b,a)| = %.2g\n", worst);
     // Control: the Fresnel term at the normal's angle with wo instead of the half vector's.
     const Eval fresnel_at_wo = [](const GpuMaterial& m, vec3 wo, vec3 wi) {
         GpuMaterial g = m;

@@ -121,21 +121,24 @@ MCPT_FN vec3 normal_mapped(SCENE_PARAMS_ uint tex, vec2 uv, vec3 ns, vec3 dpdu, 
     return ml > 0.0f ? m / ml : ns;
 }
 
-// Whether a triangle of a material with alphaMode MASK is there at (b1, b2): the base alpha
-// (texture, or 1) against the cutoff, which holds cutoff / alpha factor (0: opaque).
-MCPT_FN bool opaque_at(SCENE_PARAMS_ GpuMaterial m, uint tri, float b1, float b2) {
-    if (!(m.alpha_cutoff > 0.0f)) return true;
+// Whether triangle `tri` of material `material` is there at (b1, b2) under alphaMode MASK: the
+// base alpha (texture, or 1) against the cutoff, which holds cutoff / alpha factor (0: opaque).
+// Reads the two fields it needs, not the material (this runs inside the traversal).
+MCPT_FN bool opaque_at(SCENE_PARAMS_ uint material, uint tri, float b1, float b2) {
+    float cutoff = MATERIAL(material).alpha_cutoff;
+    if (!(cutoff > 0.0f)) return true;
     float a = 1.0f;
-    if (HAS_FEATURE(FEATURE_TEXTURES) && m.tex_base != NO_TEXTURE) {
+    uint tex = MATERIAL(material).tex_base;
+    if (HAS_FEATURE(FEATURE_TEXTURES) && tex != NO_TEXTURE) {
         vec2 uv = V2(0.0f, 0.0f);
         if ((PARAM(scene_flags) & SCENE_VERTEX_DATA) != 0u) {
             GpuTriangleAttributes at = ATTRIBUTES(tri);
             float b0 = 1.0f - b1 - b2;
             uv = V2(at.u0, at.v0) * b0 + V2(at.u1, at.v1) * b1 + V2(at.u2, at.v2) * b2;
         }
-        a = sample_texture(SCENE_ARGS_ m.tex_base, uv).w;
+        a = sample_texture(SCENE_ARGS_ tex, uv).w;
     }
-    return a >= m.alpha_cutoff;
+    return a >= cutoff;
 }
 
 MCPT_NAMESPACE_END

@@ -15,17 +15,15 @@ MCPT_NAMESPACE_BEGIN
 #define KD_SLACK 1.0e-6f
 
 // Triangle tri_index against the ray, up to the nearest hit so far: the updated hit.
-MCPT_FN Hit closer_triangle_hit(SCENE_PARAMS_ Ray ray, WoopRay wr, uint tri_index, Hit hit) {
+MCPT_FN Hit closer_triangle_hit(SCENE_PARAMS_ Ray ray, WoopRay wr, uint tri_index, uint skip,
+                                Hit hit) {
 #ifdef MCPT_COUNTERS
     hit.tri_tests += 1u;
 #endif
     Ray r = ray;
     r.tmax = hit.t;
-    GpuTriangle tri = TRIANGLE(tri_index);
-    TriHit th = intersect_triangle(r, wr, tri);
-    // Cut-out parts of alphaMode MASK materials are not there.
-    if (HAS_FEATURE(FEATURE_ALPHA_MASK) && th.hit && (PARAM(scene_flags) & SCENE_ALPHA_MASK) != 0u)
-        th.hit = opaque_at(SCENE_ARGS_ MATERIAL(tri.material), tri_index, th.b1, th.b2);
+    TriHit th = intersect_triangle(r, wr, TRIANGLE(tri_index));
+    if (th.hit && tri_index == skip) th.hit = false;  // the cut-out the ray passed through
     if (th.hit) {
         hit.t = th.t;
         hit.b1 = th.b1;
@@ -35,8 +33,8 @@ MCPT_FN Hit closer_triangle_hit(SCENE_PARAMS_ Ray ray, WoopRay wr, uint tri_inde
     return hit;
 }
 
-// Nearest hit with t < ray.tmax; with any_hit, the first hit found.
-MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
+// Nearest hit with t < ray.tmax, ignoring triangle `skip`; with any_hit, the first hit found.
+MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
     Hit hit;
     hit.t = ray.tmax;
     hit.b1 = 0.0f;
@@ -68,7 +66,7 @@ MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
         uint i = 0u;
         for (; i < PARAM(num_triangles); ++i) {
             float nearest = hit.t;
-            hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, i, hit);
+            hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, i, skip, hit);
             if (any_hit && hit.t < nearest) return hit;
         }
         if (i < PARAM(num_triangles)) hit.status = TRACE_INCOMPLETE;
@@ -133,7 +131,7 @@ MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
             uint i = 0u;
             for (; i < count; ++i) {
                 float nearest = hit.t;
-                hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, LEAF_INDEX(first_index + i), hit);
+                hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, LEAF_INDEX(first_index + i), skip, hit);
                 if (any_hit && hit.t < nearest) return hit;
             }
             if (i < count) hit.status = TRACE_INCOMPLETE;
@@ -152,6 +150,47 @@ MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
     }
     if (!finished) hit.status = TRACE_INCOMPLETE;
     return hit;
+}
+
+// Cut-outs a ray passes through at most; a ray that meets more is cut short (TRACE_INCOMPLETE:
+// its sample is counted as invalid, never added).
+#define MAX_CUTOUTS 64u
+
+// Nearest hit with t < ray.tmax; with any_hit, the first hit found. In scenes with alphaMode
+// MASK materials, the nearest hit is found, and passed through while its material is cut out
+// there (outside the traversal loop, which stays as lean as without masks).
+MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
+    if (!HAS_FEATURE(FEATURE_ALPHA_MASK) || (PARAM(scene_flags) & SCENE_ALPHA_MASK) == 0u)
+        return trace_opaque(SCENE_ARGS_ ray, any_hit, NO_HIT);
+    Ray r = ray;
+    float t_base = 0.0f;
+    uint skip = NO_HIT, tri_tests = 0u, node_visits = 0u;
+    for (uint k = 0u; k < MAX_CUTOUTS; ++k) {
+        Hit hit = trace_opaque(SCENE_ARGS_ r, false, skip);
+        tri_tests += hit.tri_tests;
+        node_visits += hit.node_visits;
+        if (hit.prim == NO_HIT || hit.status != 0u || (hit.prim & SPHERE_BIT) != 0u ||
+            opaque_at(SCENE_ARGS_ TRIANGLE(hit.prim).material, hit.prim, hit.b1, hit.b2)) {
+            hit.t += t_base;
+            hit.tri_tests = tri_tests;
+            hit.node_visits = node_visits;
+            return hit;
+        }
+        // Cut out here: continue from the hit point, past this triangle.
+        r.o = r.o + r.d * hit.t;
+        r.tmax -= hit.t;
+        t_base += hit.t;
+        skip = hit.prim;
+    }
+    Hit cut;
+    cut.t = ray.tmax;
+    cut.b1 = 0.0f;
+    cut.b2 = 0.0f;
+    cut.prim = NO_HIT;
+    cut.status = TRACE_INCOMPLETE;
+    cut.tri_tests = tri_tests;
+    cut.node_visits = node_visits;
+    return cut;
 }
 
 MCPT_NAMESPACE_END
