@@ -113,8 +113,7 @@ TEST(CompareBackends, TexturedSceneAgrees) {
 // Every texel read one texel to the right in one backend: a shift of 1/64 of the checker and
 // of the bumps, 1/16 of the glow.
 TEST(CompareBackends, RejectsTexturesShiftedByOneTexel) {
-    const Agreement g =
-        compare(make_case(textured_scene()), "-DMCPT_NEGATIVE_CONTROL_TEXEL_SHIFT");
+    const Agreement g = compare(make_case(textured_scene()), "-DMCPT_NEGATIVE_CONTROL_TEXEL_SHIFT");
     EXPECT_FALSE(g.agree) << g.verdict();
 }
 
@@ -127,9 +126,9 @@ TEST(CompareBackends, SameSeedCountsAndCatchesASmallBias) {
     o.width = o.height = 32;
     o.spp = 4;
     o.seed = 7;
-    for (Scene scene : {make_builtin_scene("cornell"), make_builtin_scene("spheres"),
-                        make_furnace_scene(0.8f, 1.f), make_builtin_scene("materials"),
-                        textured_scene()}) {
+    for (Scene scene :
+         {make_builtin_scene("cornell"), make_builtin_scene("spheres"),
+          make_furnace_scene(0.8f, 1.f), make_builtin_scene("materials"), textured_scene()}) {
         Case c = make_case(scene);
         o.max_depth = c.options.max_depth;
         auto a = test::test_opencl_backend();

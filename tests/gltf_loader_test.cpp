@@ -416,9 +416,9 @@ TEST(GltfLoader, UnsupportedFeaturesWarnOnce) {
     g.doc["animations"] = {{{"channels", json::array()}, {"samplers", json::array()}}};
     Scene s = load_gltf(g.write("warnings.gltf"));
     EXPECT_EQ(s.triangles.size(), 2u);
-    for (const char* w : {"KHR_lights_punctual", "KHR_texture_transform",
-                          "occlusion textures are not used", "alphaMode BLEND",
-                          "LINES", "morph targets", "skins", "animations"})
+    for (const char* w :
+         {"KHR_lights_punctual", "KHR_texture_transform", "occlusion textures are not used",
+          "alphaMode BLEND", "LINES", "morph targets", "skins", "animations"})
         EXPECT_TRUE(has_warning(s, w)) << w << " in " << ::testing::PrintToString(s.warnings);
     EXPECT_EQ(s.warnings.size(), 8u) << ::testing::PrintToString(s.warnings);
 }

@@ -3,8 +3,6 @@
 // routine against its density (chi-square), sample weights against the integral of f cos, the
 // white furnace of the conductor, and reciprocity. Each check has a negative control: a variant
 // with the defect it looks for must fail it.
-#include "common/gpu/bsdf.h"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -13,6 +11,7 @@
 #include <vector>
 
 #include "common/analysis/stats.h"
+#include "common/gpu/bsdf.h"
 
 namespace mcpt::gpu {
 namespace {
@@ -34,7 +33,9 @@ vec3 direction(double theta, double phi) {
     return V3(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
 }
 
-vec3 outgoing(float cos_o) { return V3(std::sqrt(1.f - cos_o * cos_o), 0.f, cos_o); }
+vec3 outgoing(float cos_o) {
+    return V3(std::sqrt(1.f - cos_o * cos_o), 0.f, cos_o);
+}
 
 // The integral of g over the upper hemisphere: a midpoint rule in (theta, phi), fine enough
 // for lobes down to alpha = 0.04.
@@ -78,9 +79,9 @@ TEST(Microfacet, GgxAndSmithSatisfyTheirIdentities) {
     EXPECT_LT(identity_error(ggx_d, ggx_g1), 2e-3);
     // Controls: a distribution normalized with alpha instead of alpha^2, and masking of the
     // wrong roughness.
-    EXPECT_GT(identity_error([](vec3 h, float a) { return ggx_d(h, a) * a / std::sqrt(a); },
-                             ggx_g1),
-              0.1);
+    EXPECT_GT(
+        identity_error([](vec3 h, float a) { return ggx_d(h, a) * a / std::sqrt(a); }, ggx_g1),
+        0.1);
     EXPECT_GT(identity_error(ggx_d, [](vec3 w, float a) { return ggx_g1(w, 1.3f * a); }), 0.02);
 }
 
@@ -202,7 +203,9 @@ Albedo albedo(const GpuMaterial& m, float cos_o, const Eval& eval, int n = 20000
     return a;
 }
 
-vec3 device_eval(const GpuMaterial& m, vec3 wo, vec3 wi) { return pbr_eval(m, wo, wi).f; }
+vec3 device_eval(const GpuMaterial& m, vec3 wo, vec3 wi) {
+    return pbr_eval(m, wo, wi).f;
+}
 
 TEST(Microfacet, SamplingWeightsIntegrateTheBsdf) {
     for (const Lobe& lobe : kLobes) {

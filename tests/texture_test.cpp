@@ -102,7 +102,7 @@ TEST(Texture, SrgbColorChannelsAreDecoded) {
     const Texture srgb = texture_from_rgba8("s", 1, 1, rgba, true);
     EXPECT_NEAR(glm::unpackHalf1x16(lin.rgba[0]), 128.f / 255.f, 1e-3f);
     EXPECT_NEAR(glm::unpackHalf1x16(srgb.rgba[0]), 0.2158605f, 1e-3f);  // sRGB 128 -> linear
-    EXPECT_EQ(srgb.rgba[3], lin.rgba[3]);                                 // alpha stays linear
+    EXPECT_EQ(srgb.rgba[3], lin.rgba[3]);                               // alpha stays linear
 }
 
 // The textured scene (scripts/make_textured_glb.py): what the loader takes from it.

@@ -17,8 +17,8 @@ void check_stack(const GpuScene& s) {
 gpu::Hit cpu_trace(const GpuScene& s, const gpu::Ray& ray, bool any_hit) {
     check_stack(s);
     return gpu::trace_ray(&s.params, s.nodes.data(), s.leaf_indices.data(), s.triangles.data(),
-                          s.spheres.data(), s.materials.data(), s.lights.data(), s.attributes.data(),
-                          s.textures.data(), s.texels.data(), ray, any_hit);
+                          s.spheres.data(), s.materials.data(), s.lights.data(),
+                          s.attributes.data(), s.textures.data(), s.texels.data(), ray, any_hit);
 }
 
 gpu::Hit cpu_trace_tree(const KdTree& tree, const std::vector<gpu::GpuTriangle>& triangles,
@@ -49,16 +49,16 @@ gpu::Hit brute_force_hit(const std::vector<gpu::GpuTriangle>& triangles, const g
 
 gpu::Ray cpu_camera_ray(const GpuScene& s, const gpu::GpuParams& params, float fx, float fy) {
     return gpu::camera_ray(&params, s.nodes.data(), s.leaf_indices.data(), s.triangles.data(),
-                           s.spheres.data(), s.materials.data(), s.lights.data(), s.attributes.data(),
-                          s.textures.data(), s.texels.data(), fx, fy);
+                           s.spheres.data(), s.materials.data(), s.lights.data(),
+                           s.attributes.data(), s.textures.data(), s.texels.data(), fx, fy);
 }
 
 gpu::PathResult cpu_trace_path(const GpuScene& s, const gpu::GpuParams& params, uint32_t pixel,
                                uint32_t sample_index) {
     check_stack(s);
     return gpu::trace_path(&params, s.nodes.data(), s.leaf_indices.data(), s.triangles.data(),
-                           s.spheres.data(), s.materials.data(), s.lights.data(), s.attributes.data(),
-                          s.textures.data(), s.texels.data(), pixel,
+                           s.spheres.data(), s.materials.data(), s.lights.data(),
+                           s.attributes.data(), s.textures.data(), s.texels.data(), pixel,
                            sample_index);
 }
 

@@ -42,8 +42,8 @@ MCPT_FN float diffuse_pdf(vec3 n, vec3 wi) { return MAXF(0.0f, dot(n, wi)) * MCP
 
 // Whether next-event estimation and MIS apply: materials with a non-delta lobe.
 MCPT_FN bool has_smooth_lobe(GpuMaterial m) {
-    return (HAS_FEATURE(FEATURE_DIFFUSE) && m.type == MAT_DIFFUSE) ||
-           (HAS_FEATURE(FEATURE_MICROFACET) && m.type == MAT_PBR);
+    if (HAS_FEATURE(FEATURE_DIFFUSE) && m.type == MAT_DIFFUSE) return true;
+    return HAS_FEATURE(FEATURE_MICROFACET) && m.type == MAT_PBR;
 }
 
 // f(wo, wi) and the pdf with which sample_bsdf() draws wi, for materials with a smooth lobe.

@@ -12,7 +12,9 @@
 
 MCPT_NAMESPACE_BEGIN
 
-MCPT_FN vec3 frame_to_local(Frame f, vec3 v) { return V3(dot(v, f.t), dot(v, f.b), dot(v, f.n)); }
+MCPT_FN vec3 frame_to_local(Frame f, vec3 v) {
+    return V3(dot(v, f.t), dot(v, f.b), dot(v, f.n));
+}
 
 // GGX normal distribution of a unit half vector h; written with tan^2 / alpha^2 so that it
 // stays exact for alpha near MIN_GGX_ALPHA.
@@ -100,7 +102,8 @@ MCPT_FN float pbr_specular_probability(GpuMaterial m, vec3 base, float cos_o) {
     float fw = pow5(1.0f - cos_o);
     float f0 = dielectric_f0(m.ior);
     float fd = m.specular * (f0 + (1.0f - f0) * fw);
-    float spec = (1.0f - m.metallic) * fd + m.metallic * mean_component(base + (V3S(1.0f) - base) * fw);
+    float spec =
+        (1.0f - m.metallic) * fd + m.metallic * mean_component(base + (V3S(1.0f) - base) * fw);
     float diff = (1.0f - m.metallic) * (1.0f - fd) * mean_component(base);
     return spec + diff > 0.0f ? spec / (spec + diff) : 1.0f;
 }

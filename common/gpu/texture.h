@@ -54,8 +54,8 @@ MCPT_FN vec4 texel_rgba(SCENE_PARAMS_ GpuTexture t, uint x, uint y) {
     x = min(x + 1u, t.width - 1u);  // tests: every read one texel to the right
 #endif
     uvec2 w = TEXEL(t.offset / 2u + y * t.width + x);
-    return V4(half_to_float(w.x & 0xffffu), half_to_float(w.x >> 16u),
-              half_to_float(w.y & 0xffffu), half_to_float(w.y >> 16u));
+    return V4(half_to_float(w.x & 0xffffu), half_to_float(w.x >> 16u), half_to_float(w.y & 0xffffu),
+              half_to_float(w.y >> 16u));
 }
 
 // Texture `index` at (u, v): bilinear between the four nearest texel centers (or the nearest
@@ -78,8 +78,10 @@ MCPT_FN vec4 sample_texture(SCENE_PARAMS_ uint index, vec2 uv) {
     int x0 = I32(x0f), y0 = I32(y0f);
     uint xa = wrap_texel(x0, t.width, wrap_s), xb = wrap_texel(x0 + 1, t.width, wrap_s);
     uint ya = wrap_texel(y0, t.height, wrap_t), yb = wrap_texel(y0 + 1, t.height, wrap_t);
-    vec4 top = texel_rgba(SCENE_ARGS_ t, xa, ya) * (1.0f - ax) + texel_rgba(SCENE_ARGS_ t, xb, ya) * ax;
-    vec4 bottom = texel_rgba(SCENE_ARGS_ t, xa, yb) * (1.0f - ax) + texel_rgba(SCENE_ARGS_ t, xb, yb) * ax;
+    vec4 top =
+        texel_rgba(SCENE_ARGS_ t, xa, ya) * (1.0f - ax) + texel_rgba(SCENE_ARGS_ t, xb, ya) * ax;
+    vec4 bottom =
+        texel_rgba(SCENE_ARGS_ t, xa, yb) * (1.0f - ax) + texel_rgba(SCENE_ARGS_ t, xb, yb) * ax;
     return top * (1.0f - ay) + bottom * ay;
 }
 

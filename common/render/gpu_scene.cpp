@@ -116,7 +116,8 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
         gpu::GpuTexture d{};
         d.width = uint32_t(t.width), d.height = uint32_t(t.height);
         d.offset = uint32_t(g.texels.size());
-        d.flags = uint32_t(t.wrap_s) | (uint32_t(t.wrap_t) << 2) | (t.nearest ? TEXTURE_NEAREST : 0u);
+        d.flags =
+            uint32_t(t.wrap_s) | (uint32_t(t.wrap_t) << 2) | (t.nearest ? TEXTURE_NEAREST : 0u);
         g.textures.push_back(d);
         for (size_t i = 0; i + 1 < t.rgba.size(); i += 2)
             g.texels.push_back(uint32_t(t.rgba[i]) | (uint32_t(t.rgba[i + 1]) << 16));

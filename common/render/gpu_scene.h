@@ -17,14 +17,14 @@ struct GpuScene {
     std::vector<gpu::GpuTriangle> triangles;
     std::vector<gpu::GpuSphere> spheres;
     std::vector<gpu::GpuMaterial> materials;
-    std::vector<gpu::GpuLight> lights;  // alias table over emitters, by power
+    std::vector<gpu::GpuLight> lights;                   // alias table over emitters, by power
     std::vector<gpu::GpuTriangleAttributes> attributes;  // empty, or one per triangle
     std::vector<gpu::GpuTexture> textures;
-    std::vector<uint32_t> texels;  // RGBA halves, two words per texel
-    bool vertex_normals = false;   // attributes carry the scene's vertex normals
-    gpu::GpuParams params{};            // scene fields set; per-dispatch fields zero
-    uint32_t stack_size = 1;            // k-d traversal stack entries (tree depth + 1)
-    uint32_t features = FEATURE_ALL;    // FEATURE_* bits the scene uses (scene_features.h)
+    std::vector<uint32_t> texels;     // RGBA halves, two words per texel
+    bool vertex_normals = false;      // attributes carry the scene's vertex normals
+    gpu::GpuParams params{};          // scene fields set; per-dispatch fields zero
+    uint32_t stack_size = 1;          // k-d traversal stack entries (tree depth + 1)
+    uint32_t features = FEATURE_ALL;  // FEATURE_* bits the scene uses (scene_features.h)
     TreeStats tree_stats;
     TreeKind tree_kind = TreeKind::None;  // the tree packed (never Auto)
     std::string tree_choice;              // TreeKind::Auto: what it chose and why

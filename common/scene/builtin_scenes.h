@@ -12,7 +12,8 @@ namespace mcpt {
 // The valid names for make_builtin_scene(), the default ("cornell") first.
 std::vector<std::string> builtin_scene_names();
 
-// "cornell" | "furnace" | "spheres" | "materials"; throws mcpt::Error listing the valid names otherwise.
+// "cornell" | "furnace" | "spheres" | "materials"; throws mcpt::Error listing the valid names
+// otherwise.
 Scene make_builtin_scene(const std::string& name);
 
 // The Cornell box with its spheres replaced by a bumpy tessellated sphere of 2 * segments^2

@@ -29,9 +29,8 @@
 #define TINYGLTF_IMPLEMENTATION
 #define TINYGLTF_NO_STB_IMAGE
 #define TINYGLTF_NO_STB_IMAGE_WRITE
-#include <tiny_gltf.h>
-
 #include <stb_image.h>
+#include <tiny_gltf.h>
 
 #include <algorithm>
 #include <cctype>
@@ -64,8 +63,7 @@ const char* const kIor = "KHR_materials_ior";
 const char* const kSpecular = "KHR_materials_specular";
 
 bool supported_extension(const std::string& name) {
-    return name == kEmissiveStrength || name == kTransmission || name == kIor ||
-           name == kSpecular;
+    return name == kEmissiveStrength || name == kTransmission || name == kIor || name == kSpecular;
 }
 
 // The JSON parser recurses once per nesting level: a file nesting arrays tens of thousands
@@ -195,7 +193,8 @@ tg::FsCallbacks folder_callbacks(const FolderFs* fs) {
 using ImageBytes = std::map<int, std::vector<unsigned char>>;
 bool keep_image(tg::Image*, const int index, std::string*, std::string*, int, int,
                 const unsigned char* bytes, int size, void* user_data) {
-    if (bytes && size > 0) (*static_cast<ImageBytes*>(user_data))[index].assign(bytes, bytes + size);
+    if (bytes && size > 0)
+        (*static_cast<ImageBytes*>(user_data))[index].assign(bytes, bytes + size);
     return true;
 }
 

@@ -4,11 +4,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <glm/gtc/packing.hpp>
 #include <sstream>
 
 #include "common/error.h"
-
-#include <glm/gtc/packing.hpp>
 
 namespace mcpt {
 namespace {
@@ -75,13 +74,15 @@ void check_attributes_and_textures(const Scene& scene) {
         const VertexAttributes& a = scene.attributes[i];
         for (int k = 0; k < 3; ++k)
             if (!finite(a.n[k]) || !std::isfinite(a.uv[k].x) || !std::isfinite(a.uv[k].y))
-                throw Error("triangle " + std::to_string(i) + ": non-finite normal or texture "
-                            "coordinate at vertex " + std::to_string(k));
+                throw Error("triangle " + std::to_string(i) +
+                            ": non-finite normal or texture "
+                            "coordinate at vertex " +
+                            std::to_string(k));
     }
     for (size_t i = 0; i < scene.textures.size(); ++i) {
         const Texture& t = scene.textures[i];
-        const std::string what = "texture " + std::to_string(i) +
-                                 (t.name.empty() ? "" : " '" + t.name + "'") + ": ";
+        const std::string what =
+            "texture " + std::to_string(i) + (t.name.empty() ? "" : " '" + t.name + "'") + ": ";
         if (t.width <= 0 || t.height <= 0 || t.width > 16384 || t.height > 16384)
             throw Error(what + "size " + std::to_string(t.width) + "x" + std::to_string(t.height) +
                         " outside 1x1 to 16384x16384");
@@ -198,8 +199,8 @@ ValidationReport validate_scene(Scene& scene) {
         check_material_index(scene, s.material, owner);
         const std::string what = owner + " (" + material_label(scene, s.material) + "): ";
         const Material& m = scene.materials[s.material];
-        if (m.tex_base >= 0 || m.tex_metal_rough >= 0 || m.tex_normal >= 0 ||
-            m.tex_emission >= 0 || m.alpha_cutoff > 0.f)
+        if (m.tex_base >= 0 || m.tex_metal_rough >= 0 || m.tex_normal >= 0 || m.tex_emission >= 0 ||
+            m.alpha_cutoff > 0.f)
             throw Error(what + "spheres have no texture coordinates: no textures or alpha mask");
         if (!finite(s.center)) throw Error(what + "non-finite center " + str(s.center));
         if (!std::isfinite(s.radius) || s.radius <= 0.f)
