@@ -266,7 +266,7 @@ TEST(GltfLoader, MaterialMapping) {
          {"emissiveFactor", {1, 0.5, 0.25}},
          {"pbrMetallicRoughness", {{"metallicFactor", 0}}},
          {"extensions", {{"KHR_materials_emissive_strength", {{"emissiveStrength", 4.0}}}}}},
-        // 1: rough glass with an ior -> smooth glass with a warning
+        // 1: rough glass with an ior
         {{"name", "frosted"},
          {"pbrMetallicRoughness", {{"baseColorFactor", {0.9, 1, 0.9, 1}}, {"metallicFactor", 0}}},
          {"extensions",
@@ -304,10 +304,10 @@ TEST(GltfLoader, MaterialMapping) {
     expect_vec(lamp.emission, {4, 2, 1});
     EXPECT_EQ(lamp.type, MaterialType::Pbr);  // glTF's default dielectric has a specular layer
     const Material& glass = s.materials[s.triangles[1].material];
-    EXPECT_EQ(glass.type, MaterialType::Glass);
+    EXPECT_EQ(glass.type, MaterialType::RoughGlass);  // glTF's default roughness is 1
     EXPECT_FLOAT_EQ(glass.ior, 1.33f);
+    EXPECT_FLOAT_EQ(glass.roughness, 1.f);
     expect_vec(glass.color, {0.9f, 1, 0.9f});
-    EXPECT_TRUE(has_warning(s, "frosted"));
     const Material& mirror = s.materials[s.triangles[2].material];
     EXPECT_EQ(mirror.type, MaterialType::Mirror);
     expect_vec(mirror.color, {0.9f, 0.8f, 0.7f});
@@ -328,13 +328,15 @@ TEST(GltfLoader, MaterialMapping) {
     const Material& fallback = s.materials[s.triangles[6].material];
     EXPECT_EQ(fallback.type, MaterialType::Diffuse);
     expect_vec(fallback.color, glm::vec3(0.8f));
-    EXPECT_EQ(s.warnings.size(), 1u) << ::testing::PrintToString(s.warnings);
+    EXPECT_EQ(s.warnings.size(), 0u) << ::testing::PrintToString(s.warnings);
     EXPECT_EQ(validate_scene(s).degenerate_dropped, 0u);
 
-    // Glass without KHR_materials_ior gets 1.5.
+    // Glass without KHR_materials_ior gets 1.5; a smooth one is the exact dielectric.
+    g.doc["materials"][1]["pbrMetallicRoughness"]["roughnessFactor"] = 0.0;
     g.doc["materials"][1]["extensions"].erase("KHR_materials_ior");
     Scene d = load_gltf(g.write("materials_noior.gltf"));
     EXPECT_FLOAT_EQ(d.materials[1].ior, 1.5f);
+    EXPECT_EQ(d.materials[1].type, MaterialType::Glass);
 }
 
 class GltfIndexTypes : public ::testing::TestWithParam<int> {};

@@ -1,5 +1,5 @@
 // Materials: Lambertian diffuse, perfect mirror, smooth dielectric (Fresnel, total internal
-// reflection), glTF metallic-roughness (microfacet.h). Directions point away from the
+// reflection), glTF metallic-roughness and rough dielectric (microfacet.h). Directions point away from the
 // surface; `n` faces the side of `wo`.
 #ifndef MCPT_GPU_BSDF_H
 #define MCPT_GPU_BSDF_H
@@ -24,16 +24,6 @@ MCPT_FN vec3 material_emission(GpuMaterial m) { return V3(m.er, m.eg, m.eb); }
 
 MCPT_FN vec3 reflect_about(vec3 wo, vec3 n) { return n * (2.0f * dot(wo, n)) - wo; }
 
-// Unpolarized Fresnel reflectance of a dielectric; cos_i > 0, eta = n_transmitted / n_incident.
-MCPT_FN float fresnel_dielectric(float cos_i, float eta) {
-    float sin2_t = (1.0f - cos_i * cos_i) / (eta * eta);
-    if (sin2_t >= 1.0f) return 1.0f;  // total internal reflection
-    float cos_t = sqrt(MAXF(0.0f, 1.0f - sin2_t));
-    float r_par = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-    float r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-    return 0.5f * (r_par * r_par + r_perp * r_perp);
-}
-
 // Lambertian: f = albedo / pi.
 MCPT_FN vec3 diffuse_eval(GpuMaterial m, vec3 n, vec3 wi) {
     return dot(n, wi) > 0.0f ? material_color(m) * MCPT_INV_PI : V3S(0.0f);
@@ -43,15 +33,28 @@ MCPT_FN float diffuse_pdf(vec3 n, vec3 wi) { return MAXF(0.0f, dot(n, wi)) * MCP
 // Whether next-event estimation and MIS apply: materials with a non-delta lobe.
 MCPT_FN bool has_smooth_lobe(GpuMaterial m) {
     if (HAS_FEATURE(FEATURE_DIFFUSE) && m.type == MAT_DIFFUSE) return true;
-    return HAS_FEATURE(FEATURE_MICROFACET) && m.type == MAT_PBR;
+    return HAS_FEATURE(FEATURE_MICROFACET) && (m.type == MAT_PBR || m.type == MAT_ROUGH_GLASS);
 }
 
-// f(wo, wi) and the pdf with which sample_bsdf() draws wi, for materials with a smooth lobe.
-MCPT_FN BsdfEval eval_bsdf(GpuMaterial m, vec3 n, vec3 wo, vec3 wi) {
+// Whether a material scatters light through the surface as well (next-event estimation then
+// looks for lights on both sides).
+MCPT_FN bool is_transmissive(GpuMaterial m) {
+    return HAS_FEATURE(FEATURE_MICROFACET) && m.type == MAT_ROUGH_GLASS;
+}
+
+// f(wo, wi) and the pdf with which sample_bsdf() draws wi, for materials with a smooth lobe;
+// `entering`: wo is on the outside (for the rough dielectric's relative IOR).
+MCPT_FN BsdfEval eval_bsdf(GpuMaterial m, vec3 n, vec3 wo, vec3 wi, bool entering) {
     BsdfEval e;
     if (HAS_FEATURE(FEATURE_MICROFACET) && m.type == MAT_PBR) {
         Frame fr = frame_from_normal(n);
         return pbr_eval(m, frame_to_local(fr, wo), frame_to_local(fr, wi));
+    }
+    if (HAS_FEATURE(FEATURE_MICROFACET) && m.type == MAT_ROUGH_GLASS) {
+        Frame fr = frame_from_normal(n);
+        float eta = entering ? m.ior : 1.0f / m.ior;
+        return rough_dielectric_eval(frame_to_local(fr, wo), frame_to_local(fr, wi), eta,
+                                     material_alpha(m), material_color(m));
     }
     e.f = diffuse_eval(m, n, wi);
     e.pdf = diffuse_pdf(n, wi);
@@ -86,6 +89,20 @@ MCPT_FN BsdfSample sample_bsdf(GpuMaterial m, vec3 n, vec3 wo, bool entering, ve
         s.specular = false;
         s.valid = e.pdf > 0.0f;
         s.weight = s.valid ? e.f * (wi_l.z / e.pdf) : V3S(0.0f);
+    } else if (HAS_FEATURE(FEATURE_MICROFACET) && m.type == MAT_ROUGH_GLASS) {
+        // Rough dielectric: reflect or refract through a visible normal.
+        Frame fr = frame_from_normal(n);
+        float eta = entering ? m.ior : 1.0f / m.ior;
+        float alpha = material_alpha(m);
+        vec3 wo_l = frame_to_local(fr, wo);
+        vec3 wi_l = rough_dielectric_sample_direction(wo_l, eta, alpha, u);
+        BsdfEval e = rough_dielectric_eval(wo_l, wi_l, eta, alpha, material_color(m));
+        s.wi = frame_to_world(fr, wi_l);
+        s.pdf = e.pdf;
+        s.specular = false;
+        s.valid = e.pdf > 0.0f;
+        s.weight = s.valid ? e.f * (ABSF(wi_l.z) / e.pdf) : V3S(0.0f);
+        s.eta2 = wi_l.z < 0.0f ? eta * eta : 1.0f;
     } else if (HAS_FEATURE(FEATURE_MIRROR) && m.type == MAT_MIRROR) {
         s.wi = reflect_about(wo, n);
         s.weight = material_color(m);

@@ -329,13 +329,16 @@ MCPT_FN PathState advance_path(SCENE_PARAMS_ PathState st, uint pixel, uint max_
         // Next-event estimation at vertices with a smooth lobe.
         if (has_smooth_lobe(m) && PARAM(num_lights) > 0u) {
             LightSample ls = sample_light(SCENE_ARGS_ s.p, V3(ua.z, ua.x, ua.y));
-            // A light seen under the shading normal but behind the surface would leak.
-            float cos_x = dot(ns, ls.wi);
+            // The light must lie on the same side of the shading and the geometric surface
+            // (else it would leak through), in front unless the material transmits.
+            float cos_s = dot(ns, ls.wi), cos_g = dot(n, ls.wi);
+            float cos_x = ABSF(cos_s);
 #ifdef MCPT_NEGATIVE_CONTROL_LEAK
-            if (ls.valid && cos_x > 0.0f) {  // tests: a variant that lets light leak
+            bool side = cos_s > 0.0f;  // tests: a variant that lets light leak
 #else
-            if (ls.valid && cos_x > 0.0f && dot(n, ls.wi) > 0.0f) {
+            bool side = is_transmissive(m) ? cos_s * cos_g > 0.0f : cos_s > 0.0f && cos_g > 0.0f;
 #endif
+            if (ls.valid && side) {
                 Ray shadow;
                 shadow.o = offset_ray_origin(s.p, s.p_error, s.ng, ls.wi);
                 shadow.d = offset_ray_origin(ls.p, ls.p_error, ls.n, -ls.wi) - shadow.o;
@@ -348,7 +351,7 @@ MCPT_FN PathState advance_path(SCENE_PARAMS_ PathState st, uint pixel, uint max_
                     break;
                 }
                 if (blocker.prim == NO_HIT) {
-                    BsdfEval e = eval_bsdf(m, ns, wo, ls.wi);
+                    BsdfEval e = eval_bsdf(m, ns, wo, ls.wi, front);
                     float w = power_heuristic(ls.pdf, e.pdf);
                     st.radiance += st.beta * e.f * ls.le * (light_scale * cos_x * w / ls.pdf);
                 }

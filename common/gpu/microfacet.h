@@ -70,6 +70,24 @@ MCPT_FN float ggx_reflection_pdf(vec3 wo, vec3 h, float alpha) {
     return ggx_g1(wo, alpha) * ggx_d(h, alpha) / (4.0f * wo.z);
 }
 
+// Unpolarized Fresnel reflectance of a dielectric; cos_i > 0, eta = n_transmitted / n_incident.
+MCPT_FN float fresnel_dielectric(float cos_i, float eta) {
+    float sin2_t = (1.0f - cos_i * cos_i) / (eta * eta);
+    if (sin2_t >= 1.0f) return 1.0f;  // total internal reflection
+    float cos_t = sqrt(MAXF(0.0f, 1.0f - sin2_t));
+    float r_par = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    float r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    return 0.5f * (r_par * r_par + r_perp * r_perp);
+}
+
+// Smith's height-correlated G2 of two directions on either side: 2 |c_o| |c_i| / (|c_i| r_o +
+// |c_o| r_i) with r = ggx_root.
+MCPT_FN float ggx_g2(vec3 wo, vec3 wi, float alpha) {
+    float co = ABSF(wo.z), ci = ABSF(wi.z);
+    float denom = ci * ggx_root(wo, alpha) + co * ggx_root(wi, alpha);
+    return denom > 0.0f ? 2.0f * co * ci / denom : 0.0f;
+}
+
 MCPT_FN float pow5(float x) {
     float x2 = x * x;
     return x2 * x2 * x;
@@ -139,6 +157,61 @@ MCPT_FN vec3 pbr_sample_direction(GpuMaterial m, vec3 wo, vec3 u) {
         return h * (2.0f * dot(wo, h)) - wo;
     }
     return sample_cosine_hemisphere(u.x, u.y);
+}
+
+// Rough dielectric (Walter et al. 2007; as pbrt-v4's DielectricBxDF) in the local frame,
+// wo.z > 0; eta = IOR beyond the surface / IOR on wo's side. f for radiance (transmission
+// scaled by 1 / eta^2 and tinted by `tint`) and the pdf of rough_dielectric_sample_direction.
+MCPT_FN BsdfEval rough_dielectric_eval(vec3 wo, vec3 wi, float eta, float alpha, vec3 tint) {
+    BsdfEval e;
+    e.f = V3S(0.0f);
+    e.pdf = 0.0f;
+    if (wo.z <= 0.0f || wi.z == 0.0f) return e;
+    bool reflected = wi.z > 0.0f;
+    // The generalized half vector, on the normal's side.
+    vec3 wm = wi * (reflected ? 1.0f : eta) + wo;
+    float len2 = dot(wm, wm);
+    if (!(len2 > 0.0f)) return e;
+    wm = wm * inversesqrt(len2);
+    if (wm.z < 0.0f) wm = -wm;
+    // Microfacets seen from behind by either direction contribute nothing.
+    float dwo = dot(wo, wm), dwi = dot(wi, wm);
+    if (dwo <= 0.0f || dwi * wi.z <= 0.0f) return e;
+    float f = fresnel_dielectric(dwo, eta);
+    float d = ggx_d(wm, alpha);
+    float g2 = ggx_g2(wo, wi, alpha);
+    float visible = ggx_g1(wo, alpha) * dwo * d / wo.z;  // D_wo(wm)
+    if (reflected) {
+        e.f = V3S(f * d * g2 / (4.0f * wo.z * wi.z));
+        e.pdf = f * visible / (4.0f * dwo);
+        return e;
+    }
+    float denom = dwi + dwo / eta;
+    denom = denom * denom;
+#ifdef MCPT_NEGATIVE_CONTROL_NO_FRESNEL_T
+    f = 0.0f;  // tests: a variant that transmits what it also reflects
+#endif
+    float ft = (1.0f - f) * d * g2 * ABSF(dwi * dwo / (wi.z * wo.z * denom)) / (eta * eta);
+    e.f = tint * ft;
+    e.pdf = (1.0f - fresnel_dielectric(dwo, eta)) * visible * ABSF(dwi) / denom;
+    return e;
+}
+
+// A direction for the rough dielectric: a visible normal, then reflection with the Fresnel
+// probability, else refraction through it. A reflection below the surface or a refraction
+// above it is no sample: the zero vector (which rough_dielectric_eval gives pdf 0).
+MCPT_FN vec3 rough_dielectric_sample_direction(vec3 wo, float eta, float alpha, vec3 u) {
+    vec3 h = sample_ggx_vndf(wo, alpha, u.x, u.y);
+    float cos_o = dot(wo, h);
+    vec3 wi;
+    if (u.z < fresnel_dielectric(cos_o, eta)) {
+        wi = h * (2.0f * cos_o) - wo;
+        return wi.z > 0.0f ? wi : V3S(0.0f);
+    }
+    float sin2_t = MAXF(0.0f, 1.0f - cos_o * cos_o) / (eta * eta);
+    float cos_t = sqrt(MAXF(0.0f, 1.0f - sin2_t));
+    wi = normalize(-wo / eta + h * (cos_o / eta - cos_t));
+    return wi.z < 0.0f ? wi : V3S(0.0f);
 }
 
 MCPT_NAMESPACE_END

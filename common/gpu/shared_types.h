@@ -13,6 +13,7 @@ MCPT_NAMESPACE_BEGIN
 #define MAT_MIRROR 1u
 #define MAT_GLASS 2u
 #define MAT_PBR 3u  // glTF metallic-roughness: GGX specular (Schlick Fresnel) over a diffuse base
+#define MAT_ROUGH_GLASS 4u  // rough dielectric: GGX reflection and refraction (Walter 2007)
 
 // Light kinds (GpuLight.prim high bit).
 #define LIGHT_SPHERE_BIT 0x80000000u
@@ -27,7 +28,7 @@ MCPT_NAMESPACE_BEGIN
 #define FEATURE_TRIANGLE_LIGHTS 32u // emissive triangles
 #define FEATURE_SPHERE_LIGHTS 64u   // emissive spheres
 #define FEATURE_KDTREE 128u         // k-d traversal with its stack (else: test every triangle)
-#define FEATURE_MICROFACET 256u     // metallic-roughness materials (GGX, microfacet.h)
+#define FEATURE_MICROFACET 256u     // GGX materials: metallic-roughness, rough glass (microfacet.h)
 #define FEATURE_SHADING_NORMALS 512u  // per-vertex normals (smooth shading) and normal maps
 #define FEATURE_TEXTURES 1024u      // texture coordinates and texture fetches (texture.h)
 #define FEATURE_ALPHA_MASK 2048u    // alphaMode MASK: cut-out surfaces rays pass through
@@ -115,7 +116,7 @@ MCPT_STRUCT(GpuMaterial) {
     float er, eg, eb;  // emitted radiance (front side of triangles, outside of spheres)
     float ior;         // index of refraction (glass; the dielectric Fresnel of MAT_PBR)
     float metallic;    // MAT_PBR: 0 dielectric over diffuse, 1 conductor
-    float alpha;       // MAT_PBR: GGX alpha = roughness^2 (at least MIN_GGX_ALPHA)
+    float alpha;       // MAT_PBR, MAT_ROUGH_GLASS: GGX alpha = roughness^2 (>= MIN_GGX_ALPHA)
     float specular;    // MAT_PBR: KHR_materials_specular factor (scales the dielectric Fresnel)
     float alpha_cutoff;  // alphaMode MASK: cut out where alpha < cutoff (0: opaque)
     // Textures (GpuTexture index or NO_TEXTURE): base color (rgb, alpha) times r, g, b; glTF's

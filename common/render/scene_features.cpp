@@ -26,6 +26,7 @@ uint32_t material_features(const gpu::GpuMaterial& m) {
         case MAT_GLASS:
             return f | FEATURE_GLASS;
         case MAT_PBR:
+        case MAT_ROUGH_GLASS:
             return f | FEATURE_MICROFACET;
         default:
             return f | FEATURE_DIFFUSE;

@@ -152,7 +152,7 @@ Material pbr_material(const std::string& name, const glm::vec3& base, float meta
 }
 
 // The Cornell box with glTF metallic-roughness spheres: rough gold, a glossy blue dielectric
-// (plastic) and a rough white dielectric, and a polished steel back wall.
+// (plastic), a rough white dielectric and frosted glass, and a polished steel back wall.
 Scene make_materials() {
     Scene s = make_cornell();
     s.name = "materials";
@@ -166,6 +166,12 @@ Scene make_materials() {
     s.spheres.push_back({{-0.5f, 0.3f, -0.3f}, 0.3f, gold});
     s.spheres.push_back({{0.5f, 0.3f, -0.2f}, 0.3f, plastic});
     s.spheres.push_back({{0.f, 0.25f, 0.45f}, 0.25f, chalk});
+    // Frosted glass (a rough dielectric) between the gold and the plastic, at the back.
+    Material frosted = clear_glass_material();
+    frosted.name = "frosted glass";
+    frosted.type = MaterialType::RoughGlass;
+    frosted.roughness = 0.3f;
+    s.spheres.push_back({{0.f, 0.3f, -0.65f}, 0.3f, s.add_material(frosted)});
     return s;
 }
 

@@ -6,8 +6,8 @@
 //              only the front side of a triangle emits (counter-clockwise seen from the front,
 //              clockwise under a mirroring node transform, as glTF defines it).
 //   KHR_materials_transmission.transmissionFactor > 0.5
-//       -> Glass, ior = KHR_materials_ior.ior (default 1.5), color = baseColorFactor.rgb
-//          (roughness is ignored with a warning)
+//       -> Glass (roughnessFactor <= 0.01) or RoughGlass, ior = KHR_materials_ior.ior
+//          (default 1.5), color = baseColorFactor.rgb
 //   otherwise metallicFactor = 1 and roughnessFactor <= 0.01
 //       -> Mirror, color = baseColorFactor.rgb (the limit of roughness 0, traced exactly)
 //   otherwise metallicFactor = 0 and KHR_materials_specular.specularFactor = 0
@@ -534,10 +534,8 @@ void GltfLoader::convert_materials() {
                                           : std::numeric_limits<float>::infinity();
         }
         if (extension_number(g.extensions, kTransmission, "transmissionFactor", 0.0) > 0.5) {
-            m.type = MaterialType::Glass;
-            if (pbr.roughnessFactor > 0.1)
-                warn_once("rough transmission",
-                          "rough transmission is rendered as smooth glass, e.g. '" + m.name + "'");
+            // Smooth glass is the limit of roughness 0, traced exactly.
+            m.type = pbr.roughnessFactor <= 0.01 ? MaterialType::Glass : MaterialType::RoughGlass;
         } else if (pbr.metallicFactor >= 1.0 && pbr.roughnessFactor <= 0.01 &&
                    m.tex_metal_rough < 0) {
             m.type = MaterialType::Mirror;  // the limit of roughness 0, traced exactly

@@ -48,10 +48,14 @@ void check_material(const Scene& scene, uint32_t i) {
     if (!non_negative(m.color)) throw Error(what + "negative color " + str(m.color));
     if (!non_negative(m.emission)) throw Error(what + "negative emission " + str(m.emission));
     const auto type = static_cast<uint32_t>(m.type);
-    if (type > static_cast<uint32_t>(MaterialType::Pbr))
+    if (type > static_cast<uint32_t>(MaterialType::RoughGlass))
         throw Error(what + "unknown material type " + std::to_string(type));
-    if ((m.type == MaterialType::Glass || m.type == MaterialType::Pbr) && !(m.ior > 0.f))
+    if ((m.type == MaterialType::Glass || m.type == MaterialType::Pbr ||
+         m.type == MaterialType::RoughGlass) &&
+        !(m.ior > 0.f))
         throw Error(what + "ior must be > 0, got " + std::to_string(m.ior));
+    if (m.type == MaterialType::RoughGlass && !(m.roughness >= 0.f && m.roughness <= 1.f))
+        throw Error(what + "roughness must be in [0, 1], got " + std::to_string(m.roughness));
     if (m.type == MaterialType::Pbr) {
         // Metallic-roughness factors are fractions, and so is the base color (it is a Fresnel
         // reflectance of the metal).

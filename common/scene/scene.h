@@ -11,7 +11,8 @@
 namespace mcpt {
 
 // Pbr: glTF metallic-roughness (GGX specular over a diffuse base, blended with a GGX metal).
-enum class MaterialType : uint32_t { Diffuse = 0, Mirror = 1, Glass = 2, Pbr = 3 };
+// RoughGlass: a rough dielectric (GGX reflection and refraction, roughness and ior).
+enum class MaterialType : uint32_t { Diffuse = 0, Mirror = 1, Glass = 2, Pbr = 3, RoughGlass = 4 };
 
 struct Material {
     std::string name;
@@ -20,7 +21,7 @@ struct Material {
     glm::vec3 emission{0.f};  // emitted radiance; front side of triangles, outside of spheres
     float ior = 1.5f;
     float metallic = 0.f;   // Pbr: 0 dielectric over diffuse, 1 metal
-    float roughness = 1.f;  // Pbr: perceptual roughness (GGX alpha = roughness^2)
+    float roughness = 1.f;  // Pbr, RoughGlass: perceptual roughness (GGX alpha = roughness^2)
     float specular = 1.f;   // Pbr: KHR_materials_specular's factor
     // Textures (indices into Scene::textures, -1: none): base color (rgb times color; alpha),
     // metallic-roughness (b times metallic, g times roughness), tangent-space normals, emission
