@@ -383,9 +383,9 @@ Flux dielectric_flux(const Dielectric& c, const DielectricEval& eval, int n = 20
     const auto integrand = [&](vec3 w) {
         return eval(wo, w, c.eta, alpha).f.x * std::fabs(w.z) * (w.z < 0.f ? c.eta * c.eta : 1.f);
     };
-    f.integrated = hemisphere_integral(integrand, 900, 400) +
-                   hemisphere_integral([&](vec3 w) { return integrand(V3(w.x, w.y, -w.z)); },
-                                       900, 400);
+    f.integrated =
+        hemisphere_integral(integrand, 900, 400) +
+        hemisphere_integral([&](vec3 w) { return integrand(V3(w.x, w.y, -w.z)); }, 900, 400);
     return f;
 }
 

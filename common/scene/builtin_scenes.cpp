@@ -132,8 +132,8 @@ Scene make_spheres() {
 
     s.camera.position = {0.f, 1.0f, 3.5f};
     s.camera.forward = glm::normalize(glm::vec3(0.f, -0.2f, -1.f));
-    s.camera.up = glm::normalize(glm::cross(glm::cross(s.camera.forward, glm::vec3(0, 1, 0)),
-                                            s.camera.forward));
+    s.camera.up = glm::normalize(
+        glm::cross(glm::cross(s.camera.forward, glm::vec3(0, 1, 0)), s.camera.forward));
     s.camera.yfov = 0.6911f;
     s.has_camera = true;
     return s;
@@ -220,7 +220,6 @@ Scene make_bumpy_sphere_scene(int segments) {
     }
     return scene;
 }
-
 
 // Every surface has albedo a and emits Le, and the enclosure is closed, so the radiance L leaving
 // any point in any direction solves L = Le + a * L, i.e. exactly
