@@ -106,40 +106,43 @@ vec3 device_sampler(const GpuMaterial& m, vec3 wo, vec3 u) {
     return pbr_sample_direction(m, wo, u);
 }
 
-// Chi-square of sampled directions against pbr_eval's pdf over equal-solid-angle cells
-// (cos theta x phi), with one more cell for samples below the surface (no sample).
-double sampling_p_value(const Lobe& lobe, const DirectionSampler& sampler, int n = 400000) {
-    const int nc = 24, np = 48;
-    const vec3 wo = outgoing(lobe.cos_o);
+// Chi-square of sampled directions against a pdf over equal-solid-angle cells: `bands` bands
+// of cos theta in [cos_lo, 1] (0: the upper hemisphere, -1: the sphere) by 48 sectors, and one
+// cell for "no sample" (a direction the pdf gives 0). Each cell's probability is the pdf
+// integrated over it (a 16 x 16 midpoint rule in (theta, phi)).
+using SampleFn = std::function<vec3(vec3 u)>;
+using PdfFn = std::function<float(vec3 wi)>;
+double direction_p_value(const SampleFn& sample, const PdfFn& pdf, int bands, float cos_lo,
+                         unsigned seed, int n = 400000) {
+    const int nc = bands, np = 48;
+    const float span = 1.f - cos_lo;
     std::vector<double> observed(nc * np + 1, 0.0), expected(nc * np + 1, 0.0);
-    std::mt19937 rng(1234);
+    std::mt19937 rng(seed);
     std::uniform_real_distribution<float> uni(0.f, 1.f);
     for (int i = 0; i < n; ++i) {
-        const vec3 wi = sampler(lobe.m, wo, V3(uni(rng), uni(rng), uni(rng)));
-        if (!(wi.z > 0.f)) {
+        const vec3 wi = sample(V3(uni(rng), uni(rng), uni(rng)));
+        if (!(pdf(wi) > 0.f)) {
             observed[nc * np] += 1;
             continue;
         }
-        const int c = std::min(nc - 1, int((1.f - wi.z) * nc));
+        const int c = std::min(nc - 1, int((1.f - wi.z) / span * nc));
         double phi = std::atan2(double(wi.y), double(wi.x));
         if (phi < 0) phi += 2 * kPi;
-        const int p = std::min(np - 1, int(phi / (2 * kPi) * np));
-        observed[c * np + p] += 1;
+        observed[c * np + std::min(np - 1, int(phi / (2 * kPi) * np))] += 1;
     }
-    // Each cell's probability: the pdf integrated over it (a 16 x 16 midpoint rule in
-    // (theta, phi)).
     double total = 0;
     for (int c = 0; c < nc; ++c) {
-        const double t0 = std::acos(1.0 - double(c) / nc), t1 = std::acos(1.0 - double(c + 1) / nc);
+        const double t0 = std::acos(1.0 - double(span) * c / nc);
+        const double t1 = std::acos(1.0 - double(span) * (c + 1) / nc);
         for (int p = 0; p < np; ++p) {
             const double p0 = 2 * kPi * p / np, p1 = 2 * kPi * (p + 1) / np;
             double sum = 0;
             const int k = 16;
-            for (int a = 0; a < k; ++a)
-                for (int b = 0; b < k; ++b) {
-                    const double theta = t0 + (a + 0.5) * (t1 - t0) / k;
-                    const double phi = p0 + (b + 0.5) * (p1 - p0) / k;
-                    sum += pbr_eval(lobe.m, wo, direction(theta, phi)).pdf * std::sin(theta);
+            for (int x = 0; x < k; ++x)
+                for (int y = 0; y < k; ++y) {
+                    const double theta = t0 + (x + 0.5) * (t1 - t0) / k;
+                    const double phi = p0 + (y + 0.5) * (p1 - p0) / k;
+                    sum += pdf(direction(theta, phi)) * std::sin(theta);
                 }
             const double prob = sum * (t1 - t0) * (p1 - p0) / (k * k);
             expected[c * np + p] = prob * n;
@@ -148,6 +151,13 @@ double sampling_p_value(const Lobe& lobe, const DirectionSampler& sampler, int n
     }
     expected[nc * np] = std::max(0.0, 1.0 - total) * n;
     return stats::chi_square_test(observed, expected);
+}
+
+// A metallic-roughness lobe's sampler against pbr_eval's pdf, over the upper hemisphere.
+double sampling_p_value(const Lobe& lobe, const DirectionSampler& sampler) {
+    const vec3 wo = outgoing(lobe.cos_o);
+    return direction_p_value([&](vec3 u) { return sampler(lobe.m, wo, u); },
+                             [&](vec3 wi) { return pbr_eval(lobe.m, wo, wi).pdf; }, 24, 0.f, 1234);
 }
 
 TEST(Microfacet, SampledDirectionsFollowTheirDensity) {
@@ -288,47 +298,13 @@ BsdfEval dielectric_eval(vec3 wo, vec3 wi, float eta, float alpha) {
 }
 using DielectricSampler = std::function<vec3(vec3 wo, float eta, float alpha, vec3 u)>;
 
-// Chi-square of sampled directions against the pdf over the whole sphere: 48 bands of equal
-// solid angle (cos theta in [-1, 1]) x 48 sectors, and a cell for "no sample".
-double dielectric_p_value(const Dielectric& c, const DielectricSampler& sampler, int n = 400000) {
-    const int nc = 48, np = 48;
+// A rough dielectric's sampler against its pdf, over the whole sphere.
+double dielectric_p_value(const Dielectric& c, const DielectricSampler& sampler) {
     const float alpha = c.roughness * c.roughness;
     const vec3 wo = outgoing(c.cos_o);
-    std::vector<double> observed(nc * np + 1, 0.0), expected(nc * np + 1, 0.0);
-    std::mt19937 rng(4321);
-    std::uniform_real_distribution<float> uni(0.f, 1.f);
-    for (int i = 0; i < n; ++i) {
-        const vec3 wi = sampler(wo, c.eta, alpha, V3(uni(rng), uni(rng), uni(rng)));
-        if (!(dielectric_eval(wo, wi, c.eta, alpha).pdf > 0.f)) {
-            observed[nc * np] += 1;
-            continue;
-        }
-        const int b = std::min(nc - 1, int((1.f - wi.z) * 0.5f * nc));
-        double phi = std::atan2(double(wi.y), double(wi.x));
-        if (phi < 0) phi += 2 * kPi;
-        observed[b * np + std::min(np - 1, int(phi / (2 * kPi) * np))] += 1;
-    }
-    double total = 0;
-    for (int b = 0; b < nc; ++b) {
-        const double t0 = std::acos(1.0 - 2.0 * b / nc), t1 = std::acos(1.0 - 2.0 * (b + 1) / nc);
-        for (int p = 0; p < np; ++p) {
-            const double p0 = 2 * kPi * p / np, p1 = 2 * kPi * (p + 1) / np;
-            double sum = 0;
-            const int k = 16;
-            for (int x = 0; x < k; ++x)
-                for (int y = 0; y < k; ++y) {
-                    const double theta = t0 + (x + 0.5) * (t1 - t0) / k;
-                    const double phi = p0 + (y + 0.5) * (p1 - p0) / k;
-                    sum += dielectric_eval(wo, direction(theta, phi), c.eta, alpha).pdf *
-                           std::sin(theta);
-                }
-            const double prob = sum * (t1 - t0) * (p1 - p0) / (k * k);
-            expected[b * np + p] = prob * n;
-            total += prob;
-        }
-    }
-    expected[nc * np] = std::max(0.0, 1.0 - total) * n;
-    return stats::chi_square_test(observed, expected);
+    return direction_p_value([&](vec3 u) { return sampler(wo, c.eta, alpha, u); },
+                             [&](vec3 wi) { return dielectric_eval(wo, wi, c.eta, alpha).pdf; }, 48,
+                             -1.f, 4321);
 }
 
 TEST(Microfacet, RoughDielectricSamplingFollowsItsDensity) {

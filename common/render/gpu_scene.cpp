@@ -227,12 +227,17 @@ AccumLayout accum_layout(uint64_t npix, uint64_t max_buffer_bytes) {
     return l;
 }
 
-std::vector<uint32_t> tree_buffer(const GpuScene& s) {
+// The words of plain-data arrays one after the other; one zero word when all are empty.
+template <class... Arrays>
+std::vector<uint32_t> concat_words(const Arrays&... arrays) {
     std::vector<uint32_t> out;
-    append_words(out, s.nodes);
-    append_words(out, s.leaf_indices);
+    (append_words(out, arrays), ...);
     if (out.empty()) out.push_back(0);
     return out;
+}
+
+std::vector<uint32_t> tree_buffer(const GpuScene& s) {
+    return concat_words(s.nodes, s.leaf_indices);
 }
 
 std::vector<uint32_t> shading_buffer(const GpuScene& s) {
@@ -248,11 +253,7 @@ std::vector<uint32_t> shading_buffer(const GpuScene& s) {
 }
 
 std::vector<uint32_t> triangle_buffer(const GpuScene& s) {
-    std::vector<uint32_t> out;
-    append_words(out, s.triangles);
-    append_words(out, s.attributes);
-    if (out.empty()) out.push_back(0);
-    return out;
+    return concat_words(s.triangles, s.attributes);
 }
 
 uint32_t oct_encode(glm::vec3 n) {

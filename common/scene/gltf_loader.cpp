@@ -312,6 +312,8 @@ class GltfLoader {
     template <class T, class Decode>
     std::vector<T> read_accessor(const tg::Accessor& a, size_t elem, const std::string& what,
                                  Decode decode) const;
+    const tg::Accessor& accessor_at(int accessor, const std::string& what) const;
+    std::vector<glm::vec3> read_float_vec3(const tg::Accessor& a, const std::string& what) const;
     std::vector<glm::vec3> read_positions(int accessor, const std::string& where) const;
     std::vector<glm::vec3> read_normals(int accessor, const std::string& where) const;
     std::vector<glm::vec2> read_texcoords(int accessor, const std::string& where) const;
@@ -876,21 +878,32 @@ std::vector<T> GltfLoader::read_accessor(const tg::Accessor& a, size_t elem,
     return out;
 }
 
-std::vector<glm::vec3> GltfLoader::read_positions(int accessor, const std::string& where) const {
-    const std::string what = where + " POSITION accessor " + std::to_string(accessor);
+// Accessor `accessor`, after checking that the file has it.
+const tg::Accessor& GltfLoader::accessor_at(int accessor, const std::string& what) const {
     if (accessor < 0 || size_t(accessor) >= model_.accessors.size())
         fail(what + " out of range (file has " + std::to_string(model_.accessors.size()) +
              " accessors)");
-    const tg::Accessor& a = model_.accessors[size_t(accessor)];
-    if (a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT || a.type != TINYGLTF_TYPE_VEC3)
-        fail(what +
-             ": POSITION must be float VEC3 (non-float, quantized positions are not "
-             "supported)");
-    std::vector<glm::vec3> out = read_accessor<glm::vec3>(a, 12, what, [](const unsigned char* p) {
+    return model_.accessors[size_t(accessor)];
+}
+
+// The elements of a float VEC3 accessor (the type checked by the caller).
+std::vector<glm::vec3> GltfLoader::read_float_vec3(const tg::Accessor& a,
+                                                   const std::string& what) const {
+    return read_accessor<glm::vec3>(a, 12, what, [](const unsigned char* p) {
         glm::vec3 v;
         std::memcpy(&v[0], p, 12);
         return v;
     });
+}
+
+std::vector<glm::vec3> GltfLoader::read_positions(int accessor, const std::string& where) const {
+    const std::string what = where + " POSITION accessor " + std::to_string(accessor);
+    const tg::Accessor& a = accessor_at(accessor, what);
+    if (a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT || a.type != TINYGLTF_TYPE_VEC3)
+        fail(what +
+             ": POSITION must be float VEC3 (non-float, quantized positions are not "
+             "supported)");
+    std::vector<glm::vec3> out = read_float_vec3(a, what);
     // Non-finite positions named as the file has them (before any node transform).
     for (size_t i = 0; i < out.size(); ++i) {
         const glm::vec3& v = out[i];
@@ -906,17 +919,10 @@ std::vector<glm::vec3> GltfLoader::read_positions(int accessor, const std::strin
 
 std::vector<glm::vec3> GltfLoader::read_normals(int accessor, const std::string& where) const {
     const std::string what = where + " NORMAL accessor " + std::to_string(accessor);
-    if (accessor < 0 || size_t(accessor) >= model_.accessors.size())
-        fail(what + " out of range (file has " + std::to_string(model_.accessors.size()) +
-             " accessors)");
-    const tg::Accessor& a = model_.accessors[size_t(accessor)];
+    const tg::Accessor& a = accessor_at(accessor, what);
     if (a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT || a.type != TINYGLTF_TYPE_VEC3)
         fail(what + ": NORMAL must be float VEC3");
-    std::vector<glm::vec3> out = read_accessor<glm::vec3>(a, 12, what, [](const unsigned char* p) {
-        glm::vec3 v;
-        std::memcpy(&v[0], p, 12);
-        return v;
-    });
+    std::vector<glm::vec3> out = read_float_vec3(a, what);
     for (glm::vec3& n : out)
         if (!std::isfinite(n.x) || !std::isfinite(n.y) || !std::isfinite(n.z)) n = glm::vec3(0.f);
     return out;
@@ -924,10 +930,7 @@ std::vector<glm::vec3> GltfLoader::read_normals(int accessor, const std::string&
 
 std::vector<glm::vec2> GltfLoader::read_texcoords(int accessor, const std::string& where) const {
     const std::string what = where + " TEXCOORD_0 accessor " + std::to_string(accessor);
-    if (accessor < 0 || size_t(accessor) >= model_.accessors.size())
-        fail(what + " out of range (file has " + std::to_string(model_.accessors.size()) +
-             " accessors)");
-    const tg::Accessor& a = model_.accessors[size_t(accessor)];
+    const tg::Accessor& a = accessor_at(accessor, what);
     if (a.type != TINYGLTF_TYPE_VEC2) fail(what + ": TEXCOORD_0 must be VEC2");
     // Float, or normalized unsigned byte / short.
     std::vector<glm::vec2> out;
@@ -1020,10 +1023,7 @@ int GltfLoader::texture_for(int texture, int tex_coord, bool srgb, const std::st
 
 std::vector<uint32_t> GltfLoader::read_indices(int accessor, const std::string& where) const {
     const std::string what = where + " index accessor " + std::to_string(accessor);
-    if (accessor < 0 || size_t(accessor) >= model_.accessors.size())
-        fail(what + " out of range (file has " + std::to_string(model_.accessors.size()) +
-             " accessors)");
-    const tg::Accessor& a = model_.accessors[size_t(accessor)];
+    const tg::Accessor& a = accessor_at(accessor, what);
     const size_t size = index_size(a.componentType);
     if (size == 0 || a.type != TINYGLTF_TYPE_SCALAR)
         fail(what + ": indices must be SCALAR unsigned byte, short or int");
