@@ -38,6 +38,7 @@ struct ConvergeArgs {
     std::string output = "converge";
     uint32_t seed = 1;
     std::vector<std::string> samplers{"sobol"};
+    std::vector<std::string> sampling{"uniform"};
 };
 
 struct Run {
@@ -194,28 +195,32 @@ void run_converge(const ConvergeArgs& a) {
                 "rmse", "rel rmse", "rel mse", "mean signed");
     for (size_t b = 0; b < a.backends.size(); ++b) {
         std::unique_ptr<Backend> backend = open_device(a.backends[b]);
-        for (const std::string& sampler : a.samplers) {
-            // --tree auto: the tree this device's cost model picks.
-            GpuScene gb = prepare_scene(scene, backend->device(), tree_opts, a.width, a.height);
-            if (sampler == "independent") gb.features |= FEATURE_INDEPENDENT_SAMPLER;
-            backend->load(gb, a.width, a.height);
-            Run run;
-            run.backend = backend->device().backend;
-            if (a.samplers.size() > 1) run.backend += "/" + sampler;
-            run.device = backend->device().name;
-            ProgressiveOptions po;
-            po.render = ro;
-            po.schedule = a.checkpoints == "time" ? Schedule::TimeDoubling : Schedule::SppDoubling;
-            po.seconds = a.seconds, po.max_spp = a.max_spp;
-            po.seed_base = a.seed + 100000u * uint32_t(runs.size());
-            RenderResult total;
-            run.checkpoints =
-                render_progressive(*backend, gb, scene.camera, po, ref, &total,
-                                   [&](const Checkpoint& c) { print_checkpoint(run, c); });
-            run.report =
-                analyze_convergence(run.checkpoints, ref.mean_value(), effective_pixels(total));
-            runs.push_back(std::move(run));
-        }
+        for (const std::string& sampler : a.samplers)
+            for (const std::string& sampling : a.sampling) {
+                // --tree auto: the tree this device's cost model picks.
+                GpuScene gb = prepare_scene(scene, backend->device(), tree_opts, a.width, a.height);
+                if (sampler == "independent") gb.features |= FEATURE_INDEPENDENT_SAMPLER;
+                backend->load(gb, a.width, a.height);
+                Run run;
+                run.backend = backend->device().backend;
+                if (a.samplers.size() > 1) run.backend += "/" + sampler;
+                if (a.sampling.size() > 1) run.backend += "/" + sampling;
+                run.device = backend->device().name;
+                ProgressiveOptions po;
+                po.render = ro;
+                po.render.adaptive = sampling == "adaptive";
+                po.schedule =
+                    a.checkpoints == "time" ? Schedule::TimeDoubling : Schedule::SppDoubling;
+                po.seconds = a.seconds, po.max_spp = a.max_spp;
+                po.seed_base = a.seed + 100000u * uint32_t(runs.size());
+                RenderResult total;
+                run.checkpoints =
+                    render_progressive(*backend, gb, scene.camera, po, ref, &total,
+                                       [&](const Checkpoint& c) { print_checkpoint(run, c); });
+                run.report =
+                    analyze_convergence(run.checkpoints, ref.mean_value(), effective_pixels(total));
+                runs.push_back(std::move(run));
+            }
     }
 
     // Fits and bias.
@@ -296,6 +301,11 @@ void add_converge_command(CLI::App& app) {
     sub->add_option("--sampler", a->samplers,
                     "sobol (Owen-scrambled Sobol) and/or independent, one run per backend each")
         ->check(CLI::IsMember({"sobol", "independent"}))
+        ->capture_default_str();
+    sub->add_option("--sampling", a->sampling,
+                    "uniform and/or adaptive (samples where the estimated noise is), one run "
+                    "per backend and sampler each")
+        ->check(CLI::IsMember({"uniform", "adaptive"}))
         ->capture_default_str();
     sub->add_option("-o,--output", a->output, "Output prefix: prefix.csv, prefix.svg")
         ->capture_default_str();

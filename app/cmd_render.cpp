@@ -41,6 +41,7 @@ struct RenderArgs {
     std::string sampler = "sobol";
     double target_error = 0;  // stop once the mean relative standard error is below this
     bool reproducible = false;
+    bool adaptive = false;
     std::string checkpoint;        // resume from / save to this file
     double checkpoint_every = 30;  // seconds between checkpoints
 };
@@ -74,6 +75,7 @@ void run_render(const RenderArgs& a) {
     s.specialize = a.specialize == "on";
     s.sampler = a.sampler;
     s.reproducible = a.reproducible || !a.checkpoint.empty();
+    s.adaptive = a.adaptive;
     session.commit();
     // Resume where an earlier run of this command stopped.
     if (!a.checkpoint.empty()) {
@@ -251,6 +253,10 @@ void add_render_command(CLI::App& app) {
     sub->add_flag("--reproducible", args->reproducible,
                   "The image depends only on the seed, the samples and the device, not on "
                   "timing (sums in fixed groups of 16 samples)");
+    sub->add_flag("--adaptive", args->adaptive,
+                  "Adaptive sampling: after 16 samples everywhere, samples where the estimated "
+                  "noise is (--spp is then the mean over pixels)")
+        ->excludes("--reproducible");
     sub->add_option("--checkpoint", args->checkpoint,
                     "Save the accumulation to this file (atomically) and resume from it when "
                     "it exists; implies --reproducible");

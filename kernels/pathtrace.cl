@@ -31,8 +31,15 @@ __kernel void pathtrace(__global const GpuParams* params, __global const uint* t
     // Start the pixel's samples of this round, or continue its path.
     PathState st;
     if (params->round_start != 0u) {
-        st = start_path(SCENE_ARGS_ pixel, params->sample_offset);
-        st.samples_left = params->samples_per_dispatch;
+        // Every pixel alike, or as the sample plan says (adaptive sampling).
+        uint first = params->sample_offset, count = params->samples_per_dispatch;
+        if (params->sample_plan != 0u) {
+            __global const uint* plan = (__global const uint*)accum + at.plan;
+            first = plan[0];
+            count = plan[1];
+        }
+        st = start_path(SCENE_ARGS_ pixel, first);
+        st.samples_left = count;
         if (params->accumulate == 0u) {
             accum[sum] = (float4)(0.0f);
             accum[sum + 1u] = (float4)(0.0f);

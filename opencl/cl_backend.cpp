@@ -118,6 +118,17 @@ class OpenClBackend final : public Backend {
         }
     }
 
+    void write_plan(const std::vector<uint32_t>& words) override {
+        if (words.size() * 4 > accum_shape_.plan_bytes())
+            throw Error("opencl: a sample plan for more slots than the buffer holds");
+        try {
+            queue_.enqueueWriteBuffer(accum_, CL_TRUE, accum_shape_.plan_offset(), words.size() * 4,
+                                      words.data());
+        } catch (const cl::Error& e) {
+            stopped(e.err(), e.what());
+        }
+    }
+
     void read_accum(std::vector<float>& out, uint32_t pixels) override {
         // The sums only; the path state stays on the device.
         const size_t per_pixel = ACCUM_VEC4_PER_PIXEL * 4;

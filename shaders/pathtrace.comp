@@ -24,8 +24,14 @@ void main() {
     // Start the pixel's samples of this round, or continue its path.
     PathState st;
     if (params.round_start != 0u) {
-        st = start_path(pixel, params.sample_offset);
-        st.samples_left = params.samples_per_dispatch;
+        // Every pixel alike, or as the sample plan says (adaptive sampling).
+        uint first = params.sample_offset, count = params.samples_per_dispatch;
+        if (params.sample_plan != 0u) {
+            first = accum_words[at.plan];
+            count = accum_words[at.plan + 1u];
+        }
+        st = start_path(pixel, first);
+        st.samples_left = count;
         if (params.accumulate == 0u) {
             accum[sum] = vec4(0.0f);
             accum[sum + 1u] = vec4(0.0f);

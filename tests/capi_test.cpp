@@ -104,6 +104,7 @@ TEST(CApi, BadHandlesAreRefused) {
             mcpt_session_set_specialize(s, 1),
             mcpt_session_set_reproducible(s, 1),
             mcpt_session_set_sampler(s, "sobol"),
+            mcpt_session_set_adaptive(s, 1),
             mcpt_session_commit(s),
             mcpt_session_render(s, 10, 0, 0, &rs),
             mcpt_session_cancel(s),
@@ -183,6 +184,16 @@ TEST(CApi, WrongOrderAndBadArguments) {
     ASSERT_EQ(mcpt_session_set_sampler(s.s, "independent"), MCPT_OK);
     ASSERT_EQ(mcpt_session_render(s.s, 0, 0, 2, &rs), MCPT_OK) << s.error();
     EXPECT_GE(rs.spp, 1u);  // a new image (one pass: no time budget)
+    // Adaptive sampling on the device: past the warm-up to the mean asked for; not with
+    // reproducible rendering, nor in a checkpoint.
+    ASSERT_EQ(mcpt_session_set_adaptive(s.s, 1), MCPT_OK);
+    EXPECT_EQ(mcpt_session_set_reproducible(s.s, 1), MCPT_ERROR_INVALID_ARGUMENT);
+    EXPECT_NE(s.error().find("not reproducible"), std::string::npos) << s.error();
+    ASSERT_EQ(mcpt_session_render(s.s, 1e6, 0, 48, &rs), MCPT_OK) << s.error();
+    EXPECT_GE(rs.spp, 48u);
+    EXPECT_GT(rs.relative_error, 0.0);
+    EXPECT_EQ(mcpt_session_save_checkpoint(s.s, "adaptive.ckpt"), MCPT_ERROR_IO);
+    EXPECT_NE(s.error().find("adaptive render"), std::string::npos) << s.error();
 }
 
 // An image beyond the host's memory is an error, not a crash; the session recovers.

@@ -41,6 +41,7 @@ class FailingBackend final : public Backend {
         }
         return inner_->dispatch(p);
     }
+    void write_plan(const std::vector<uint32_t>& words) override { inner_->write_plan(words); }
     void read_accum(std::vector<float>& out, uint32_t pixels) override {
         ++reads_;
         inner_->read_accum(out, pixels);

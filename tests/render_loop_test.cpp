@@ -5,7 +5,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <functional>
+#include <map>
+
+#include "common/render/adaptive.h"
 
 namespace mcpt {
 namespace {
@@ -35,13 +40,19 @@ class FakeBackend final : public Backend {
             Slot& slot = slots_.at(p.pixel_offset + k - p.state_base);
             if (p.round_start) {
                 slot = Slot{p.sample_offset, p.samples_per_dispatch, 0};
+                if (p.sample_plan) {
+                    const size_t at =
+                        PLAN_WORDS_PER_SLOT * size_t(p.pixel_offset + k - p.state_base);
+                    slot = Slot{plan_.at(at), plan_.at(at + 1), 0};
+                }
                 if (!p.accumulate) std::fill(a, a + 8, 0.f);
             }
             for (uint32_t budget = p.bounce_budget; slot.left > 0 && budget > 0;) {
                 const uint32_t run = std::min(budget, bounces - slot.done);
                 slot.done += run, budget -= run;
                 if (slot.done < bounces) break;
-                const float v = value(slot.sample);
+                const float v = pixel_value(p.pixel_offset + k, slot.sample);
+                if (record) taken[p.pixel_offset + k].push_back(slot.sample);
                 for (int c = 0; c < 3; ++c) a[c] += v, a[4 + c] += v * v;
                 a[7] += 1.f;
                 slot = Slot{slot.sample + 1, slot.left - 1, 0};
@@ -50,7 +61,15 @@ class FakeBackend final : public Backend {
         }
         return active;
     }
+    void write_plan(const std::vector<uint32_t>& words) override { plan_ = words; }
     void read_accum(std::vector<float>& out, uint32_t) override { out = accum_; }
+    // Sample i of pixel p: value(i), or around it with 100 times the spread in noisy pixels.
+    float pixel_value(uint32_t p, uint64_t i) const {
+        return noisy && noisy(p) ? 0.15f + 100.f * (value(i) - 0.125f) : value(i);
+    }
+    std::function<bool(uint32_t)> noisy;
+    bool record = false;  // keep every pixel's sample indices in `taken`
+    std::map<uint32_t, std::vector<uint32_t>> taken;
     double compile_seconds() const override { return 0; }
     uint32_t compiled_features() const override { return FEATURE_ALL; }
     std::string layout() const override { return "fake"; }
@@ -67,6 +86,7 @@ class FakeBackend final : public Backend {
     DeviceInfo info_;
     std::vector<float> accum_;
     std::vector<Slot> slots_;
+    std::vector<uint32_t> plan_;
 };
 
 TEST(RenderLoop, TenMillionSamplesDoNotDrift) {
@@ -127,6 +147,49 @@ TEST(RenderLoop, PathsLongerThanTheBounceBudgetContinue) {
     }
 }
 
+// Adaptive sampling: each pixel takes sample indices 0 .. n-1, each once (its sums and count
+// are those samples'); the mean count is the spp asked for; the noisy pixels get the samples
+// (sigma 100 times the others'), the others far fewer.
+TEST(RenderLoop, AdaptiveSamplesFollowTheNoiseAndArriveOnce) {
+    FakeBackend backend;
+    const int w = 24, h = 16;
+    backend.noisy = [&](uint32_t p) { return p % w < 4 && p / w < 4; };
+    backend.record = true;
+    GpuScene scene;
+    RenderOptions o;
+    o.width = w, o.height = h;
+    o.spp = 256;
+    o.adaptive = true;
+    const RenderResult r = render(backend, scene, Camera{}, o);
+    ASSERT_EQ(r.samples.size(), size_t(w) * h);
+    EXPECT_EQ(r.spp, o.spp);
+    double total = 0, noisy = 0, quiet_max = 0;
+    for (uint32_t i = 0; i < uint32_t(w * h); ++i) {
+        std::vector<uint32_t> idx = backend.taken[i];
+        std::sort(idx.begin(), idx.end());
+        ASSERT_EQ(double(idx.size()), r.samples[i]) << "pixel " << i;
+        for (size_t k = 0; k < idx.size(); ++k) ASSERT_EQ(idx[k], k) << "pixel " << i;
+        double exact = 0;
+        for (uint32_t s : idx) exact += backend.pixel_value(i, s);
+        ASSERT_NEAR(r.sum[3 * i], exact, 1e-4 * std::abs(exact) + 1e-3) << "pixel " << i;
+        const double n = r.samples[i];
+        total += n;
+        // 16 noisy pixels; those beyond kAdaptiveRadius of them (the pooling) are quiet.
+        if (backend.noisy(i)) noisy += n;
+        const uint32_t far = 4 + kAdaptiveRadius;
+        if (i % w >= far || i / w >= far) quiet_max = std::max(quiet_max, n);
+    }
+    EXPECT_NEAR(total / (w * h), double(o.spp), 1.0);
+    EXPECT_DOUBLE_EQ(r.rays, total);
+    EXPECT_GT(noisy / 16, 8 * quiet_max) << "the noisy pixels should take the samples";
+    EXPECT_LE(quiet_max, 0.25 * o.spp);
+    // Uniform sampling, the control: every pixel alike.
+    o.adaptive = false;
+    const RenderResult u = render(backend, scene, Camera{}, o);
+    EXPECT_TRUE(u.samples.empty());
+    EXPECT_EQ(u.spp, o.spp);
+}
+
 TEST(RenderLoop, RejectsBadSizes) {
     FakeBackend backend;
     GpuScene scene;
@@ -151,20 +214,21 @@ TEST(AccumLayout, WholeImageOrAWindowWithinTheLargestBuffer) {
     EXPECT_FALSE(small.window);
     EXPECT_EQ(small.sum_pixels, 100u);
     EXPECT_EQ(small.slots, 100u);
-    EXPECT_EQ(small.bytes, (100u * 2 + 100u * 6 + 1) * 16);
+    EXPECT_EQ(small.bytes, (100u * 2 + 100u * 6 + 1 + 50) * 16);  // 50: the sample plan
     // 1024^2 under 128 MiB: all sums (32 MiB), the path state fitted beside them.
     const AccumLayout k1 = accum_layout(1024 * 1024, 128 * mib);
     EXPECT_FALSE(k1.window);
     EXPECT_EQ(k1.sum_pixels, 1024u * 1024u);
     EXPECT_LE(k1.bytes, 128 * mib);
-    EXPECT_GT(k1.slots, 1000000u);
+    EXPECT_GT(k1.slots, 900000u);
     // 2048^2: the sums alone are 128 MiB: a window.
     const AccumLayout k2 = accum_layout(2048 * 2048, 128 * mib);
     EXPECT_TRUE(k2.window);
     EXPECT_EQ(k2.sum_pixels, k2.slots);
     EXPECT_LE(k2.bytes, 128 * mib);
     EXPECT_GT(k2.bytes, 127 * mib);
-    EXPECT_EQ(k2.pending_offset(), k2.bytes - 16);
+    EXPECT_EQ(k2.plan_offset() + k2.plan_bytes(), k2.bytes);
+    EXPECT_EQ(k2.pending_offset(), k2.plan_offset() - 16);
     // Unknown limit: everything, state capped at MAX_STATE_SLOTS.
     const AccumLayout big = accum_layout(4096 * 4096, 0);
     EXPECT_FALSE(big.window);

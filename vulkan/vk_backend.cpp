@@ -239,8 +239,11 @@ struct VulkanBackend::Impl {
                                    0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
         if (!accum.mapped) {
             // The sums (read_accum), or the pending word (dispatch), never the path state.
-            readback = dev->create_buffer(layout.sums_bytes(), VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                                          vk::kHostMemory, VK_MEMORY_PROPERTY_HOST_CACHED_BIT);
+            // Also the staging buffer of the sample plan (smaller than the sums).
+            readback = dev->create_buffer(
+                std::max(layout.sums_bytes(), layout.plan_bytes()),
+                VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                vk::kHostMemory, VK_MEMORY_PROPERTY_HOST_CACHED_BIT);
         }
         dev->begin_commands();
         dev->fn().vkCmdFillBuffer(dev->cmd(), accum.buffer, 0, VK_WHOLE_SIZE, 0);
@@ -350,6 +353,28 @@ struct VulkanBackend::Impl {
         return active;
     }
 
+    void write_plan(const std::vector<uint32_t>& words) {
+        if (pixels == 0) throw Error("vulkan: write_plan() before load()");
+        const uint64_t bytes = words.size() * 4;
+        if (bytes > accum_shape.plan_bytes())
+            throw Error("vulkan: a sample plan for more slots than the buffer holds");
+        if (bytes == 0) return;
+        if (accum.mapped) {
+            // Host-coherent: visible to the next submission.
+            std::memcpy(static_cast<char*>(accum.mapped) + accum_shape.plan_offset(), words.data(),
+                        size_t(bytes));
+            return;
+        }
+        // Not host-visible: through the readback buffer.
+        std::memcpy(readback.mapped, words.data(), size_t(bytes));
+        dev->begin_commands();
+        const VkBufferCopy region{0, accum_shape.plan_offset(), bytes};
+        dev->fn().vkCmdCopyBuffer(dev->cmd(), readback.buffer, accum.buffer, 1, &region);
+        dev->barrier(VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                     VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
+        dev->submit_and_wait();
+    }
+
     void read_accum(std::vector<float>& out, uint32_t count) {
         if (pixels == 0) throw Error("vulkan: read_accum() before load()");
         // The sums only (the path state after them stays on the device).
@@ -387,6 +412,9 @@ void VulkanBackend::load(const GpuScene& scene, int width, int height) {
 }
 uint32_t VulkanBackend::dispatch(const gpu::GpuParams& params) {
     return impl_->dispatch(params);
+}
+void VulkanBackend::write_plan(const std::vector<uint32_t>& words) {
+    impl_->write_plan(words);
 }
 void VulkanBackend::read_accum(std::vector<float>& out, uint32_t pixels) {
     impl_->read_accum(out, pixels);

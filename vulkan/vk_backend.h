@@ -42,6 +42,7 @@ class VulkanBackend final : public Backend {
     const DeviceInfo& device() const override;
     void load(const GpuScene& scene, int width, int height) override;
     uint32_t dispatch(const gpu::GpuParams& params) override;
+    void write_plan(const std::vector<uint32_t>& words) override;
     void read_accum(std::vector<float>& out, uint32_t pixels) override;
     // Seconds spent creating the compute pipeline in load().
     double compile_seconds() const override;

@@ -386,8 +386,20 @@ mcpt_status mcpt_session_set_sampler(mcpt_session s, const char* sampler) {
     });
 }
 
+mcpt_status mcpt_session_set_adaptive(mcpt_session s, int on) {
+    return with_session(s, MCPT_ERROR_INTERNAL, [&](Session& session) {
+        require(on == 0 || !session.settings().reproducible,
+                "adaptive sampling is not reproducible (its sample counts follow the noise): "
+                "turn reproducible rendering off first");
+        session.settings().adaptive = on != 0;
+        return MCPT_OK;
+    });
+}
+
 mcpt_status mcpt_session_set_reproducible(mcpt_session s, int on) {
     return with_session(s, MCPT_ERROR_INTERNAL, [&](Session& session) {
+        require(on == 0 || !session.settings().adaptive,
+                "adaptive sampling is not reproducible: turn it off first");
         session.settings().reproducible = on != 0;
         return MCPT_OK;
     });

@@ -458,11 +458,12 @@ MCPT_FN SlotStep step_slot(SCENE_PARAMS_ PathState st, uint pixel, PixelSums sum
     return step;
 }
 
-// Where `pixel`'s sums and path state lie in the accumulation buffer, in vec4s, and the vec4
-// whose first word is the pending flag (layout in shared_types.h): the sums of every pixel, or
-// of the window's pixels from state_base when accum_window is set.
+// Where `pixel`'s sums and path state lie in the accumulation buffer, in vec4s, the vec4
+// whose first word is the pending flag, and the word of the pixel's sample plan (layout in
+// shared_types.h): the sums of every pixel, or of the window's pixels from state_base when
+// accum_window is set.
 MCPT_STRUCT(AccumPlace) {
-    uint sum, state, pending;
+    uint sum, state, pending, plan;
 };
 
 MCPT_FN AccumPlace accum_place(SCENE_PARAMS_ uint pixel) {
@@ -472,6 +473,7 @@ MCPT_FN AccumPlace accum_place(SCENE_PARAMS_ uint pixel) {
     at.sum = ACCUM_VEC4_PER_PIXEL * (pixel - (window ? PARAM(state_base) : 0u));
     at.state = ACCUM_VEC4_PER_PIXEL * sum_pixels + PATH_STATE_VEC4 * (pixel - PARAM(state_base));
     at.pending = ACCUM_VEC4_PER_PIXEL * sum_pixels + PATH_STATE_VEC4 * PARAM(state_slots);
+    at.plan = 4u * (at.pending + 1u) + PLAN_WORDS_PER_SLOT * (pixel - PARAM(state_base));
     return at;
 }
 

@@ -165,7 +165,10 @@ MCPT_STRUCT(GpuParams) {
     uint num_textures;
     uint texels_word;  // first word of the texels in the shading buffer
     uint scene_flags;  // SCENE_* below
-    uint pad_params;
+    // 1: a round's samples follow the sample plan (adaptive sampling): slot i's pixel takes
+    // plan[2i + 1] samples from sample index plan[2i]; 0: every pixel takes
+    // samples_per_dispatch samples from sample_offset.
+    uint sample_plan;
 };
 // GpuParams.scene_flags: the triangle buffer holds GpuTriangleAttributes after the triangles;
 // some material has an alpha mask (the traversal reads materials only then).
@@ -177,9 +180,12 @@ MCPT_STRUCT(GpuParams) {
 //   [2*i]   = sum of radiance (rgb), number of non-finite samples (w)
 //   [2*i+1] = sum of squared radiance (rgb), number of rays traced (w)
 // then the path state of state_slots slots (PATH_STATE_VEC4 vec4 each, integrator.h), then
-// one vec4 whose first word is set when a pixel still owes samples after a dispatch.
+// one vec4 whose first word is set when a pixel still owes samples after a dispatch, then the
+// sample plan: PLAN_WORDS_PER_SLOT words per slot (first sample index, samples), written by
+// the host before a round when GpuParams.sample_plan is set.
 #define ACCUM_VEC4_PER_PIXEL 2u
 #define PATH_STATE_VEC4 6u
+#define PLAN_WORDS_PER_SLOT 2u
 #define MAX_STATE_SLOTS 1048576u  // 96 MiB of path state at most
 
 MCPT_NAMESPACE_END

@@ -67,6 +67,9 @@ class Backend {
     // samples of the round (their paths continue in the next dispatch, round_start = 0).
     // Throws mcpt::DeviceLost when the device stops (lost, or out of resources executing).
     virtual uint32_t dispatch(const gpu::GpuParams& params) = 0;
+    // The sample plan of the first words.size() / PLAN_WORDS_PER_SLOT path-state slots
+    // (shared_types.h), which rounds with GpuParams.sample_plan set follow.
+    virtual void write_plan(const std::vector<uint32_t>& words) = 0;
     // The accumulation sums, ACCUM_VEC4_PER_PIXEL * 4 floats per pixel, of the first `pixels`
     // pixels the buffer holds (0: all; a window's tile may fill only part of it).
     virtual void read_accum(std::vector<float>& out, uint32_t pixels) = 0;

@@ -55,9 +55,13 @@ struct AccumLayout {
     bool window = false;
     uint32_t sum_pixels = 0;  // pixels whose sums the buffer holds (npix, or slots)
     uint32_t slots = 0;       // path-state slots: the largest tile
-    uint64_t bytes = 0;       // sums, path state and the pending word
+    uint64_t bytes = 0;       // sums, path state, the pending word and the sample plan
     uint64_t sums_bytes() const { return uint64_t(sum_pixels) * ACCUM_VEC4_PER_PIXEL * 16; }
-    uint64_t pending_offset() const { return bytes - 16; }
+    uint64_t pending_offset() const {
+        return sums_bytes() + uint64_t(slots) * PATH_STATE_VEC4 * 16;
+    }
+    uint64_t plan_offset() const { return pending_offset() + 16; }
+    uint64_t plan_bytes() const { return uint64_t(slots) * PLAN_WORDS_PER_SLOT * 4; }
 };
 AccumLayout accum_layout(uint64_t npix, uint64_t max_buffer_bytes);
 // ", accumulation in windows of N pixels" for a windowed layout (Backend::layout()), else "".

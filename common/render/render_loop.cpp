@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "common/error.h"
+#include "common/render/adaptive.h"
 #include "common/render/device_limits.h"
 
 namespace mcpt {
@@ -13,7 +14,7 @@ std::vector<float> RenderResult::mean_image() const {
     const size_t n = size_t(width) * size_t(height);
     std::vector<float> img(3 * n, 0.f);
     for (size_t i = 0; i < n; ++i) {
-        const double count = double(spp) - nonfinite[i];
+        const double count = pixel_samples(i) - nonfinite[i];
         for (int c = 0; c < 3; ++c)
             img[3 * i + c] = count > 0 ? float(sum[3 * i + c] / count) : 0.f;
     }
@@ -24,7 +25,7 @@ std::vector<float> RenderResult::std_error_image() const {
     const size_t n = size_t(width) * size_t(height);
     std::vector<float> err(3 * n, 0.f);
     for (size_t i = 0; i < n; ++i) {
-        const double count = double(spp) - nonfinite[i];
+        const double count = pixel_samples(i) - nonfinite[i];
         if (count < 2) continue;
         for (int c = 0; c < 3; ++c) {
             const double mean = sum[3 * i + c] / count;
@@ -97,6 +98,8 @@ ProgressiveRender::ProgressiveRender(Backend& backend, const GpuScene& scene, co
     windowed_ = layout.window;
     p_.accum_window = windowed_ ? 1u : 0u;
     if (windowed_) device_sums_.resize(size_t(npix_) * 8);
+    if (opt.adaptive && opt.group_spp > 0)
+        throw Error("adaptive sampling is not reproducible: its sample counts follow the noise");
     if (opt.group_spp > 0) {
         group_ = std::min(opt.group_spp, opt.flush_spp);
         settled_ = r_;
@@ -105,10 +108,27 @@ ProgressiveRender::ProgressiveRender(Backend& backend, const GpuScene& scene, co
     work_ = std::min<double>(npix_, 4096);
 }
 
-void ProgressiveRender::flush() {
-    if (unflushed_ == 0) return;
+void ProgressiveRender::read_device_sums() {
     // A windowed buffer's sums were read back tile by tile during the pass.
     if (!windowed_) backend_.read_accum(device_sums_, 0);
+}
+
+void ProgressiveRender::add_device_sums(RenderResult& to) const {
+    for (size_t i = 0; i < npix_; ++i) {
+        const float* a = &device_sums_[8 * i];
+        for (int c = 0; c < 3; ++c) {
+            to.sum[3 * i + c] += a[c];
+            to.sum_sq[3 * i + c] += a[4 + c];
+        }
+        to.nonfinite[i] += a[3];
+        to.nonfinite_total += uint64_t(a[3]);
+        to.rays += a[7];
+    }
+}
+
+void ProgressiveRender::flush() {
+    if (unflushed_ == 0) return;
+    read_device_sums();
     // Reproducible, inside a group: the device keeps adding to its sums; show them on top of
     // the sums settled at the last group end.
     const bool group_end = group_ == 0 || unflushed_ >= group_;
@@ -116,17 +136,9 @@ void ProgressiveRender::flush() {
         r_.sum = settled_.sum, r_.sum_sq = settled_.sum_sq, r_.nonfinite = settled_.nonfinite;
         r_.rays = settled_.rays, r_.nonfinite_total = settled_.nonfinite_total;
     }
-    RenderResult& add_to = group_ > 0 && group_end ? settled_ : r_;
-    for (size_t i = 0; i < npix_; ++i) {
-        const float* a = &device_sums_[8 * i];
-        for (int c = 0; c < 3; ++c) {
-            add_to.sum[3 * i + c] += a[c];
-            add_to.sum_sq[3 * i + c] += a[4 + c];
-        }
-        add_to.nonfinite[i] += a[3];
-        add_to.nonfinite_total += uint64_t(a[3]);
-        add_to.rays += a[7];
-    }
+    add_device_sums(group_ > 0 && group_end ? settled_ : r_);
+    // Adaptive, warming up: keep the sums of the warm-up's first half (adaptive.h).
+    if (opt_.adaptive && r_.spp == kAdaptiveWarmupSpp / 2) half_ = r_;
     if (group_end) {
         if (group_ > 0) {
             settled_.spp = r_.spp;
@@ -168,14 +180,21 @@ void ProgressiveRender::restore(const RenderResult& saved) {
 }
 
 uint32_t ProgressiveRender::pass(uint64_t max_spp) {
-    using clock = std::chrono::steady_clock;
+    // Adaptive, after the warm-up: samples where the noise is.
+    if (opt_.adaptive && r_.spp >= kAdaptiveWarmupSpp) return adaptive_pass(max_spp);
     // Every pixel gets `spp` more samples, in tiles of at most `work` pixel-samples (and at
     // most the path-state slots).
     // A windowed buffer is read back whole every pass: passes of about a second amortize that
     // (the tiles stay sized to the dispatch target; paths continue across dispatches).
     const double work = windowed_ ? work_ * 1e3 / opt_.dispatch_ms : work_;
-    // At most up to the next flush (reproducible: the next group end).
-    const uint32_t until_flush = (group_ > 0 ? group_ : opt_.flush_spp) - unflushed_;
+    // At most up to the next flush (reproducible: the next group end; adaptive: the end of
+    // either half of the warm-up).
+    uint32_t until_flush = (group_ > 0 ? group_ : opt_.flush_spp) - unflushed_;
+    if (opt_.adaptive) {
+        const uint64_t half = kAdaptiveWarmupSpp / 2;
+        until_flush =
+            uint32_t(std::min<uint64_t>(until_flush, (r_.spp < half ? half : 2 * half) - r_.spp));
+    }
     uint32_t spp = uint32_t(std::clamp(std::floor(work / npix_), 1.0, double(until_flush)));
     if (windowed_ && group_ > 0) {
         // Reproducible through a window, whose sums restart every pass: a pass renders a whole
@@ -187,23 +206,82 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
         spp = group_;
     }
     spp = uint32_t(std::max<uint64_t>(1, std::min<uint64_t>(spp, max_spp)));
-    const uint32_t slots = slots_;
-    uint32_t tile = uint32_t(std::clamp(work_ / spp, 64.0, double(std::min(npix_, slots))));
+    const double dispatch_s = run_tiles(tile_for(spp), spp, uint32_t(r_.spp), nullptr);
+    r_.spp += spp;
+    unflushed_ += spp;
+    // Retarget the dispatch size from this pass's dispatch rate (read-backs of a window are
+    // not dispatches: counting them would shrink the tiles they are amortized over).
+    const double rate = double(spp) * npix_ / std::max(dispatch_s, 1e-6);
+    work_ = std::clamp(rate * opt_.dispatch_ms * 1e-3, 64.0, 64.0 * npix_);
+    if (unflushed_ >= (group_ > 0 ? group_ : opt_.flush_spp) || windowed_ || opt_.adaptive) flush();
+    return spp;
+}
+
+uint32_t ProgressiveRender::adaptive_pass(uint64_t max_spp) {
+    // After the warm-up: sigma from its two halves, once (adaptive.h).
+    if (sigma_.empty()) {
+        sigma_ = adaptive_sigma(half_, r_);
+        half_ = RenderResult{};
+        r_.samples.assign(npix_, double(r_.spp));
+    }
+    // The pass's samples: half of those so far (early passes re-plan often), at most about a
+    // second's worth and flush_spp / 4 per pixel on average; one pixel takes at most 4
+    // flush_spp (its device float sum stays short).
+    double total = 0;
+    for (double n : r_.samples) total += n;
+    const double mean_cap = std::max(1.0, opt_.flush_spp / 4.0);
+    double budget = std::min({0.5 * total, work_ * 1e3 / opt_.dispatch_ms, mean_cap * npix_});
+    if (max_spp != UINT64_MAX) budget = std::min(budget, double(max_spp) * npix_);
+    budget = std::max(budget, double(npix_));
+    const double mean = budget / npix_;
+    plan_ = plan_samples(sigma_, r_.samples, uint64_t(budget), 4 * opt_.flush_spp);
+    // Rounds sized to the mean; pixels that take more continue in further dispatches.
+    const uint32_t spp = uint32_t(std::ceil(mean));
+    const double dispatch_s = run_tiles(tile_for(spp), spp, 0, &plan_);
+    read_device_sums();
+    add_device_sums(r_);
+    double added = 0;
+    for (size_t i = 0; i < npix_; ++i) r_.samples[i] += plan_[i], added += plan_[i];
+    r_.spp = uint64_t((total + added) / double(npix_) + 1e-9);
+    work_ = std::clamp(added / std::max(dispatch_s, 1e-6) * opt_.dispatch_ms * 1e-3, 64.0,
+                       64.0 * npix_);
+    flushed_ = true;
+    flushed_at_ = std::chrono::steady_clock::now();
+    return spp;
+}
+
+uint32_t ProgressiveRender::tile_for(uint32_t spp) const {
+    return uint32_t(std::clamp(work_ / spp, 64.0, double(std::min(npix_, slots_))));
+}
+
+double ProgressiveRender::run_tiles(uint32_t tile, uint32_t spp, uint32_t first,
+                                    const std::vector<uint32_t>* plan) {
+    using clock = std::chrono::steady_clock;
     // Tiles of equal size (no sliver at the end).
     const uint32_t tiles = (npix_ + tile - 1) / tile;
     tile = (npix_ + tiles - 1) / tiles;
     const uint32_t cap = std::max(1u, backend_.max_bounces_per_dispatch());
     const double target_s = opt_.dispatch_ms * 1e-3;
-    p_.sample_offset = uint32_t(r_.spp);
+    p_.sample_offset = first;
     p_.samples_per_dispatch = spp;
+    p_.sample_plan = plan ? 1u : 0u;
     // A window is overwritten by each tile's round and read back after it.
     p_.accumulate = unflushed_ > 0 && !windowed_ ? 1u : 0u;
-    p_.state_slots = slots;
+    p_.state_slots = slots_;
     const auto start = clock::now();
     double dispatch_s = 0;  // this pass's dispatches, without read-backs
     for (uint32_t offset = 0; offset < npix_; offset += tile) {
         p_.pixel_offset = p_.state_base = offset;
         p_.pixel_count = std::min(tile, npix_ - offset);
+        if (plan) {
+            // The tile's plan, by slot: each pixel's first sample index and its samples.
+            plan_words_.resize(size_t(p_.pixel_count) * PLAN_WORDS_PER_SLOT);
+            for (uint32_t k = 0; k < p_.pixel_count; ++k) {
+                plan_words_[2 * k] = uint32_t(r_.samples[offset + k]);
+                plan_words_[2 * k + 1] = (*plan)[offset + k];
+            }
+            backend_.write_plan(plan_words_);
+        }
         // A round: start the tile's samples, continue their paths until none is left.
         p_.round_start = 1;
         for (uint32_t active = 1; active > 0; p_.round_start = 0) {
@@ -231,14 +309,7 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
         }
     }
     last_pass_s_ = std::chrono::duration<double>(clock::now() - start).count();
-    r_.spp += spp;
-    unflushed_ += spp;
-    // Retarget the dispatch size from this pass's dispatch rate (read-backs of a window are
-    // not dispatches: counting them would shrink the tiles they are amortized over).
-    const double rate = double(spp) * npix_ / std::max(dispatch_s, 1e-6);
-    work_ = std::clamp(rate * opt_.dispatch_ms * 1e-3, 64.0, 64.0 * npix_);
-    if (unflushed_ >= (group_ > 0 ? group_ : opt_.flush_spp) || windowed_) flush();
-    return spp;
+    return dispatch_s;  // last_pass_s_: the caller's pass may have more to it
 }
 
 double ProgressiveRender::median_dispatch_seconds() const {

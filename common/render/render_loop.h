@@ -30,19 +30,27 @@ struct RenderOptions {
     // the group so far on top of a copy of the sums (the image stays current; twice the host
     // memory). 0: every flush() moves the device sums into the double sums.
     uint32_t group_spp = 0;
+    // Adaptive sampling: after kAdaptiveWarmupSpp samples everywhere, each pass gives pixels
+    // samples in proportion to their estimated noise, unbiased (adaptive.h); spp is then the
+    // mean over pixels, and RenderResult::samples holds each pixel's count. Not with group_spp.
+    bool adaptive = false;
     // Optional early stop, asked after every flush; when set, every pass is flushed.
     std::function<bool(const RenderResult&)> stop_when;
 };
 
 struct RenderResult {
     int width = 0, height = 0;
-    uint64_t spp = 0;               // samples per pixel taken
+    uint64_t spp = 0;               // samples per pixel taken (adaptive: the mean, rounded down)
     double seconds = 0;             // wall time of the dispatch loop
     std::vector<double> sum;        // 3 per pixel: sum of finite samples
     std::vector<double> sum_sq;     // 3 per pixel: sum of squared finite samples
     std::vector<double> nonfinite;  // per pixel: non-finite samples (counted, not added)
+    std::vector<double> samples;    // per pixel: samples taken (adaptive); empty: spp each
     double rays = 0;                // rays traced
     uint64_t nonfinite_total = 0;
+
+    // Samples pixel i took, non-finite ones included.
+    double pixel_samples(size_t i) const { return samples.empty() ? double(spp) : samples[i]; }
 
     // Mean radiance per pixel (3 floats), the image.
     std::vector<float> mean_image() const;
@@ -94,6 +102,18 @@ class ProgressiveRender {
     const RenderResult& result() const { return r_; }
 
   private:
+    // A pass of adaptive sampling after the warm-up (adaptive.h).
+    uint32_t adaptive_pass(uint64_t max_spp);
+    // Rounds over tiles of `tile` pixels: `spp` samples each from sample index `first`, or
+    // plan[i] samples for pixel i from its own count on; the sums of a window are read back
+    // after each. Returns the seconds spent in dispatches.
+    double run_tiles(uint32_t tile, uint32_t spp, uint32_t first,
+                     const std::vector<uint32_t>* plan);
+    // Pixels per round for `spp` samples each: about one dispatch's work, within the slots.
+    uint32_t tile_for(uint32_t spp) const;
+    // The device sums into device_sums_ (a window's are there already), then added to `to`.
+    void read_device_sums();
+    void add_device_sums(RenderResult& to) const;
     Backend& backend_;
     RenderOptions opt_;
     gpu::GpuParams p_{};
@@ -112,7 +132,15 @@ class ProgressiveRender {
     bool flushed_ = false;
     std::chrono::steady_clock::time_point flushed_at_;
     std::vector<float> window_sums_;
+    // Adaptive sampling: the sums of the warm-up's first half, sigma per pixel (adaptive.h),
+    // this pass's plan and one tile's plan words.
+    RenderResult half_;
+    std::vector<double> sigma_;
+    std::vector<uint32_t> plan_, plan_words_;
 };
+
+// Adaptive sampling starts once every pixel has this many samples.
+constexpr uint32_t kAdaptiveWarmupSpp = 16;
 
 // Host memory the accumulators of one pixel take: ProgressiveRender refuses an image that
 // needs more than half of host_memory_available() (common/io/host_memory.h).

@@ -33,6 +33,7 @@ Fingerprint fingerprint(const Session& session) {
             {"specialize", s.specialize ? "on" : "off"},
             {"sampler", s.sampler},
             {"reproducible", s.reproducible ? "on" : "off"},
+            {"adaptive", s.adaptive ? "on" : "off"},
             {"light_scale", scale},
             {"device", session.device().backend + ": " + session.device().name}};
 }
@@ -41,8 +42,8 @@ bool same(const SessionSettings& a, const SessionSettings& b) {
     return a.width == b.width && a.height == b.height && a.max_depth == b.max_depth &&
            a.tree == b.tree && a.tree_depth == b.tree_depth && a.seed == b.seed &&
            a.specialize == b.specialize && a.sampler == b.sampler &&
-           a.reproducible == b.reproducible && a.dispatch_ms == b.dispatch_ms &&
-           a.light_scale == b.light_scale;
+           a.reproducible == b.reproducible && a.adaptive == b.adaptive &&
+           a.dispatch_ms == b.dispatch_ms && a.light_scale == b.light_scale;
 }
 }  // namespace
 
@@ -77,6 +78,10 @@ void Session::commit() {
         throw Error("dispatch time and light scale must be positive");
     if (s.sampler != "sobol" && s.sampler != "independent")
         throw Error("unknown sampler '" + s.sampler + "' (sobol or independent)");
+    if (s.adaptive && s.reproducible)
+        throw Error(
+            "adaptive sampling is not reproducible (its sample counts follow the noise): "
+            "turn one of them off");
     progressive_.reset();
     dirty_ = true;
     // Tree, layout, limits; then compile and upload.
@@ -93,6 +98,7 @@ void Session::commit() {
     ro.light_scale = s.light_scale;
     ro.dispatch_ms = s.dispatch_ms;
     if (s.reproducible) ro.group_spp = kReproducibleGroupSpp;
+    ro.adaptive = s.adaptive;
     progressive_ = std::make_unique<ProgressiveRender>(*backend_, prepared_, scene_.camera, ro);
     committed_settings_ = s;
     dirty_ = false;
@@ -191,6 +197,10 @@ void Session::write_image(const std::string& path) const {
 
 void Session::save_checkpoint(const std::string& path) {
     if (!progressive_ || result().spp == 0) throw Error("nothing rendered yet: no checkpoint");
+    if (committed_settings_.adaptive)
+        throw Error(
+            "checkpoints keep one sample count for every pixel: an adaptive render "
+            "has none to keep");
     if (!settings_.reproducible) progressive_->flush();
     RenderResult settled = progressive_->settled();  // with the render time of every call
     settled.seconds = result().seconds;

@@ -34,6 +34,9 @@ struct SessionSettings {
     // so the image depends only on the seed, the sample count and the device, not on how
     // passes were timed: checkpoints resume bit for bit (render_loop.h, group_spp).
     bool reproducible = false;
+    // Adaptive sampling (render_loop.h): samples where the estimated noise is; spp is then
+    // the mean over pixels. Not with `reproducible`, nor in checkpoints.
+    bool adaptive = false;
     double dispatch_ms = 30;  // target duration of one dispatch
     float light_scale = 1.f;  // negative controls only
 };

@@ -159,6 +159,12 @@ MCPT_API mcpt_status mcpt_session_set_sampler(mcpt_session session, const char* 
  * and the device, not on how passes were timed; a checkpoint then resumes bit for bit (twice
  * the host memory). Default 0. */
 MCPT_API mcpt_status mcpt_session_set_reproducible(mcpt_session session, int on);
+/* 1: adaptive sampling: after 16 samples everywhere, each pass gives the pixels samples in
+ * proportion to their estimated noise (the least squared error for the samples spent); "spp"
+ * is then the mean over pixels, and the error estimate uses each pixel's own count. Not with
+ * reproducible rendering (turning on one while the other is on: MCPT_ERROR_INVALID_ARGUMENT),
+ * nor with checkpoints (MCPT_ERROR_IO). Default 0. */
+MCPT_API mcpt_status mcpt_session_set_adaptive(mcpt_session session, int on);
 
 /* Prepares and compiles the scene for the device now instead of in the next render. */
 MCPT_API mcpt_status mcpt_session_commit(mcpt_session session);
