@@ -30,13 +30,13 @@ std::vector<float> render_image(const std::string& api, uint64_t max_buffer_byte
 }
 
 TEST_P(AccumWindow, WindowedBufferGivesTheWholeImageBuffersImage) {
-    const uint64_t small = 64 << 10;  // 64 KiB: windows of 511 pixels, 4 tiles of 480
+    const uint64_t small = 64 << 10;  // 64 KiB: windows of 481 pixels, 4 tiles of 480
     ASSERT_TRUE(accum_layout(48 * 40, small).window);
     std::string whole_layout, window_layout;
     const std::vector<float> whole = render_image(GetParam(), 0, &whole_layout);
     const std::vector<float> windowed = render_image(GetParam(), small, &window_layout);
     EXPECT_EQ(whole_layout.find("window"), std::string::npos) << whole_layout;
-    EXPECT_NE(window_layout.find("accumulation in windows of 511 pixels"), std::string::npos)
+    EXPECT_NE(window_layout.find("accumulation in windows of 481 pixels"), std::string::npos)
         << window_layout;
     EXPECT_EQ(whole, windowed);
 }
