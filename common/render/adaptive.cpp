@@ -7,7 +7,8 @@
 
 namespace mcpt {
 
-std::vector<double> adaptive_sigma(const RenderResult& first_half, const RenderResult& warm_up) {
+std::vector<double> adaptive_sigma(const RenderResult& first_half, const RenderResult& warm_up,
+                                   bool own_noise) {
     const int w = warm_up.width, h = warm_up.height;
     const size_t npix = size_t(w) * size_t(h);
     if (first_half.width != w || first_half.height != h || warm_up.sum.size() != 3 * npix ||
@@ -24,6 +25,10 @@ std::vector<double> adaptive_sigma(const RenderResult& first_half, const RenderR
             const double b = (warm_up.sum[3 * i + c] - first_half.sum[3 * i + c]) / n2;
             diff[i] += (a - b) * (a - b) / 3;
         }
+    }
+    if (own_noise) {
+        for (size_t i = 0; i < npix; ++i) sigma[i] = std::sqrt(diff[i]);
+        return sigma;
     }
     // The mean over the pixel's neighbours within kAdaptiveRadius (a summed-area table),
     // the pixel itself left out (a 1x1 image has none: sigma 0, every pixel alike).

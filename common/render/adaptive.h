@@ -33,7 +33,10 @@ namespace mcpt {
 // over the pixel's neighbours within kAdaptiveRadius and the channels, of (mean of the warm-up's
 // first half - mean of its second half)^2. `first_half` holds the sums of the first half of the
 // warm-up, `warm_up` those of all of it.
-std::vector<double> adaptive_sigma(const RenderResult& first_half, const RenderResult& warm_up);
+// With `own_noise` (a negative control for the tests), the pixel's own difference instead:
+// its count then follows its own samples, and its mean is biased.
+std::vector<double> adaptive_sigma(const RenderResult& first_half, const RenderResult& warm_up,
+                                   bool own_noise = false);
 
 // Samples per pixel for the next pass, at most `budget` in all (or one pixel's step): each
 // pixel takes a step of its count so far (`counts`) again, at most `max_step` (a power of two:

@@ -220,7 +220,7 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
 uint32_t ProgressiveRender::adaptive_pass(uint64_t max_spp) {
     // After the warm-up: sigma from its two halves, once (adaptive.h).
     if (sigma_.empty()) {
-        sigma_ = adaptive_sigma(half_, r_);
+        sigma_ = adaptive_sigma(half_, r_, opt_.adaptive_own_noise);
         half_ = RenderResult{};
         r_.samples.assign(npix_, double(r_.spp));
     }

@@ -34,6 +34,8 @@ struct RenderOptions {
     // samples in proportion to their estimated noise, unbiased (adaptive.h); spp is then the
     // mean over pixels, and RenderResult::samples holds each pixel's count. Not with group_spp.
     bool adaptive = false;
+    // Negative control only: sigma from the pixel's own warm-up (adaptive.h: biased).
+    bool adaptive_own_noise = false;
     // Optional early stop, asked after every flush; when set, every pass is flushed.
     std::function<bool(const RenderResult&)> stop_when;
 };
