@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <functional>
+#include <iterator>
 #include <random>
 #include <vector>
 
@@ -161,8 +162,8 @@ double sampling_p_value(const Lobe& lobe, const DirectionSampler& sampler) {
 }
 
 TEST(Microfacet, SampledDirectionsFollowTheirDensity) {
-    // Four lobes: each at a Sidak-corrected 1e-3 level.
-    const double level = 1.0 - std::pow(1.0 - 1e-3, 1.0 / 4.0);
+    // Each lobe at a Sidak-corrected 1e-3 level.
+    const double level = stats::sidak_level(1e-3, std::size(kLobes));
     for (const Lobe& lobe : kLobes) {
         const double p = sampling_p_value(lobe, device_sampler);
         EXPECT_GT(p, level) << lobe.name;
@@ -308,7 +309,7 @@ double dielectric_p_value(const Dielectric& c, const DielectricSampler& sampler)
 }
 
 TEST(Microfacet, RoughDielectricSamplingFollowsItsDensity) {
-    const double level = 1.0 - std::pow(1.0 - 1e-3, 1.0 / 4.0);
+    const double level = stats::sidak_level(1e-3, std::size(kDielectrics));
     for (const Dielectric& c : kDielectrics) {
         const double p = dielectric_p_value(c, rough_dielectric_sample_direction);
         EXPECT_GT(p, level) << c.name;
