@@ -60,13 +60,13 @@ std::vector<uint32_t> plan_samples(const std::vector<double>& sigma,
     double total = double(budget);
     for (double n : counts) total += n;
     const double floor_count = kAdaptiveFloor * total / double(npix);
-    // Each pixel's step (its count again, at most max_step), and the error it removes per
-    // sample; the pixels under the floor first.
+    // Each pixel's step s (its count n again, at most max_step), and the squared error it
+    // removes per sample, (sigma^2 / n - sigma^2 / (n + s)) / s; the pixels under the floor first.
     auto step = [&](size_t i) { return std::clamp(counts[i], 1.0, double(max_step)); };
     std::vector<std::pair<double, uint32_t>> order(npix);
     for (size_t i = 0; i < npix; ++i) {
         const double n = std::max(1.0, counts[i]);
-        const double removed = sigma[i] * sigma[i] / n * (1 - n / (n + step(i))) / step(i);
+        const double removed = sigma[i] * sigma[i] / (n * (n + step(i)));
         order[i] = {counts[i] < floor_count ? HUGE_VAL : removed, uint32_t(i)};
     }
     std::sort(order.begin(), order.end(), [](const auto& a, const auto& b) {

@@ -208,26 +208,25 @@ AccumLayout accum_layout(uint64_t npix, uint64_t max_buffer_bytes) {
     const uint64_t limit = max_buffer_bytes > 0 ? max_buffer_bytes / 16 : UINT64_MAX;
     const uint64_t sums = npix * ACCUM_VEC4_PER_PIXEL;
     const uint64_t min_slots = std::min<uint64_t>(npix, 4096);
-    // vec4s of n slots' path state and plan, with the pending vec4; the most slots in `room`.
+    // vec4s of n slots' path state and plan, with the pending vec4; the most slots in `room`
+    // vec4s when each also takes `extra` vec4s (a window's sums).
     auto slot_vec4s = [](uint64_t n) {
         return n * PATH_STATE_VEC4 + 1 + (n * PLAN_WORDS_PER_SLOT + 3) / 4;
     };
-    auto slots_in = [](uint64_t room) {
-        return room < 2 ? 0 : (room - 2) * 4 / (4 * PATH_STATE_VEC4 + PLAN_WORDS_PER_SLOT);
+    auto slots_in = [](uint64_t room, uint64_t extra) {
+        return room < 2 ? 0
+                        : (room - 2) * 4 / (4 * (PATH_STATE_VEC4 + extra) + PLAN_WORDS_PER_SLOT);
     };
     AccumLayout l;
     uint64_t slots = std::min<uint64_t>(npix, MAX_STATE_SLOTS);
     if (sums + slot_vec4s(min_slots) <= limit) {
         // Every pixel's sums, and as many slots as fit beside them.
-        slots = std::min(slots, slots_in(limit - sums));
+        slots = std::min(slots, slots_in(limit - sums, 0));
         l.sum_pixels = uint32_t(npix);
     } else {
         // A window: as many pixels as fit with their sums and slots (at least one workgroup;
         // an image over 2^32 pixels is refused before this).
-        const uint64_t per_pixel =
-            4 * (ACCUM_VEC4_PER_PIXEL + PATH_STATE_VEC4) + PLAN_WORDS_PER_SLOT;
-        slots =
-            std::min(slots, std::max<uint64_t>(limit < 2 ? 0 : (limit - 2) * 4 / per_pixel, 64));
+        slots = std::min(slots, std::max<uint64_t>(slots_in(limit, ACCUM_VEC4_PER_PIXEL), 64));
         l.window = true;
         l.sum_pixels = uint32_t(slots);
     }

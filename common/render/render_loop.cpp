@@ -209,10 +209,7 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
     const double dispatch_s = run_tiles(tile_for(spp), spp, uint32_t(r_.spp), nullptr);
     r_.spp += spp;
     unflushed_ += spp;
-    // Retarget the dispatch size from this pass's dispatch rate (read-backs of a window are
-    // not dispatches: counting them would shrink the tiles they are amortized over).
-    const double rate = double(spp) * npix_ / std::max(dispatch_s, 1e-6);
-    work_ = std::clamp(rate * opt_.dispatch_ms * 1e-3, 64.0, 64.0 * npix_);
+    retarget(double(spp) * npix_, dispatch_s);
     if (unflushed_ >= (group_ > 0 ? group_ : opt_.flush_spp) || windowed_ || opt_.adaptive) flush();
     return spp;
 }
@@ -243,11 +240,17 @@ uint32_t ProgressiveRender::adaptive_pass(uint64_t max_spp) {
     double added = 0;
     for (size_t i = 0; i < npix_; ++i) r_.samples[i] += plan_[i], added += plan_[i];
     r_.spp = uint64_t((total + added) / double(npix_) + 1e-9);
-    work_ = std::clamp(added / std::max(dispatch_s, 1e-6) * opt_.dispatch_ms * 1e-3, 64.0,
-                       64.0 * npix_);
+    retarget(added, dispatch_s);
     flushed_ = true;
     flushed_at_ = std::chrono::steady_clock::now();
     return spp;
+}
+
+void ProgressiveRender::retarget(double samples, double dispatch_s) {
+    // From this pass's dispatch rate (read-backs of a window are not dispatches: counting them
+    // would shrink the tiles they are amortized over).
+    const double rate = samples / std::max(dispatch_s, 1e-6);
+    work_ = std::clamp(rate * opt_.dispatch_ms * 1e-3, 64.0, 64.0 * npix_);
 }
 
 uint32_t ProgressiveRender::tile_for(uint32_t spp) const {
@@ -309,7 +312,7 @@ double ProgressiveRender::run_tiles(uint32_t tile, uint32_t spp, uint32_t first,
         }
     }
     last_pass_s_ = std::chrono::duration<double>(clock::now() - start).count();
-    return dispatch_s;  // last_pass_s_: the caller's pass may have more to it
+    return dispatch_s;
 }
 
 double ProgressiveRender::median_dispatch_seconds() const {

@@ -111,6 +111,8 @@ class ProgressiveRender {
     // after each. Returns the seconds spent in dispatches.
     double run_tiles(uint32_t tile, uint32_t spp, uint32_t first,
                      const std::vector<uint32_t>* plan);
+    // The work per dispatch (pixel-samples) from a pass's samples and its dispatch seconds.
+    void retarget(double samples, double dispatch_s);
     // Pixels per round for `spp` samples each: about one dispatch's work, within the slots.
     uint32_t tile_for(uint32_t spp) const;
     // The device sums into device_sums_ (a window's are there already), then added to `to`.
