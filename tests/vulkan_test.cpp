@@ -188,6 +188,58 @@ TEST(VulkanDispatch, SplitDispatchMatchesSingleDispatch) {
     EXPECT_LE(differ, single.size() / 200) << differ << " of " << single.size() << " values";
 }
 
+// The tree, triangles and shading data read through texel buffers (CPU devices' default) or
+// storage buffers: the same words, so the same sums, value for value.
+TEST(VulkanSceneReads, TexelAndStorageReadsGiveTheSameImage) {
+    SKIP_WITHOUT_VULKAN();
+    const Packed p = pack(make_builtin_scene("cornell"));  // tree, spheres, lights
+    ASSERT_GT(p.gpu.params.num_nodes, 1u);
+    auto run = [&](const char* reads, std::string& layout) {
+        BackendOptions o;
+        if (const char* e = std::getenv("MCPT_TEST_VULKAN_DEVICE")) o.device = e;
+        o.scene_reads = reads;
+        std::unique_ptr<Backend> vk = make_vulkan_backend(o);
+        const RenderResult r = render_on(*vk, p, 24, 8, 11);
+        layout = vk->layout();
+        return r.mean_image();
+    };
+    std::string texel_layout, storage_layout;
+    const std::vector<float> texel = run("texel", texel_layout);
+    const std::vector<float> storage = run("storage", storage_layout);
+    EXPECT_NE(texel_layout.find("texel buffers"), std::string::npos) << texel_layout;
+    EXPECT_EQ(storage_layout.find("texel buffers"), std::string::npos) << storage_layout;
+    ASSERT_EQ(texel.size(), storage.size());
+    // Two pipelines: a GPU compiler may round differently, as in
+    // SplitDispatchMatchesSingleDispatch.
+    size_t differ = 0;
+    for (size_t i = 0; i < texel.size(); ++i)
+        differ += std::abs(texel[i] - storage[i]) > 1e-3f * std::max(1.f, std::abs(texel[i]));
+    EXPECT_LE(differ, texel.size() / 200) << differ << " of " << texel.size() << " values";
+    RecordProperty("values_differing", std::to_string(differ));
+
+    // A scene over the phone's 65,536 texels (triangles far below the box) is read through
+    // the storage buffers, and a name other than texel or storage is refused.
+    Scene big = make_builtin_scene("cornell");
+    for (int i = 0; i < 14000; ++i) {
+        const glm::vec3 o(float(i % 100), -1000.f, float(i / 100));
+        big.triangles.push_back(
+            {o, o + glm::vec3(0.5f, 0.f, 0.f), o + glm::vec3(0.f, 0.f, 0.5f), 0});
+    }
+    const Packed pb = pack(std::move(big));
+    BackendOptions o;
+    if (const char* e = std::getenv("MCPT_TEST_VULKAN_DEVICE")) o.device = e;
+    o.scene_reads = "texel";
+    o.limits = "phone";
+    std::unique_ptr<Backend> phone = make_vulkan_backend(o);
+    const RenderResult r = render_on(*phone, pb, 8, 2, 1);
+    EXPECT_EQ(phone->layout().find("texel buffers"), std::string::npos) << phone->layout();
+    EXPECT_EQ(r.nonfinite_total, 0u);
+    o.limits = "";
+    o.scene_reads = "gather";
+    std::unique_ptr<Backend> bad = make_vulkan_backend(o);
+    EXPECT_THROW(render_on(*bad, p, 8, 1, 1), Error);
+}
+
 // (d) Same seed, same random stream: Vulkan and OpenCL agree pixel by pixel up to float
 // rounding (which can send a few paths elsewhere).
 TEST(VulkanVsOpenCl, SameSeedImagesAgree) {

@@ -17,6 +17,11 @@ namespace mcpt {
 
 using vk::Buffer;
 
+// The texel buffers' formats: two 32-bit words per texel (a k-d node; triangles as word
+// pairs), four for the shading buffer (spheres, materials and lights are whole 16-byte texels).
+constexpr VkFormat kPairFormat = VK_FORMAT_R32G32_UINT;
+constexpr VkFormat kQuadFormat = VK_FORMAT_R32G32B32A32_UINT;
+
 struct VulkanBackend::Impl {
     std::shared_ptr<vk::Instance> instance;
     size_t messages_before = 0;  // the shared instance's count when this backend began
@@ -35,6 +40,9 @@ struct VulkanBackend::Impl {
 
     // Scene resources, replaced by each load().
     Buffer params, tree, tris, shading, accum, readback;
+    VkBufferView tree_view = VK_NULL_HANDLE, tris_view = VK_NULL_HANDLE,
+                 shading_view = VK_NULL_HANDLE;
+    bool scene_texels = false;  // the pipeline reads the views, not the storage buffers
     uint32_t pixels = 0;
     uint64_t counter_offset = 0;  // bytes: the active-slot counter in the accumulation buffer
     AccumLayout accum_shape;      // what the accumulation buffer holds
@@ -43,6 +51,7 @@ struct VulkanBackend::Impl {
     uint32_t local = WORKGROUP_SIZE;
     uint32_t max_groups = 1;
     uint32_t built_stack = 0, built_features = 0;
+    bool built_texels = false;
     BackendOptions options;
     uint32_t dispatches = 0;  // counted for options.lose_device_after
     double compile_seconds = 0;
@@ -81,18 +90,27 @@ struct VulkanBackend::Impl {
         si.pCode = kPathtraceSpirv;
         VK_CHECK(f.vkCreateShaderModule, device, &si, nullptr, &module);
 
-        // Descriptor set layout: params uniform buffer, storage buffers at the BINDING_* slots.
-        VkDescriptorSetLayoutBinding bindings[BINDING_COUNT]{};
-        for (uint32_t b = 0; b < BINDING_COUNT; ++b) {
+        // The texel views' formats (required of every Vulkan device).
+        for (VkFormat format : {kPairFormat, kQuadFormat}) {
+            VkFormatProperties fp{};
+            instance->fn().vkGetPhysicalDeviceFormatProperties(pd.handle, format, &fp);
+            if (!(fp.bufferFeatures & VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT))
+                throw Error(description() + ": no uniform texel buffers of VkFormat " +
+                            std::to_string(format));
+        }
+
+        // Descriptor set layout: the params uniform buffer, storage buffers and texel buffers
+        // at the BINDING_* slots.
+        VkDescriptorSetLayoutBinding bindings[VK_BINDING_COUNT]{};
+        for (uint32_t b = 0; b < VK_BINDING_COUNT; ++b) {
             bindings[b].binding = b;
-            bindings[b].descriptorType = b == BINDING_PARAMS ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER
-                                                             : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+            bindings[b].descriptorType = descriptor_type(b);
             bindings[b].descriptorCount = 1;
             bindings[b].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
         }
         VkDescriptorSetLayoutCreateInfo li{};
         li.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
-        li.bindingCount = BINDING_COUNT;
+        li.bindingCount = VK_BINDING_COUNT;
         li.pBindings = bindings;
         VK_CHECK(f.vkCreateDescriptorSetLayout, device, &li, nullptr, &set_layout);
         VkPipelineLayoutCreateInfo pli{};
@@ -104,11 +122,12 @@ struct VulkanBackend::Impl {
         // Descriptor pool and the one set.
         const VkDescriptorPoolSize sizes[] = {
             {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-            {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, BINDING_COUNT - 1}};
+            {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, STORAGE_BUFFER_COUNT},
+            {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, TEXEL_BUFFER_COUNT}};
         VkDescriptorPoolCreateInfo dpi{};
         dpi.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
         dpi.maxSets = 1;
-        dpi.poolSizeCount = 2;
+        dpi.poolSizeCount = 3;
         dpi.pPoolSizes = sizes;
         VK_CHECK(f.vkCreateDescriptorPool, device, &dpi, nullptr, &descriptor_pool);
         VkDescriptorSetAllocateInfo dsi{};
@@ -152,29 +171,70 @@ struct VulkanBackend::Impl {
     }
 
     template <class T>
-    Buffer upload(const std::vector<T>& v) {
-        // Empty arrays get one dummy element: Vulkan has no empty buffers.
-        const T dummy{};
-        return v.empty() ? dev->upload(&dummy, sizeof(T))
-                         : dev->upload(v.data(), v.size() * sizeof(T));
+    Buffer upload(const std::vector<T>& v, VkBufferUsageFlags more_usage = 0) {
+        // Empty arrays get a dummy texel: Vulkan has no empty buffers.
+        const uint64_t dummy[2] = {};
+        return v.empty() ? dev->upload(dummy, sizeof(dummy), more_usage)
+                         : dev->upload(v.data(), v.size() * sizeof(T), more_usage);
+    }
+
+    static VkDescriptorType descriptor_type(uint32_t binding) {
+        if (binding == BINDING_PARAMS) return VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+        if (binding >= BINDING_COUNT) return VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
+        return VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    }
+
+    // Whether the pipeline should read the tree and triangles through texel buffers.
+    bool prefer_texels() const {
+        std::string reads = options.scene_reads;
+        if (reads.empty()) {
+            const char* e = std::getenv("MCPT_VULKAN_SCENE_READS");
+            reads = e ? e : "";
+        }
+        if (reads.empty()) return pd.props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
+        if (reads != "texel" && reads != "storage")
+            throw Error("vulkan: scene reads '" + reads + "': expected texel or storage");
+        return reads == "texel";
+    }
+
+    // A view of `words` words of `b` (padded to whole texels), `per_texel` words per texel,
+    // within the device's texel limit; whether all of them fit.
+    bool make_view(const Buffer& b, size_t words, uint32_t per_texel, VkBufferView& view) {
+        const uint64_t texels = std::max<uint64_t>(1, words / per_texel);
+        const uint64_t max_texels = pd.props.limits.maxTexelBufferElements;
+        VkBufferViewCreateInfo vi{};
+        vi.sType = VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO;
+        vi.buffer = b.buffer;
+        vi.format = per_texel == 2 ? kPairFormat : kQuadFormat;
+        vi.offset = 0;
+        vi.range = std::min(texels, max_texels) * per_texel * 4;
+        VK_CHECK(dev->fn().vkCreateBufferView, dev->handle(), &vi, nullptr, &view);
+        return texels <= max_texels;
     }
 
     void release_scene() {
+        for (VkBufferView* v : {&tree_view, &tris_view, &shading_view}) {
+            if (*v) dev->fn().vkDestroyBufferView(dev->handle(), *v, nullptr);
+            *v = VK_NULL_HANDLE;
+        }
         for (Buffer* b : {&params, &tree, &tris, &shading, &accum, &readback}) dev->free_buffer(*b);
         pixels = 0;
     }
 
-    void build(uint32_t stack_size, uint32_t features) {
-        if (pipeline && stack_size == built_stack && features == built_features) return;
+    void build(uint32_t stack_size, uint32_t features, bool texels) {
+        if (pipeline && stack_size == built_stack && features == built_features &&
+            texels == built_texels)
+            return;
         const vk::DeviceFns& f = dev->fn();
         if (pipeline) f.vkDestroyPipeline(dev->handle(), pipeline, nullptr);
         pipeline = VK_NULL_HANDLE;
         const auto t0 = std::chrono::steady_clock::now();
-        // Specialization: id 0 = KD_STACK_SIZE, id 1 = local_size_x, id 2 = MCPT_FEATURES.
-        const uint32_t values[3] = {stack_size, local, features};
-        const VkSpecializationMapEntry entries[3] = {{0, 0, 4}, {1, 4, 4}, {2, 8, 4}};
+        // Specialization: id 0 = KD_STACK_SIZE, id 1 = local_size_x, id 2 = MCPT_FEATURES,
+        // id 3 = SCENE_TEXELS.
+        const uint32_t values[4] = {stack_size, local, features, texels ? 1u : 0u};
+        const VkSpecializationMapEntry entries[4] = {{0, 0, 4}, {1, 4, 4}, {2, 8, 4}, {3, 12, 4}};
         VkSpecializationInfo spec{};
-        spec.mapEntryCount = 3;
+        spec.mapEntryCount = 4;
         spec.pMapEntries = entries;
         spec.dataSize = sizeof(values);
         spec.pData = values;
@@ -194,6 +254,7 @@ struct VulkanBackend::Impl {
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         built_stack = stack_size;
         built_features = features;
+        built_texels = texels;
 
         // Save the cache if the driver's data changed.
         if (cold) return;
@@ -221,17 +282,28 @@ struct VulkanBackend::Impl {
         dev->wait_idle();
         release_scene();
 
-        // Pipeline for this scene's stack depth and features.
-        build(scene.stack_size, compile_features(options, scene));
-
-        // Upload; the accumulation buffer is device-local, zeroed, read back directly when
+        // Upload; the tree, triangles and shading data also as texel buffers (padded to whole
+        // texels). The accumulation buffer is device-local, zeroed, read back directly when
         // host-visible and through a readback buffer otherwise.
         params = dev->create_buffer(sizeof(gpu::GpuParams), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
                                     vk::kHostMemory, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
         std::memcpy(params.mapped, &scene.params, sizeof(gpu::GpuParams));
-        tree = upload(tree_buffer(scene));
-        tris = upload(triangle_buffer(scene));
-        shading = upload(shading_buffer(scene));
+        std::vector<uint32_t> tree_words = tree_buffer(scene);
+        const std::vector<uint32_t> tri_words = triangle_buffer(scene);
+        std::vector<uint32_t> shading_words = shading_buffer(scene);
+        tree_words.resize((tree_words.size() + 1) / 2 * 2);
+        shading_words.resize((shading_words.size() + 3) / 4 * 4);
+        const VkBufferUsageFlags texel = VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT;
+        tree = upload(tree_words, texel);
+        tris = upload(tri_words, texel);
+        shading = upload(shading_words, texel);
+        const bool fits = make_view(tree, tree_words.size(), 2, tree_view) &
+                          make_view(tris, tri_words.size(), 2, tris_view) &
+                          make_view(shading, shading_words.size(), 4, shading_view);
+        scene_texels = prefer_texels() && fits;
+
+        // Pipeline for this scene's stack depth and features, and how it reads the scene.
+        build(scene.stack_size, compile_features(options, scene), scene_texels);
         accum = dev->create_buffer(accum_bytes,
                                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
                                        VK_BUFFER_USAGE_TRANSFER_SRC_BIT |
@@ -256,26 +328,33 @@ struct VulkanBackend::Impl {
         counter_offset = layout.pending_offset();
         accum_shape = layout;
 
-        // Descriptor set: every buffer at its BINDING_* slot.
+        // Descriptor set: every buffer and view at its BINDING_* slot.
         const Buffer* by_slot[BINDING_COUNT] = {};
         by_slot[BINDING_PARAMS] = &params;
         by_slot[BINDING_TREE] = &tree;
         by_slot[BINDING_TRIANGLES] = &tris;
         by_slot[BINDING_SHADING] = &shading;
         by_slot[BINDING_ACCUM] = &accum;
+        VkBufferView views[VK_BINDING_COUNT] = {};
+        views[BINDING_TREE_TEXELS] = tree_view;
+        views[BINDING_TRIANGLE_TEXELS] = tris_view;
+        views[BINDING_SHADING_TEXELS] = shading_view;
         VkDescriptorBufferInfo infos[BINDING_COUNT];
-        VkWriteDescriptorSet writes[BINDING_COUNT]{};
-        for (uint32_t b = 0; b < BINDING_COUNT; ++b) {
-            infos[b] = {by_slot[b]->buffer, 0, VK_WHOLE_SIZE};
+        VkWriteDescriptorSet writes[VK_BINDING_COUNT]{};
+        for (uint32_t b = 0; b < VK_BINDING_COUNT; ++b) {
             writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
             writes[b].dstSet = set;
             writes[b].dstBinding = b;
             writes[b].descriptorCount = 1;
-            writes[b].descriptorType = b == BINDING_PARAMS ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER
-                                                           : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-            writes[b].pBufferInfo = &infos[b];
+            writes[b].descriptorType = descriptor_type(b);
+            if (b < BINDING_COUNT) {
+                infos[b] = {by_slot[b]->buffer, 0, VK_WHOLE_SIZE};
+                writes[b].pBufferInfo = &infos[b];
+            } else {
+                writes[b].pTexelBufferView = &views[b];
+            }
         }
-        dev->fn().vkUpdateDescriptorSets(dev->handle(), BINDING_COUNT, writes, 0, nullptr);
+        dev->fn().vkUpdateDescriptorSets(dev->handle(), VK_BINDING_COUNT, writes, 0, nullptr);
     }
 
     uint32_t dispatch(const gpu::GpuParams& p) {
@@ -441,7 +520,9 @@ size_t VulkanBackend::validation_messages() const {
     return impl_->instance->messages() - impl_->messages_before;
 }
 std::string VulkanBackend::layout() const {
-    return vk::layout_line(impl_->pd.props.limits) + window_note(impl_->accum_shape);
+    return vk::layout_line(impl_->pd.props.limits) +
+           (impl_->scene_texels ? ", scene read as texel buffers" : "") +
+           window_note(impl_->accum_shape);
 }
 uint32_t VulkanBackend::local_size() const {
     return impl_->local;

@@ -26,6 +26,7 @@ namespace mcpt::vk {
     X(vkGetPhysicalDeviceProperties2)           \
     X(vkGetPhysicalDeviceQueueFamilyProperties) \
     X(vkGetPhysicalDeviceMemoryProperties)      \
+    X(vkGetPhysicalDeviceFormatProperties)      \
     X(vkEnumerateDeviceExtensionProperties)     \
     X(vkCreateDevice)                           \
     X(vkGetDeviceProcAddr)
@@ -37,6 +38,8 @@ namespace mcpt::vk {
     X(vkDeviceWaitIdle)              \
     X(vkCreateBuffer)                \
     X(vkDestroyBuffer)               \
+    X(vkCreateBufferView)            \
+    X(vkDestroyBufferView)           \
     X(vkGetBufferMemoryRequirements) \
     X(vkAllocateMemory)              \
     X(vkFreeMemory)                  \

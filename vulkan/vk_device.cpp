@@ -128,10 +128,10 @@ void Device::free_buffer(Buffer& b) {
     b = Buffer{};
 }
 
-Buffer Device::upload(const void* data, size_t bytes) {
-    Buffer b =
-        create_buffer(bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                      0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+Buffer Device::upload(const void* data, size_t bytes, VkBufferUsageFlags more_usage) {
+    Buffer b = create_buffer(
+        bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT | more_usage, 0,
+        VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
     if (b.mapped) {
         std::memcpy(b.mapped, data, bytes);
         return b;

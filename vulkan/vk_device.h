@@ -36,9 +36,9 @@ class Device {
     Buffer create_buffer(VkDeviceSize size, VkBufferUsageFlags usage,
                          VkMemoryPropertyFlags required, VkMemoryPropertyFlags preferred);
     void free_buffer(Buffer& b);
-    // A device-local storage buffer holding these bytes (through a staging buffer when that
-    // memory is not host-visible).
-    Buffer upload(const void* data, size_t bytes);
+    // A device-local storage buffer (with these further usages) holding these bytes, through a
+    // staging buffer when that memory is not host-visible.
+    Buffer upload(const void* data, size_t bytes, VkBufferUsageFlags more_usage = 0);
 
     // Resets and begins cmd(); submit_and_wait() ends, submits and waits on the fence.
     void begin_commands();

@@ -28,6 +28,8 @@ void apply_limits_profile(PhysicalDevice& d, const std::string& profile) {
     auto clamp = [](uint32_t& v, uint32_t most) { v = std::min(v, most); };
     clamp(l.maxPerStageDescriptorStorageBuffers, 4);
     clamp(l.maxPerStageDescriptorUniformBuffers, 12);
+    clamp(l.maxPerStageDescriptorSampledImages, 16);
+    clamp(l.maxTexelBufferElements, 65536);
     clamp(l.maxBoundDescriptorSets, 4);
     clamp(l.maxComputeWorkGroupInvocations, 128);
     clamp(l.maxComputeWorkGroupSize[0], 128);
@@ -60,6 +62,9 @@ void check_layout(const VkPhysicalDeviceLimits& l, const std::string& device) {
     if (l.maxPerStageDescriptorStorageBuffers < STORAGE_BUFFER_COUNT)
         refuse("storage buffers per stage", STORAGE_BUFFER_COUNT,
                "maxPerStageDescriptorStorageBuffers", l.maxPerStageDescriptorStorageBuffers);
+    if (l.maxPerStageDescriptorSampledImages < TEXEL_BUFFER_COUNT)
+        refuse("texel buffers per stage", TEXEL_BUFFER_COUNT, "maxPerStageDescriptorSampledImages",
+               l.maxPerStageDescriptorSampledImages);
     if (l.maxPerStageDescriptorUniformBuffers < 1)
         refuse("uniform buffer", 1, "maxPerStageDescriptorUniformBuffers",
                l.maxPerStageDescriptorUniformBuffers);

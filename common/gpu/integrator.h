@@ -54,7 +54,7 @@ MCPT_FN SurfacePoint surface_at(SCENE_PARAMS_ Ray ray, Hit hit) {
     s.dpdv = V3S(0.0f);
     if (HAS_FEATURE(FEATURE_SPHERES) && (hit.prim & SPHERE_BIT) != 0u) {
         // Sphere: reproject onto the surface, error bound from pbrt-v4.
-        GpuSphere sph = spheres[hit.prim & ~SPHERE_BIT];
+        GpuSphere sph = SPHERE(hit.prim & ~SPHERE_BIT);
         vec3 c = V3(sph.cx, sph.cy, sph.cz);
         vec3 rel = ray.o + ray.d * hit.t - c;
         rel = rel * (sph.radius / length(rel));
@@ -144,7 +144,7 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
     uint prim = (scaled - F32(slot)) < light.prob ? light.prim : LIGHT(light.alias).prim;
     if (HAS_FEATURE(FEATURE_SPHERE_LIGHTS) && (prim & LIGHT_SPHERE_BIT) != 0u) {
         // Sphere: uniform direction in the cone it subtends.
-        GpuSphere sph = spheres[prim & ~LIGHT_SPHERE_BIT];
+        GpuSphere sph = SPHERE(prim & ~LIGHT_SPHERE_BIT);
         vec3 c = V3(sph.cx, sph.cy, sph.cz);
         vec3 to_c = c - x;
         float r2 = sph.radius * sph.radius;
@@ -202,7 +202,7 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
 // `hit` from x, for the MIS weight of a BSDF-sampled ray.
 MCPT_FN float emitter_hit_pdf(SCENE_PARAMS_ vec3 x, Ray ray, Hit hit, SurfacePoint s) {
     if (HAS_FEATURE(FEATURE_SPHERE_LIGHTS) && (hit.prim & SPHERE_BIT) != 0u) {
-        return sphere_light_pdf(SCENE_ARGS_ spheres[hit.prim & ~SPHERE_BIT], x);
+        return sphere_light_pdf(SCENE_ARGS_ SPHERE(hit.prim & ~SPHERE_BIT), x);
     }
     float cos_l = -dot(s.ng, ray.d);
     vec3 to_l = s.p - x;
@@ -238,7 +238,6 @@ MCPT_STRUCT(PathState) {
     uint depth, rays, status;
     bool specular;
     uint sample_index, samples_left;  // this sample, and the samples this pixel still owes
-    uint steps;                       // bounces advance_path() ran in its last call
 };
 
 // The camera ray of `pixel`'s sample `sample_index` through a jittered point of the pixel.
@@ -262,144 +261,132 @@ MCPT_FN PathState start_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
     st.specular = true;
     st.sample_index = sample_index;
     st.samples_left = 1u;
-    st.steps = 0u;
     return st;
 }
 
-// Runs at most max_bounces bounces of the path (each: the next vertex, its emission,
-// next-event estimation, the BSDF sample, Russian roulette); a path still running afterwards
-// continues from the returned state.
-MCPT_FN PathState advance_path(SCENE_PARAMS_ PathState st, uint pixel, uint max_bounces) {
+// One bounce of a running path: the next vertex, its emission, next-event estimation, the
+// BSDF sample, Russian roulette. The path comes out ended, or running from its next ray.
+MCPT_FN PathState bounce_path(SCENE_PARAMS_ PathState st, uint pixel) {
     uint seed = PARAM(seed);
     float light_scale = PARAM(light_scale);
     Ray ray;
     ray.o = st.o;
     ray.d = st.d;
     ray.tmax = MCPT_FLT_MAX;
-    uint k = 0u;
-    for (; k < max_bounces; ++k) {
-        uint depth = st.depth;
-        // Find the next vertex.
-        Hit hit = trace_ray(SCENE_ARGS_ ray, false);
-        st.rays += 1u;
-        MCPT_COUNT_RAY(hit);
-        if (hit.status != 0u) {
-            st.status = PATH_INVALID;
-            break;
-        }
-        if (hit.prim == NO_HIT) {
-            st.status = PATH_ENDED;
-            break;
-        }
-        SurfacePoint s = surface_at(SCENE_ARGS_ ray, hit);
-        GpuMaterial m = MATERIAL(s.material);
-        if (HAS_FEATURE(FEATURE_TEXTURES)) m = textured_material(SCENE_ARGS_ m, s.uv);
-        vec3 wo = -ray.d;
-        bool front = dot(s.ng, wo) > 0.0f;
-        vec3 n = front ? s.ng : -s.ng;
-        // The shading normal on wo's side (interpolated, normal-mapped); the geometric one
-        // where it faces away from wo.
-        vec3 ns = n;
-        if (HAS_FEATURE(FEATURE_SHADING_NORMALS)) {
-            vec3 sn = s.ns;
-            if (HAS_FEATURE(FEATURE_TEXTURES) && m.tex_normal != NO_TEXTURE)
-                sn = normal_mapped(SCENE_ARGS_ m.tex_normal, s.uv, sn, s.dpdu, s.dpdv);
-            sn = front ? sn : -sn;
-            if (dot(sn, wo) > 0.0f) ns = sn;
-        }
+    uint depth = st.depth;
+    // Find the next vertex.
+    Hit hit = trace_ray(SCENE_ARGS_ ray, false);
+    st.rays += 1u;
+    MCPT_COUNT_RAY(hit);
+    if (hit.status != 0u) {
+        st.status = PATH_INVALID;
+        return st;
+    }
+    if (hit.prim == NO_HIT) {
+        st.status = PATH_ENDED;
+        return st;
+    }
+    SurfacePoint s = surface_at(SCENE_ARGS_ ray, hit);
+    GpuMaterial m = MATERIAL(s.material);
+    if (HAS_FEATURE(FEATURE_TEXTURES)) m = textured_material(SCENE_ARGS_ m, s.uv);
+    vec3 wo = -ray.d;
+    bool front = dot(s.ng, wo) > 0.0f;
+    vec3 n = front ? s.ng : -s.ng;
+    // The shading normal on wo's side (interpolated, normal-mapped); the geometric one
+    // where it faces away from wo.
+    vec3 ns = n;
+    if (HAS_FEATURE(FEATURE_SHADING_NORMALS)) {
+        vec3 sn = s.ns;
+        if (HAS_FEATURE(FEATURE_TEXTURES) && m.tex_normal != NO_TEXTURE)
+            sn = normal_mapped(SCENE_ARGS_ m.tex_normal, s.uv, sn, s.dpdu, s.dpdv);
+        sn = front ? sn : -sn;
+        if (dot(sn, wo) > 0.0f) ns = sn;
+    }
 
-        // Emission seen by this ray, MIS-weighted unless NEE could not have sampled it.
-        vec3 le = material_emission(m) * light_scale;
-        if (front && max_component(le) > 0.0f) {
-            float w = 1.0f;
-            if (!st.specular) {
-                w = power_heuristic(st.prev_pdf,
-                                    emitter_hit_pdf(SCENE_ARGS_ st.prev_p, ray, hit, s));
-            }
-            st.radiance += st.beta * le * w;
+    // Emission seen by this ray, MIS-weighted unless NEE could not have sampled it.
+    vec3 le = material_emission(m) * light_scale;
+    if (front && max_component(le) > 0.0f) {
+        float w = 1.0f;
+        if (!st.specular) {
+            w = power_heuristic(st.prev_pdf, emitter_hit_pdf(SCENE_ARGS_ st.prev_p, ray, hit, s));
         }
-        if (depth >= PARAM(max_depth)) {
-            st.status = PATH_ENDED;
-            break;
-        }
+        st.radiance += st.beta * le * w;
+    }
+    if (depth >= PARAM(max_depth)) {
+        st.status = PATH_ENDED;
+        return st;
+    }
 
-        vec4 ua = sample4(pixel, st.sample_index, 2u * depth + 1u, seed);
-        vec4 ub = sample4(pixel, st.sample_index, 2u * depth + 2u, seed);
+    vec4 ua = sample4(pixel, st.sample_index, 2u * depth + 1u, seed);
+    vec4 ub = sample4(pixel, st.sample_index, 2u * depth + 2u, seed);
 
-        // Next-event estimation at vertices with a smooth lobe.
-        if (has_smooth_lobe(m) && PARAM(num_lights) > 0u) {
-            LightSample ls = sample_light(SCENE_ARGS_ s.p, V3(ua.z, ua.x, ua.y));
-            // The light must lie on the same side of the shading and the geometric surface
-            // (else it would leak through), in front unless the material transmits.
-            float cos_s = dot(ns, ls.wi), cos_g = dot(n, ls.wi);
-            float cos_x = ABSF(cos_s);
+    // Next-event estimation at vertices with a smooth lobe.
+    if (has_smooth_lobe(m) && PARAM(num_lights) > 0u) {
+        LightSample ls = sample_light(SCENE_ARGS_ s.p, V3(ua.z, ua.x, ua.y));
+        // The light must lie on the same side of the shading and the geometric surface
+        // (else it would leak through), in front unless the material transmits.
+        float cos_s = dot(ns, ls.wi), cos_g = dot(n, ls.wi);
+        float cos_x = ABSF(cos_s);
 #ifdef MCPT_NEGATIVE_CONTROL_LEAK
-            bool side = cos_s > 0.0f;  // tests: a variant that lets light leak
+        bool side = cos_s > 0.0f;  // tests: a variant that lets light leak
 #else
-            bool side = is_transmissive(m) ? cos_s * cos_g > 0.0f : cos_s > 0.0f && cos_g > 0.0f;
+        bool side = is_transmissive(m) ? cos_s * cos_g > 0.0f : cos_s > 0.0f && cos_g > 0.0f;
 #endif
-            if (ls.valid && side) {
-                Ray shadow;
-                shadow.o = offset_ray_origin(s.p, s.p_error, s.ng, ls.wi);
-                shadow.d = offset_ray_origin(ls.p, ls.p_error, ls.n, -ls.wi) - shadow.o;
-                shadow.tmax = 1.0f - SHADOW_EPSILON;
-                Hit blocker = trace_ray(SCENE_ARGS_ shadow, true);
-                st.rays += 1u;
-                MCPT_COUNT_RAY(blocker);
-                if (blocker.status != 0u) {
-                    st.status = PATH_INVALID;
-                    break;
-                }
-                if (blocker.prim == NO_HIT) {
-                    BsdfEval e = eval_bsdf(m, ns, wo, ls.wi, front);
-                    float w = power_heuristic(ls.pdf, e.pdf);
-                    st.radiance += st.beta * e.f * ls.le * (light_scale * cos_x * w / ls.pdf);
-                }
+        if (ls.valid && side) {
+            Ray shadow;
+            shadow.o = offset_ray_origin(s.p, s.p_error, s.ng, ls.wi);
+            shadow.d = offset_ray_origin(ls.p, ls.p_error, ls.n, -ls.wi) - shadow.o;
+            shadow.tmax = 1.0f - SHADOW_EPSILON;
+            Hit blocker = trace_ray(SCENE_ARGS_ shadow, true);
+            st.rays += 1u;
+            MCPT_COUNT_RAY(blocker);
+            if (blocker.status != 0u) {
+                st.status = PATH_INVALID;
+                return st;
             }
-        }
-
-        // Sample the BSDF for the next direction.
-        BsdfSample bs = sample_bsdf(m, ns, wo, front, V3(ub.x, ub.y, ub.z));
-        // A direction on different sides of the shading and the geometric surface ends the
-        // path: light never leaks through the geometry.
-#ifndef MCPT_NEGATIVE_CONTROL_LEAK
-        if (HAS_FEATURE(FEATURE_SHADING_NORMALS) && dot(bs.wi, n) * dot(bs.wi, ns) <= 0.0f)
-            bs.valid = false;
-#endif
-        if (!bs.valid) {
-            st.status = PATH_ENDED;
-            break;
-        }
-        st.beta = st.beta * bs.weight;
-        st.eta_scale *= bs.eta2;
-        st.specular = bs.specular;
-        st.prev_pdf = bs.pdf;
-        st.prev_p = s.p;
-        ray.o = offset_ray_origin(s.p, s.p_error, s.ng, bs.wi);
-        ray.d = bs.wi;
-        ray.tmax = MCPT_FLT_MAX;
-        st.depth = depth + 1u;
-
-        // Russian roulette on the square root of the throughput (with the IOR scaling undone),
-        // as Cycles does: paths live longer than with the throughput itself, 14% less variance
-        // per sample for 10% more time on the Cornell box (docs/sampling.md). Tests build a
-        // biased variant that forgets to reweight survivors (MCPT_NEGATIVE_CONTROL_RR).
-        if (depth + 1u >= PARAM(rr_depth)) {
-            float survive = MINF(1.0f, sqrt(max_component(st.beta * st.eta_scale)));
-            if (ua.w >= survive) {
-                st.status = PATH_ENDED;
-                break;
+            if (blocker.prim == NO_HIT) {
+                BsdfEval e = eval_bsdf(m, ns, wo, ls.wi, front);
+                float w = power_heuristic(ls.pdf, e.pdf);
+                st.radiance += st.beta * e.f * ls.le * (light_scale * cos_x * w / ls.pdf);
             }
-#ifndef MCPT_NEGATIVE_CONTROL_RR
-            st.beta = st.beta / survive;
-#endif
         }
     }
-    // A loop the device cut short (neither ended nor out of budget): an invalid sample.
-    if (st.status == PATH_RUNNING && k < max_bounces) st.status = PATH_INVALID;
-    st.steps = st.status == PATH_RUNNING ? k : k + 1u;
-    st.o = ray.o;
-    st.d = ray.d;
+
+    // Sample the BSDF for the next direction.
+    BsdfSample bs = sample_bsdf(m, ns, wo, front, V3(ub.x, ub.y, ub.z));
+    // A direction on different sides of the shading and the geometric surface ends the
+    // path: light never leaks through the geometry.
+#ifndef MCPT_NEGATIVE_CONTROL_LEAK
+    if (HAS_FEATURE(FEATURE_SHADING_NORMALS) && dot(bs.wi, n) * dot(bs.wi, ns) <= 0.0f)
+        bs.valid = false;
+#endif
+    if (!bs.valid) {
+        st.status = PATH_ENDED;
+        return st;
+    }
+    st.beta = st.beta * bs.weight;
+    st.eta_scale *= bs.eta2;
+    st.specular = bs.specular;
+    st.prev_pdf = bs.pdf;
+    st.prev_p = s.p;
+    st.o = offset_ray_origin(s.p, s.p_error, s.ng, bs.wi);
+    st.d = bs.wi;
+    st.depth = depth + 1u;
+
+    // Russian roulette on the square root of the throughput (with the IOR scaling undone),
+    // as Cycles does: paths live longer than with the throughput itself, 14% less variance
+    // per sample for 10% more time on the Cornell box (docs/sampling.md). Tests build a
+    // biased variant that forgets to reweight survivors (MCPT_NEGATIVE_CONTROL_RR).
+    if (depth + 1u >= PARAM(rr_depth)) {
+        float survive = MINF(1.0f, sqrt(max_component(st.beta * st.eta_scale)));
+        if (ua.w >= survive) {
+            st.status = PATH_ENDED;
+            return st;
+        }
+#ifndef MCPT_NEGATIVE_CONTROL_RR
+        st.beta = st.beta / survive;
+#endif
+    }
     return st;
 }
 
@@ -407,7 +394,7 @@ MCPT_FN PathState advance_path(SCENE_PARAMS_ PathState st, uint pixel, uint max_
 // C++ build's oracle; devices run the same functions through step_slot()).
 MCPT_FN PathResult trace_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
     PathState st = start_path(SCENE_ARGS_ pixel, sample_index);
-    st = advance_path(SCENE_ARGS_ st, pixel, 0xffffffffu);
+    while (st.status == PATH_RUNNING) st = bounce_path(SCENE_ARGS_ st, pixel);
     if (st.status != PATH_ENDED) return path_result(V3S(quiet_nan()), st.rays);
     return path_result(st.radiance, st.rays);
 }
@@ -428,15 +415,17 @@ MCPT_STRUCT(SlotStep) {
 // each path that ends adds its sample to the pixel's sums (non-finite ones counted, never
 // added) and starts the pixel's next sample while the pixel owes samples. Samples are added
 // one by one in sample order onto the sums so far, so the float sums do not depend on how the
-// samples were split into dispatches (the reproducible mode relies on it).
+// samples were split into dispatches (the reproducible mode relies on it). One loop of one
+// bounce each: a lane whose path ended starts its next sample in the next iteration instead
+// of waiting for the longest path of its SIMD group or warp (path regeneration).
 MCPT_FN SlotStep step_slot(SCENE_PARAMS_ PathState st, uint pixel, PixelSums sums) {
     SlotStep step;
     step.sums = sums;
     uint budget = PARAM(bounce_budget);
     while (st.samples_left > 0u && budget > 0u) {
-        st = advance_path(SCENE_ARGS_ st, pixel, budget);
-        budget -= st.steps;
-        if (st.status == PATH_RUNNING) break;
+        st = bounce_path(SCENE_ARGS_ st, pixel);
+        budget -= 1u;
+        if (st.status == PATH_RUNNING) continue;
         vec3 l = st.status == PATH_ENDED ? st.radiance : V3S(quiet_nan());
         // Tests: poison every 4th sample of pixel 0 (NaN) and of pixel 1 (+Inf).
         if (HAS_FEATURE(FEATURE_TEST_NAN) && pixel <= 1u && (st.sample_index & 3u) == 0u)
@@ -510,7 +499,6 @@ MCPT_FN PathState unpack_state(PackedState p) {
     st.specular = (flags & 4u) != 0u;
     st.sample_index = float_as_uint(p.f.x);
     st.samples_left = float_as_uint(p.f.y);
-    st.steps = 0u;
     return st;
 }
 

@@ -57,6 +57,14 @@ MCPT_NAMESPACE_BEGIN
 #define BINDING_SHADING 3
 #define BINDING_ACCUM 4
 #define BINDING_COUNT 5
+// Vulkan only: the tree, triangle and shading buffers once more, as texel buffers (two 32-bit
+// words per texel; four for the shading buffer), read instead of the storage buffers where
+// the pipeline's SCENE_TEXELS is set: llvmpipe fetches a texel for 8 lanes with one vector
+// gather, where it reads a storage buffer lane by lane, each word behind its own branches.
+#define BINDING_TREE_TEXELS 5
+#define BINDING_TRIANGLE_TEXELS 6
+#define BINDING_SHADING_TEXELS 7
+#define VK_BINDING_COUNT 8
 #define SHADING_MATERIALS_WORD(num_spheres) (16u * (((num_spheres) + 1u) / 2u))
 #define SHADING_LIGHTS_WORD(num_spheres, num_materials) \
     (SHADING_MATERIALS_WORD(num_spheres) + 16u * (num_materials))
@@ -69,6 +77,7 @@ MCPT_NAMESPACE_BEGIN
 #define TEXTURE_WRAP_MIRROR 2u
 #define TEXTURE_NEAREST 16u  // GpuTexture.flags: wrap_s | wrap_t << 2 | TEXTURE_NEAREST
 #define STORAGE_BUFFER_COUNT 4  // every binding but the parameters (a uniform buffer)
+#define TEXEL_BUFFER_COUNT 3    // Vulkan's texel-buffer views
 
 // Default compute workgroup size along x (a device may lower it).
 #define WORKGROUP_SIZE 64

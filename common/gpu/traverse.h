@@ -50,7 +50,7 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
     for (; s < num_spheres; ++s) {
         Ray r = ray;
         r.tmax = hit.t;
-        float t = intersect_sphere(r, spheres[s]);
+        float t = intersect_sphere(r, SPHERE(s));
         if (t > 0.0f) {
             hit.t = t;
             hit.prim = s | SPHERE_BIT;
@@ -92,7 +92,7 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
 #ifdef MCPT_COUNTERS
             hit.node_visits += 1u;
 #endif
-            KdNode n = nodes[node];
+            KdNode n = NODE(node);
             uint axis = n.flags & 3u;
             if (axis != KD_LEAF) {
                 // Interior: order the children along the ray.
