@@ -8,7 +8,8 @@
 #include "common/error.h"
 #include "common/render/device_limits.h"
 #include "common/render/device_registry.h"
-#include "pathtrace_comp_spv.h"
+#include "pathtrace_storage_comp_spv.h"
+#include "pathtrace_texels_comp_spv.h"
 #include "vulkan/vk_context.h"
 #include "vulkan/vk_device.h"
 #include "vulkan/vk_limits_profile.h"
@@ -28,7 +29,8 @@ struct VulkanBackend::Impl {
     vk::PhysicalDevice pd;
     std::unique_ptr<vk::Device> dev;
     VkQueryPool timer = VK_NULL_HANDLE;  // two timestamps per dispatch, if the queue has them
-    VkShaderModule module = VK_NULL_HANDLE;
+    VkShaderModule module = VK_NULL_HANDLE;         // scene in storage buffers
+    VkShaderModule texel_module = VK_NULL_HANDLE;   // scene in texel buffers
     VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
     VkPipelineLayout pipeline_layout = VK_NULL_HANDLE;
     VkDescriptorPool descriptor_pool = VK_NULL_HANDLE;
@@ -83,12 +85,15 @@ struct VulkanBackend::Impl {
             VK_CHECK(f.vkCreateQueryPool, device, &qpi, nullptr, &timer);
         }
 
-        // Shader module from the embedded SPIR-V.
+        // Shader modules from the embedded SPIR-V.
         VkShaderModuleCreateInfo si{};
         si.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
         si.codeSize = sizeof(kPathtraceSpirv);
         si.pCode = kPathtraceSpirv;
         VK_CHECK(f.vkCreateShaderModule, device, &si, nullptr, &module);
+        si.codeSize = sizeof(kPathtraceTexelsSpirv);
+        si.pCode = kPathtraceTexelsSpirv;
+        VK_CHECK(f.vkCreateShaderModule, device, &si, nullptr, &texel_module);
 
         // The texel views' formats (required of every Vulkan device).
         for (VkFormat format : {kPairFormat, kQuadFormat}) {
@@ -164,6 +169,7 @@ struct VulkanBackend::Impl {
             if (pipeline_layout) f.vkDestroyPipelineLayout(device, pipeline_layout, nullptr);
             if (set_layout) f.vkDestroyDescriptorSetLayout(device, set_layout, nullptr);
             if (module) f.vkDestroyShaderModule(device, module, nullptr);
+            if (texel_module) f.vkDestroyShaderModule(device, texel_module, nullptr);
             if (timer) f.vkDestroyQueryPool(device, timer, nullptr);
             dev.reset();
         }
@@ -229,12 +235,11 @@ struct VulkanBackend::Impl {
         if (pipeline) f.vkDestroyPipeline(dev->handle(), pipeline, nullptr);
         pipeline = VK_NULL_HANDLE;
         const auto t0 = std::chrono::steady_clock::now();
-        // Specialization: id 0 = KD_STACK_SIZE, id 1 = local_size_x, id 2 = MCPT_FEATURES,
-        // id 3 = SCENE_TEXELS.
-        const uint32_t values[4] = {stack_size, local, features, texels ? 1u : 0u};
-        const VkSpecializationMapEntry entries[4] = {{0, 0, 4}, {1, 4, 4}, {2, 8, 4}, {3, 12, 4}};
+        // Specialization: id 0 = KD_STACK_SIZE, id 1 = local_size_x, id 2 = MCPT_FEATURES.
+        const uint32_t values[3] = {stack_size, local, features};
+        const VkSpecializationMapEntry entries[3] = {{0, 0, 4}, {1, 4, 4}, {2, 8, 4}};
         VkSpecializationInfo spec{};
-        spec.mapEntryCount = 4;
+        spec.mapEntryCount = 3;
         spec.pMapEntries = entries;
         spec.dataSize = sizeof(values);
         spec.pData = values;
@@ -242,7 +247,7 @@ struct VulkanBackend::Impl {
         ci.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
         ci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
         ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-        ci.stage.module = module;
+        ci.stage.module = texels ? texel_module : module;
         ci.stage.pName = "main";
         ci.stage.pSpecializationInfo = &spec;
         ci.layout = pipeline_layout;

@@ -26,61 +26,38 @@ MCPT_FN GpuTriangle triangle_from_words(uvec2 a, uvec2 b, uvec2 c, uvec2 d, uvec
 MCPT_NAMESPACE_END
 
 #if defined(MCPT_GLSL)
-layout(std140, binding = BINDING_PARAMS) uniform ParamsBlock {
-    GpuParams params;
-};
+layout(std140, binding = BINDING_PARAMS) uniform ParamsBlock { GpuParams params; };
 // The shared buffers of shared_types.h, each declared once per element type (aliases).
-layout(std430, binding = BINDING_TREE) readonly buffer NodesBlock {
-    KdNode nodes[];
-};
-layout(std430, binding = BINDING_TREE) readonly buffer TreeWordsBlock {
-    uint tree_words[];
-};
+layout(std430, binding = BINDING_TREE) readonly buffer NodesBlock { KdNode nodes[]; };
+layout(std430, binding = BINDING_TREE) readonly buffer TreeWordsBlock { uint tree_words[]; };
 // Triangles as 8-byte words (triangle_from_words).
-layout(std430, binding = BINDING_TRIANGLES) readonly buffer TriBlock {
-    uvec2 triangle_words[];
-};
-layout(std430, binding = BINDING_SHADING) readonly buffer SphereBlock {
-    GpuSphere spheres[];
-};
-layout(std430, binding = BINDING_SHADING) readonly buffer MatBlock {
-    GpuMaterial shading_materials[];
-};
-layout(std430, binding = BINDING_SHADING) readonly buffer LightBlock {
-    GpuLight shading_lights[];
-};
-// Texel-buffer views of the tree and the triangles, read instead of the storage buffers when
-// the pipeline sets SCENE_TEXELS (a specialization constant: the other branch is compiled out).
-layout(constant_id = 3) const uint SCENE_TEXELS = 0u;
+layout(std430, binding = BINDING_TRIANGLES) readonly buffer TriBlock { uvec2 triangle_words[]; };
+layout(std430, binding = BINDING_SHADING) readonly buffer SphereBlock { GpuSphere spheres[]; };
+layout(std430, binding = BINDING_SHADING) readonly buffer MatBlock { GpuMaterial shading_materials[]; };
+layout(std430, binding = BINDING_SHADING) readonly buffer LightBlock { GpuLight shading_lights[]; };
+#if defined(MCPT_SCENE_TEXELS)
+// The SPIR-V module for CPU devices reads the tree, triangles and shading data through
+// texel-buffer views of the same buffers (shared_types.h): nodes and triangles as word pairs,
+// spheres (two texels), materials (four) and lights (one) as 16-byte texels.
 layout(binding = BINDING_TREE_TEXELS) uniform usamplerBuffer tree_texels;
 layout(binding = BINDING_TRIANGLE_TEXELS) uniform usamplerBuffer triangle_texels;
 layout(binding = BINDING_SHADING_TEXELS) uniform usamplerBuffer shading_quads;
 KdNode load_node(uint i) {
-    if (SCENE_TEXELS == 0u) return nodes[i];
     uvec2 w = texelFetch(tree_texels, int(i)).xy;
     return KdNode(w.x, w.y);
 }
 uint load_leaf_index(uint i) {
-    if (SCENE_TEXELS == 0u) return tree_words[2u * params.num_nodes + i];
     uvec2 w = texelFetch(tree_texels, int(params.num_nodes + (i >> 1u))).xy;
     return (i & 1u) != 0u ? w.y : w.x;
 }
-uvec2 triangle_word(uint w) {
-    if (SCENE_TEXELS == 0u) return triangle_words[w];
-    return texelFetch(triangle_texels, int(w)).xy;
-}
-// Spheres (two texels of the shading buffer's view), materials (four), lights (one).
 GpuSphere load_sphere(uint i) {
-    if (SCENE_TEXELS == 0u) return spheres[i];
     uvec4 a = texelFetch(shading_quads, int(2u * i));
+    uint material = texelFetch(shading_quads, int(2u * i + 1u)).x;
     return GpuSphere(uintBitsToFloat(a.x), uintBitsToFloat(a.y), uintBitsToFloat(a.z),
-                     uintBitsToFloat(a.w), texelFetch(shading_quads, int(2u * i + 1u)).x, 0u, 0u,
-                     0u);
+                     uintBitsToFloat(a.w), material, 0u, 0u, 0u);
 }
 GpuMaterial load_material(uint i) {
-    uint w = SHADING_MATERIALS_WORD(params.num_spheres);
-    if (SCENE_TEXELS == 0u) return shading_materials[w / 16u + i];
-    int t = int(w / 4u + 4u * i);
+    int t = int(SHADING_MATERIALS_WORD(params.num_spheres) / 4u + 4u * i);
     uvec4 a = texelFetch(shading_quads, t), b = texelFetch(shading_quads, t + 1);
     uvec4 c = texelFetch(shading_quads, t + 2), d = texelFetch(shading_quads, t + 3);
     return GpuMaterial(uintBitsToFloat(a.x), uintBitsToFloat(a.y), uintBitsToFloat(a.z), a.w,
@@ -90,15 +67,23 @@ GpuMaterial load_material(uint i) {
 }
 GpuLight load_light(uint i) {
     uint w = SHADING_LIGHTS_WORD(params.num_spheres, params.num_materials);
-    if (SCENE_TEXELS == 0u) return shading_lights[w / 4u + i];
     uvec4 a = texelFetch(shading_quads, int(w / 4u + i));
     return GpuLight(a.x, a.y, uintBitsToFloat(a.z), uintBitsToFloat(a.w));
 }
 #define NODE(i) load_node(i)
 #define LEAF_INDEX(i) load_leaf_index(i)
+#define TRIANGLE_WORD(w) texelFetch(triangle_texels, int(w)).xy
 #define SPHERE(i) load_sphere(i)
 #define MATERIAL(i) load_material(i)
 #define LIGHT(i) load_light(i)
+#else
+#define NODE(i) nodes[i]
+#define LEAF_INDEX(i) tree_words[2u * params.num_nodes + (i)]
+#define TRIANGLE_WORD(w) triangle_words[w]
+#define SPHERE(i) spheres[i]
+#define MATERIAL(i) shading_materials[SHADING_MATERIALS_WORD(params.num_spheres) / 16u + (i)]
+#define LIGHT(i) shading_lights[SHADING_LIGHTS_WORD(params.num_spheres, params.num_materials) / 4u + (i)]
+#endif
 // Traversal stack entries, from the tree depth, and the scene's features (specialization
 // constants; id 1 is the workgroup size).
 layout(constant_id = 0) const uint KD_STACK_SIZE = 64u;
@@ -108,29 +93,23 @@ layout(constant_id = 2) const uint MCPT_FEATURES = FEATURE_ALL;
 #define PARAM(x) params.x
 GpuTriangle load_triangle(uint i) {
     uint w = 5u * i;
-    return triangle_from_words(triangle_word(w), triangle_word(w + 1u), triangle_word(w + 2u),
-                               triangle_word(w + 3u), triangle_word(w + 4u));
+    return triangle_from_words(TRIANGLE_WORD(w), TRIANGLE_WORD(w + 1u), TRIANGLE_WORD(w + 2u),
+                               TRIANGLE_WORD(w + 3u), TRIANGLE_WORD(w + 4u));
 }
 #define TRIANGLE(i) load_triangle(i)
 // Per-vertex data after the triangles, textures after the lights (shared_types.h).
 GpuTriangleAttributes load_attributes(uint i) {
     uint w = 5u * (params.num_triangles + i);
-    uvec2 a = triangle_word(w), b = triangle_word(w + 1u), c = triangle_word(w + 2u);
-    uvec2 d = triangle_word(w + 3u), e = triangle_word(w + 4u);
+    uvec2 a = TRIANGLE_WORD(w), b = TRIANGLE_WORD(w + 1u), c = TRIANGLE_WORD(w + 2u);
+    uvec2 d = TRIANGLE_WORD(w + 3u), e = TRIANGLE_WORD(w + 4u);
     return GpuTriangleAttributes(a.x, a.y, b.x, b.y, uintBitsToFloat(c.x), uintBitsToFloat(c.y),
-                                 uintBitsToFloat(d.x), uintBitsToFloat(d.y), uintBitsToFloat(e.x),
-                                 uintBitsToFloat(e.y));
+                                 uintBitsToFloat(d.x), uintBitsToFloat(d.y),
+                                 uintBitsToFloat(e.x), uintBitsToFloat(e.y));
 }
 #define ATTRIBUTES(i) load_attributes(i)
-layout(std430, binding = BINDING_SHADING) readonly buffer TextureBlock {
-    GpuTexture shading_textures[];
-};
-layout(std430, binding = BINDING_SHADING) readonly buffer TexelBlock {
-    uvec2 shading_texels[];
-};
-#define TEXTURE(i)                                                                        \
-    shading_textures[SHADING_LIGHTS_WORD(params.num_spheres, params.num_materials) / 4u + \
-                     params.num_lights + (i)]
+layout(std430, binding = BINDING_SHADING) readonly buffer TextureBlock { GpuTexture shading_textures[]; };
+layout(std430, binding = BINDING_SHADING) readonly buffer TexelBlock { uvec2 shading_texels[]; };
+#define TEXTURE(i) shading_textures[SHADING_LIGHTS_WORD(params.num_spheres, params.num_materials) / 4u + params.num_lights + (i)]
 #define TEXEL(i) shading_texels[params.texels_word / 2u + (i)]
 #else
 #if defined(MCPT_CPP)
@@ -138,22 +117,21 @@ layout(std430, binding = BINDING_SHADING) readonly buffer TexelBlock {
 #else
 #define MCPT_UNUSED
 #endif
-#define SCENE_PARAMS_                                                                       \
-    MCPT_UNUSED MCPT_CONST_BUF GpuParams *params, MCPT_UNUSED MCPT_CONST_BUF KdNode *nodes, \
-        MCPT_UNUSED MCPT_CONST_BUF uint *leaf_indices,                                      \
-        MCPT_UNUSED MCPT_CONST_BUF GpuTriangle *triangles,                                  \
-        MCPT_UNUSED MCPT_CONST_BUF GpuSphere *spheres,                                      \
-        MCPT_UNUSED MCPT_CONST_BUF GpuMaterial *materials,                                  \
-        MCPT_UNUSED MCPT_CONST_BUF GpuLight *lights,                                        \
-        MCPT_UNUSED MCPT_CONST_BUF GpuTriangleAttributes *attributes,                       \
+#define SCENE_PARAMS_                                                                          \
+    MCPT_UNUSED MCPT_CONST_BUF GpuParams *params, MCPT_UNUSED MCPT_CONST_BUF KdNode *nodes,    \
+        MCPT_UNUSED MCPT_CONST_BUF uint *leaf_indices,                                         \
+        MCPT_UNUSED MCPT_CONST_BUF GpuTriangle *triangles,                                     \
+        MCPT_UNUSED MCPT_CONST_BUF GpuSphere *spheres,                                         \
+        MCPT_UNUSED MCPT_CONST_BUF GpuMaterial *materials,                                     \
+        MCPT_UNUSED MCPT_CONST_BUF GpuLight *lights,                                           \
+        MCPT_UNUSED MCPT_CONST_BUF GpuTriangleAttributes *attributes,                          \
         MCPT_UNUSED MCPT_CONST_BUF GpuTexture *textures, MCPT_UNUSED MCPT_CONST_BUF uint *texels,
-#define SCENE_ARGS_                                                                           \
-    params, nodes, leaf_indices, triangles, spheres, materials, lights, attributes, textures, \
-        texels,
+#define SCENE_ARGS_ \
+    params, nodes, leaf_indices, triangles, spheres, materials, lights, attributes, textures, texels,
 #define PARAM(x) params->x
 #define NODE(i) nodes[i]
-#define SPHERE(i) spheres[i]
 #define LEAF_INDEX(i) leaf_indices[i]
+#define SPHERE(i) spheres[i]
 #define MATERIAL(i) materials[i]
 #define LIGHT(i) lights[i]
 #define ATTRIBUTES(i) attributes[i]
