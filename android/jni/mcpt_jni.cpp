@@ -160,6 +160,10 @@ JNI_FN(nativeSetReproducible)(JNIEnv* env, jclass, jlong s, jboolean on)->void {
     if (open(env, s)) check(env, s, mcpt_session_set_reproducible(handle(s), on ? 1 : 0));
 }
 
+JNI_FN(nativeSetAdaptive)(JNIEnv* env, jclass, jlong s, jboolean on)->void {
+    if (open(env, s)) check(env, s, mcpt_session_set_adaptive(handle(s), on ? 1 : 0));
+}
+
 JNI_FN(nativeRender)
 (JNIEnv* env, jclass, jlong s, jdouble budget, jdouble target, jlong max_spp)->jobject {
     if (!open(env, s)) return nullptr;

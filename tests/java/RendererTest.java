@@ -95,6 +95,17 @@ public final class RendererTest {
         check(Arrays.equals(whole, resumed), "resumed render equals the uninterrupted one");
         Files.deleteIfExists(Paths.get(ckpt));
 
+        // Adaptive sampling: 48 spp on average, and never together with reproducible sums.
+        try (Renderer r = new Renderer(device)) {
+            r.loadBuiltin("cornell");
+            r.setSize(24, 24);
+            r.setAdaptive(true);
+            RenderStats st = r.render(1e6, 0, 48);
+            check(st.spp == 48 && st.relativeError > 0, "adaptive: " + st.spp + " spp");
+            expectError("reproducible after adaptive", -1, "not reproducible",
+                        () -> r.setReproducible(true));
+        }
+
         // Misuse: every case raises, the JVM lives on.
         try (Renderer r = new Renderer(device)) {
             expectError("empty byte[]", -4, "empty buffer", () -> r.loadScene(new byte[0]));

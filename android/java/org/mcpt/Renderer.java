@@ -66,6 +66,12 @@ public final class Renderer implements AutoCloseable {
     public void setReproducible(boolean on) { nativeSetReproducible(session, on); }
 
     /**
+     * Adaptive sampling: after 16 samples everywhere, samples go where the estimated noise is;
+     * the spp of render() is then the mean over pixels. Not with setReproducible(true).
+     */
+    public void setAdaptive(boolean on) { nativeSetAdaptive(session, on); }
+
+    /**
      * Adds samples for about budgetMs milliseconds, stopping early at maxSpp samples per pixel
      * (0: no cap) or at the relative error targetError (0: none).
      */
@@ -134,6 +140,7 @@ public final class Renderer implements AutoCloseable {
     private static native void nativeSetSampler(long s, String sampler);
     private static native void nativeSetSpecialize(long s, boolean on);
     private static native void nativeSetReproducible(long s, boolean on);
+    private static native void nativeSetAdaptive(long s, boolean on);
     private static native RenderStats nativeRender(long s, double budgetMs, double targetError,
                                                    long maxSpp);
     private static native void nativeCancel(long s);
