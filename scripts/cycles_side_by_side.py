@@ -8,6 +8,7 @@
 #      independent high-sample renders: their mean, with their noise subtracted);
 #   3. prints and writes time to each relative RMSE target, a CSV, an SVG plot, and where the
 #      variance lives (per-pixel variance of each renderer from its two references).
+# With --export-glb PATH it only writes the box as glTF (Principled materials) and exits.
 # Relative RMSE is mcpt converge's: sqrt(mean over pixels and channels of (image - ref)^2,
 # less the reference noise) / mean reference radiance.
 import argparse
@@ -34,6 +35,8 @@ def parse_args():
     p.add_argument("--backend", action="append", help="mcpt backends (default opencl, vulkan)")
     p.add_argument("--sampler", action="append", help="mcpt samplers (default sobol)")
     p.add_argument("--targets", default="0.10,0.05,0.02")
+    p.add_argument("--export-glb", help="only write the box as a .glb (Principled materials, "
+                   "64x32-segment spheres) to this path, for mcpt's mesh benchmarks")
     return p.parse_args(argv)
 
 
@@ -111,6 +114,24 @@ def glass(ior):
     return build
 
 
+def principled(colour, metallic=0.0, roughness=1.0, transmission=0.0, ior=1.5, emission=None):
+    # What glTF can carry (the exporter maps Principled to metallic-roughness, transmission,
+    # IOR and emissive strength): Lambert-like walls, a metal mirror, clear glass, the lamp.
+    def build(nt):
+        n = nt.nodes.new("ShaderNodeBsdfPrincipled")
+        n.inputs["Base Color"].default_value = (*colour, 1)
+        n.inputs["Metallic"].default_value = metallic
+        n.inputs["Roughness"].default_value = roughness
+        n.inputs["Transmission"].default_value = transmission
+        n.inputs["IOR"].default_value = ior
+        if emission:
+            peak = max(emission)
+            n.inputs["Emission"].default_value = (*[e / peak for e in emission], 1)
+            n.inputs["Emission Strength"].default_value = peak
+        return n
+    return build
+
+
 def add_mesh(name, verts, faces, mat, smooth=False):
     mesh = bpy.data.meshes.new(name)
     mesh.from_pydata(verts, [], faces)
@@ -141,17 +162,24 @@ def add_sphere(name, centre, radius, mat, segments=256, rings=128):
     return add_mesh(name, verts, faces, mat, smooth=True)
 
 
-def build_scene(args):
+def build_scene(args, for_gltf=False):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     sc = bpy.context.scene
     for i, (corners, colour) in enumerate(WALLS):
         add_mesh("wall%d" % i, [to_blender(p) for p in corners], [(0, 1, 2, 3)],
-                 material("wall%d" % i, diffuse(colour)))
+                 material("wall%d" % i, principled(colour) if for_gltf else diffuse(colour)))
     add_mesh("light", [to_blender(p) for p in LIGHT[0]], [(0, 1, 2, 3)],
-             material("light", emitter(LIGHT[1])))
-    add_sphere("glass", GLASS_SPHERE[0], GLASS_SPHERE[1], material("glass", glass(GLASS_SPHERE[2])))
+             material("light", principled((0, 0, 0), emission=LIGHT[1]) if for_gltf
+                      else emitter(LIGHT[1])))
+    tess = dict(segments=64, rings=32) if for_gltf else {}
+    add_sphere("glass", GLASS_SPHERE[0], GLASS_SPHERE[1],
+               material("glass", principled((1, 1, 1), roughness=0.0, transmission=1.0,
+                                            ior=GLASS_SPHERE[2]) if for_gltf
+                        else glass(GLASS_SPHERE[2])), **tess)
+    tint = MIRROR_SPHERE[2]
     add_sphere("mirror", MIRROR_SPHERE[0], MIRROR_SPHERE[1],
-               material("mirror", mirror(MIRROR_SPHERE[2])))
+               material("mirror", principled((tint, tint, tint), metallic=1.0, roughness=0.0)
+                        if for_gltf else mirror(tint)), **tess)
     cam_data = bpy.data.cameras.new("camera")
     cam_data.sensor_fit = "VERTICAL"
     cam_data.angle_y = CAMERA[1]
@@ -290,6 +318,12 @@ def main():
     backends = args.backend or ["opencl", "vulkan"]
     samplers = args.sampler or ["sobol"]
     targets = [float(t) for t in args.targets.split(",")]
+    if args.export_glb:
+        build_scene(args, for_gltf=True)
+        bpy.ops.export_scene.gltf(filepath=os.path.abspath(args.export_glb), export_format="GLB",
+                                  export_cameras=True, export_apply=True)
+        print("wrote %s" % args.export_glb)
+        return
     os.makedirs(args.out, exist_ok=True)
     sc = build_scene(args)
     print("Cycles: %s, %d threads, pattern %s, box filter 1 px, max bounces %d"
