@@ -29,8 +29,8 @@ struct VulkanBackend::Impl {
     vk::PhysicalDevice pd;
     std::unique_ptr<vk::Device> dev;
     VkQueryPool timer = VK_NULL_HANDLE;  // two timestamps per dispatch, if the queue has them
-    VkShaderModule module = VK_NULL_HANDLE;         // scene in storage buffers
-    VkShaderModule texel_module = VK_NULL_HANDLE;   // scene in texel buffers
+    VkShaderModule module = VK_NULL_HANDLE;        // scene in storage buffers
+    VkShaderModule texel_module = VK_NULL_HANDLE;  // scene in texel buffers
     VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
     VkPipelineLayout pipeline_layout = VK_NULL_HANDLE;
     VkDescriptorPool descriptor_pool = VK_NULL_HANDLE;
@@ -190,7 +190,8 @@ struct VulkanBackend::Impl {
         return VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
     }
 
-    // Whether the pipeline should read the tree and triangles through texel buffers.
+    // Whether the pipeline should read the tree, triangles and shading data through texel
+    // buffers (options.scene_reads, else $MCPT_VULKAN_SCENE_READS, else on CPU devices).
     bool prefer_texels() const {
         std::string reads = options.scene_reads;
         if (reads.empty()) {
@@ -302,6 +303,7 @@ struct VulkanBackend::Impl {
         tree = upload(tree_words, texel);
         tris = upload(tri_words, texel);
         shading = upload(shading_words, texel);
+        // Every view is made (the descriptor set binds all three), so `&`, not `&&`.
         const bool fits = make_view(tree, tree_words.size(), 2, tree_view) &
                           make_view(tris, tri_words.size(), 2, tris_view) &
                           make_view(shading, shading_words.size(), 4, shading_view);
