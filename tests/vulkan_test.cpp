@@ -208,6 +208,13 @@ TEST(VulkanSceneReads, TexelAndStorageReadsGiveTheSameImage) {
     const std::vector<float> storage = run("storage", storage_layout);
     EXPECT_NE(texel_layout.find("texel buffers"), std::string::npos) << texel_layout;
     EXPECT_EQ(storage_layout.find("texel buffers"), std::string::npos) << storage_layout;
+    // Unasked, CPU devices read texels and GPUs storage buffers.
+    if (!std::getenv("MCPT_VULKAN_SCENE_READS")) {
+        auto vk = open_vulkan();
+        render_on(*vk, p, 8, 1, 1);
+        const bool texels = vk->layout().find("texel buffers") != std::string::npos;
+        EXPECT_EQ(texels, vk->device().type == "cpu") << vk->device().type << ": " << vk->layout();
+    }
     ASSERT_EQ(texel.size(), storage.size());
     // Two pipelines: a GPU compiler may round differently, as in
     // SplitDispatchMatchesSingleDispatch.
