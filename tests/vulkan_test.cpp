@@ -227,8 +227,8 @@ TEST(VulkanSceneReads, TexelAndStorageReadsGiveTheSameImage) {
     // A scene over the phone's 65,536 texels (triangles far below the box) is read through
     // the storage buffers, and a name other than texel or storage is refused.
     Scene big = make_builtin_scene("cornell");
-    for (int i = 0; i < 14000; ++i) {
-        const glm::vec3 o(float(i % 100), -1000.f, float(i / 100));
+    for (int i = 0; i < 30000; ++i) {  // 75,000 texels of 16 bytes
+        const glm::vec3 o(float(i % 200), -1000.f, float(i / 200));
         big.triangles.push_back(
             {o, o + glm::vec3(0.5f, 0.f, 0.f), o + glm::vec3(0.f, 0.f, 0.5f), 0});
     }

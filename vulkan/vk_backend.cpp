@@ -18,8 +18,9 @@ namespace mcpt {
 
 using vk::Buffer;
 
-// The texel buffers' formats: two 32-bit words per texel (a k-d node; triangles as word
-// pairs), four for the shading buffer (spheres, materials and lights are whole 16-byte texels).
+// The texel buffers' formats: two 32-bit words per texel for the tree (a k-d node), four for
+// the triangles (two and a half texels each) and the shading buffer (spheres, materials and
+// lights are whole 16-byte texels).
 constexpr VkFormat kPairFormat = VK_FORMAT_R32G32_UINT;
 constexpr VkFormat kQuadFormat = VK_FORMAT_R32G32B32A32_UINT;
 
@@ -295,9 +296,10 @@ struct VulkanBackend::Impl {
                                     vk::kHostMemory, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
         std::memcpy(params.mapped, &scene.params, sizeof(gpu::GpuParams));
         std::vector<uint32_t> tree_words = tree_buffer(scene);
-        const std::vector<uint32_t> tri_words = triangle_buffer(scene);
+        std::vector<uint32_t> tri_words = triangle_buffer(scene);
         std::vector<uint32_t> shading_words = shading_buffer(scene);
         tree_words.resize((tree_words.size() + 1) / 2 * 2);
+        tri_words.resize((tri_words.size() + 3) / 4 * 4);
         shading_words.resize((shading_words.size() + 3) / 4 * 4);
         const VkBufferUsageFlags texel = VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT;
         tree = upload(tree_words, texel);
@@ -305,7 +307,7 @@ struct VulkanBackend::Impl {
         shading = upload(shading_words, texel);
         // Every view is made (the descriptor set binds all three), so `&`, not `&&`.
         const bool fits = make_view(tree, tree_words.size(), 2, tree_view) &
-                          make_view(tris, tri_words.size(), 2, tris_view) &
+                          make_view(tris, tri_words.size(), 4, tris_view) &
                           make_view(shading, shading_words.size(), 4, shading_view);
         scene_texels = prefer_texels() && fits;
 

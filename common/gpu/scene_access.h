@@ -40,7 +40,7 @@ layout(std430, binding = BINDING_SHADING) readonly buffer LightBlock { GpuLight 
 // texel-buffer views of the same buffers (shared_types.h): nodes and triangles as word pairs,
 // spheres (two texels), materials (four) and lights (one) as 16-byte texels.
 layout(binding = BINDING_TREE_TEXELS) uniform usamplerBuffer tree_texels;
-layout(binding = BINDING_TRIANGLE_TEXELS) uniform usamplerBuffer triangle_texels;
+layout(binding = BINDING_TRIANGLE_TEXELS) uniform usamplerBuffer triangle_quads;
 layout(binding = BINDING_SHADING_TEXELS) uniform usamplerBuffer shading_quads;
 KdNode load_node(uint i) {
     uvec2 w = texelFetch(tree_texels, int(i)).xy;
@@ -72,7 +72,12 @@ GpuLight load_light(uint i) {
 }
 #define NODE(i) load_node(i)
 #define LEAF_INDEX(i) load_leaf_index(i)
-#define TRIANGLE_WORD(w) texelFetch(triangle_texels, int(w)).xy
+// Word pair w of the triangle buffer: half of a 16-byte texel.
+uvec2 triangle_word(uint w) {
+    uvec4 q = texelFetch(triangle_quads, int(w >> 1u));
+    return (w & 1u) != 0u ? q.zw : q.xy;
+}
+#define TRIANGLE_WORD(w) triangle_word(w)
 #define SPHERE(i) load_sphere(i)
 #define MATERIAL(i) load_material(i)
 #define LIGHT(i) load_light(i)
@@ -93,8 +98,18 @@ layout(constant_id = 2) const uint MCPT_FEATURES = FEATURE_ALL;
 #define PARAM(x) params.x
 GpuTriangle load_triangle(uint i) {
     uint w = 5u * i;
+#if defined(MCPT_SCENE_TEXELS)
+    // Three 16-byte texels instead of five fetches: an odd triangle starts mid-texel.
+    int q = int(w >> 1u);
+    uvec4 a = texelFetch(triangle_quads, q), b = texelFetch(triangle_quads, q + 1);
+    uvec4 c = texelFetch(triangle_quads, q + 2);
+    if ((i & 1u) != 0u)
+        return triangle_from_words(a.zw, b.xy, b.zw, c.xy, c.zw);
+    return triangle_from_words(a.xy, a.zw, b.xy, b.zw, c.xy);
+#else
     return triangle_from_words(TRIANGLE_WORD(w), TRIANGLE_WORD(w + 1u), TRIANGLE_WORD(w + 2u),
                                TRIANGLE_WORD(w + 3u), TRIANGLE_WORD(w + 4u));
+#endif
 }
 #define TRIANGLE(i) load_triangle(i)
 // Per-vertex data after the triangles, textures after the lights (shared_types.h).

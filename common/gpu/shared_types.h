@@ -58,7 +58,7 @@ MCPT_NAMESPACE_BEGIN
 #define BINDING_ACCUM 4
 #define BINDING_COUNT 5
 // Vulkan only: the tree, triangle and shading buffers once more, as texel buffers (two 32-bit
-// words per texel; four for the shading buffer), which the SPIR-V module built with
+// words per texel for the tree, four for the others), which the SPIR-V module built with
 // MCPT_SCENE_TEXELS reads instead of the storage buffers: llvmpipe fetches a texel for 8 lanes
 // with one vector gather, where it reads a storage buffer lane by lane, each word behind its
 // own branches.
