@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "common/analysis/stats.h"
 #include "common/render/gpu_scene.h"
 #include "common/scene/builtin_scenes.h"
 #include "test_util.h"
@@ -52,7 +53,7 @@ double welch_t(const std::vector<double>& a, const std::vector<double>& b) {
     double ma, va, mb, vb;
     mean_var(a, ma, va);
     mean_var(b, mb, vb);
-    return (ma - mb) / std::sqrt(va / double(a.size()) + vb / double(b.size()));
+    return stats::welch_test(ma, va, double(a.size()), mb, vb, double(b.size())).t;
 }
 
 class Adaptive : public ::testing::TestWithParam<std::string> {};
