@@ -48,7 +48,7 @@ struct BackendOptions {
     // Tests: a largest buffer smaller than the device's (0 = the device's), so that large
     // images take the windowed accumulation (gpu_scene.h) on any device.
     uint64_t max_buffer_bytes = 0;
-    // Vulkan: how the shader reads the tree and the triangles: "texel" (texel buffers),
+    // Vulkan: how the shader reads the tree, triangles and shading data: "texel" (texel buffers),
     // "storage" (storage buffers), or "" = $MCPT_VULKAN_SCENE_READS, else texel buffers on CPU
     // devices (llvmpipe gathers texels, reads storage buffers lane by lane) and storage buffers
     // on GPUs. Texel reads fall back to storage where the scene exceeds maxTexelBufferElements.
