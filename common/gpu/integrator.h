@@ -264,15 +264,6 @@ MCPT_FN PathState start_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
     return st;
 }
 
-// A ray the path traced: counted, and the sample made invalid if the device cut its
-// traversal short.
-MCPT_FN PathState count_ray(PathState st, Hit hit) {
-    st.rays += 1u;
-    MCPT_COUNT_RAY(hit);
-    if (hit.status != 0u) st.status = PATH_INVALID;
-    return st;
-}
-
 // One bounce of a running path: the next vertex, its emission, next-event estimation, the
 // BSDF sample, Russian roulette. The path comes out ended, or running from its next ray.
 MCPT_FN PathState bounce_path(SCENE_PARAMS_ PathState st, uint pixel) {
@@ -285,8 +276,12 @@ MCPT_FN PathState bounce_path(SCENE_PARAMS_ PathState st, uint pixel) {
     uint depth = st.depth;
     // Find the next vertex.
     Hit hit = trace_ray(SCENE_ARGS_ ray, false);
-    st = count_ray(st, hit);
-    if (st.status != PATH_RUNNING) return st;
+    st.rays += 1u;
+    MCPT_COUNT_RAY(hit);
+    if (hit.status != 0u) {
+        st.status = PATH_INVALID;
+        return st;
+    }
     if (hit.prim == NO_HIT) {
         st.status = PATH_ENDED;
         return st;
@@ -343,8 +338,12 @@ MCPT_FN PathState bounce_path(SCENE_PARAMS_ PathState st, uint pixel) {
             shadow.d = offset_ray_origin(ls.p, ls.p_error, ls.n, -ls.wi) - shadow.o;
             shadow.tmax = 1.0f - SHADOW_EPSILON;
             Hit blocker = trace_ray(SCENE_ARGS_ shadow, true);
-            st = count_ray(st, blocker);
-            if (st.status != PATH_RUNNING) return st;
+            st.rays += 1u;
+            MCPT_COUNT_RAY(blocker);
+            if (blocker.status != 0u) {
+                st.status = PATH_INVALID;
+                return st;
+            }
             if (blocker.prim == NO_HIT) {
                 BsdfEval e = eval_bsdf(m, ns, wo, ls.wi, front);
                 float w = power_heuristic(ls.pdf, e.pdf);
