@@ -86,7 +86,29 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
     uint sp = 0u;
     uint node = 0u;
     bool finished = false;  // set at the one real exit (see TRACE_INCOMPLETE)
+    // One step per iteration, a node or one triangle of the current leaf: a lane at a leaf
+    // does not hold its warp or SIMD group for the whole leaf (NVIDIA: up to +10% on the
+    // meshes, lavapipe +5 to +15%). Scalar CPU code is faster with an inner loop over the
+    // leaf (PoCL: 7-10%), which OpenCL builds for CPU devices take (MCPT_KD_LEAF_LOOP).
+    uint tri_next = 0u, tri_left = 0u;
+#if !defined(MCPT_KD_LEAF_LOOP)
+    bool done = false;
+#endif
     while (true) {
+#if !defined(MCPT_KD_LEAF_LOOP)
+        if (tri_left > 0u) {
+            float nearest = hit.t;
+            hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, LEAF_INDEX(tri_next), skip, hit);
+            if (any_hit && hit.t < nearest) return hit;
+            tri_next += 1u;
+            tri_left -= 1u;
+            continue;
+        }
+        if (done) {
+            finished = true;
+            break;
+        }
+#endif
         // Visit the node unless it starts beyond the nearest hit.
         if (hit.t >= tmin) {
 #ifdef MCPT_COUNTERS
@@ -125,23 +147,30 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
                 }
                 continue;
             }
-            // Leaf: test its triangles.
-            uint count = n.flags >> 2u;
-            uint first_index = n.split_or_offset;
-            uint i = 0u;
-            for (; i < count; ++i) {
+            // Leaf: its triangles, in the next iterations (before the next node's visit) or
+            // in a loop here.
+            tri_left = n.flags >> 2u;
+            tri_next = n.split_or_offset;
+#if defined(MCPT_KD_LEAF_LOOP)
+            for (; tri_left > 0u; --tri_left) {
                 float nearest = hit.t;
-                hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, LEAF_INDEX(first_index + i), skip, hit);
+                hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, LEAF_INDEX(tri_next), skip, hit);
                 if (any_hit && hit.t < nearest) return hit;
+                tri_next += 1u;
             }
-            if (i < count) hit.status = TRACE_INCOMPLETE;
+#endif
         }
         // Next deferred node. Pop on past nodes that start beyond the hit rather than stop
         // at the first: a ray lying in a split plane defers the far child with the near
         // child's tmin, so the stack is not sorted by distance there.
         if (sp == 0u) {
+#if defined(MCPT_KD_LEAF_LOOP)
             finished = true;
             break;
+#else
+            done = true;  // after the leaf's triangles
+            continue;
+#endif
         }
         sp -= 1u;
         node = stack_node[sp];
