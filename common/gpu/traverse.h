@@ -33,6 +33,19 @@ MCPT_FN Hit closer_triangle_hit(SCENE_PARAMS_ Ray ray, WoopRay wr, uint tri_inde
     return hit;
 }
 
+// Mailbox of the last four triangles a ray tested (MCPT_KD_MAILBOX: OpenCL builds and the
+// Vulkan module for GPUs). A k-d tree references a triangle from every leaf it overlaps, and
+// a third of the tests would repeat one just done (CPU count on the dragon); a repeat cannot
+// find a nearer hit, so it is skipped (NVIDIA: +3 to +7% on the meshes; docs/traversal.md).
+// lavapipe runs both sides of a branch under a mask, so skipping saves it nothing and the
+// check cost it 10-25%; its module and the C++ build (whose counts report the tree's own
+// tests) go without.
+#if defined(MCPT_KD_MAILBOX)
+MCPT_FN bool mailbox_holds(uvec4 mailbox, uint tri) {
+    return tri == mailbox.x || tri == mailbox.y || tri == mailbox.z || tri == mailbox.w;
+}
+#endif
+
 // Nearest hit with t < ray.tmax, ignoring triangle `skip`; with any_hit, the first hit found.
 MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
     Hit hit;
@@ -91,6 +104,9 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
     // meshes, lavapipe +5 to +15%). Scalar CPU code is faster with an inner loop over the
     // leaf (PoCL: 7-10%), which OpenCL builds for CPU devices take (MCPT_KD_LEAF_LOOP).
     uint tri_next = 0u, tri_left = 0u;
+#if defined(MCPT_KD_MAILBOX)
+    uvec4 mailbox = UV4(NO_HIT, NO_HIT, NO_HIT, NO_HIT);
+#endif
 #if !defined(MCPT_KD_LEAF_LOOP)
     bool done = false;
 #endif
@@ -98,7 +114,15 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
 #if !defined(MCPT_KD_LEAF_LOOP)
         if (tri_left > 0u) {
             float nearest = hit.t;
-            hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, LEAF_INDEX(tri_next), skip, hit);
+            uint tri = LEAF_INDEX(tri_next);
+#if defined(MCPT_KD_MAILBOX)
+            if (!mailbox_holds(mailbox, tri)) {
+                mailbox = UV4(tri, mailbox.x, mailbox.y, mailbox.z);
+                hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, tri, skip, hit);
+            }
+#else
+            hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, tri, skip, hit);
+#endif
             if (any_hit && hit.t < nearest) return hit;
             tri_next += 1u;
             tri_left -= 1u;
@@ -154,7 +178,15 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
 #if defined(MCPT_KD_LEAF_LOOP)
             for (; tri_left > 0u; --tri_left) {
                 float nearest = hit.t;
-                hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, LEAF_INDEX(tri_next), skip, hit);
+                uint tri = LEAF_INDEX(tri_next);
+#if defined(MCPT_KD_MAILBOX)
+                if (!mailbox_holds(mailbox, tri)) {
+                    mailbox = UV4(tri, mailbox.x, mailbox.y, mailbox.z);
+                    hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, tri, skip, hit);
+                }
+#else
+                hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, tri, skip, hit);
+#endif
                 if (any_hit && hit.t < nearest) return hit;
                 tri_next += 1u;
             }
