@@ -1,6 +1,7 @@
 // Closest-hit and any-hit queries: spheres by brute force, triangles through the k-d tree
 // (pbrt-v3 KdTreeAccel traversal, front-to-back with a stack of KD_STACK_SIZE entries, which
-// the host sizes from the built tree's depth).
+// the host sizes from the built tree's depth; one node or one triangle per loop iteration;
+// a mailbox against repeated triangle tests). docs/traversal.md: what was measured.
 #ifndef MCPT_GPU_TRAVERSE_H
 #define MCPT_GPU_TRAVERSE_H
 
