@@ -41,11 +41,25 @@ MCPT_FN Hit closer_triangle_hit(SCENE_PARAMS_ Ray ray, WoopRay wr, uint tri_inde
 // lavapipe runs both sides of a branch under a mask, so skipping saves it nothing and the
 // check cost it 10-25%; its module and the C++ build (whose counts report the tree's own
 // tests) go without.
+MCPT_STRUCT(LeafHit) {
+    Hit hit;
+    uvec4 mailbox;
+};
+
+// Triangle tri of a leaf against the ray: skipped when the mailbox holds it, else tested and
+// remembered.
+MCPT_FN LeafHit leaf_triangle_hit(SCENE_PARAMS_ Ray ray, WoopRay wr, uint tri, uint skip, Hit hit,
+                                  uvec4 mailbox) {
+    LeafHit r;
+    r.hit = hit;
+    r.mailbox = mailbox;
 #if defined(MCPT_KD_MAILBOX)
-MCPT_FN bool mailbox_holds(uvec4 mailbox, uint tri) {
-    return tri == mailbox.x || tri == mailbox.y || tri == mailbox.z || tri == mailbox.w;
-}
+    if (tri == mailbox.x || tri == mailbox.y || tri == mailbox.z || tri == mailbox.w) return r;
+    r.mailbox = UV4(tri, mailbox.x, mailbox.y, mailbox.z);
 #endif
+    r.hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, tri, skip, hit);
+    return r;
+}
 
 // Nearest hit with t < ray.tmax, ignoring triangle `skip`; with any_hit, the first hit found.
 MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
@@ -105,9 +119,7 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
     // meshes, lavapipe +5 to +15%). Scalar CPU code is faster with an inner loop over the
     // leaf (PoCL: 7-10%), which OpenCL builds for CPU devices take (MCPT_KD_LEAF_LOOP).
     uint tri_next = 0u, tri_left = 0u;
-#if defined(MCPT_KD_MAILBOX)
     uvec4 mailbox = UV4(NO_HIT, NO_HIT, NO_HIT, NO_HIT);
-#endif
 #if !defined(MCPT_KD_LEAF_LOOP)
     bool done = false;
 #endif
@@ -116,14 +128,9 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
         if (tri_left > 0u) {
             float nearest = hit.t;
             uint tri = LEAF_INDEX(tri_next);
-#if defined(MCPT_KD_MAILBOX)
-            if (!mailbox_holds(mailbox, tri)) {
-                mailbox = UV4(tri, mailbox.x, mailbox.y, mailbox.z);
-                hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, tri, skip, hit);
-            }
-#else
-            hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, tri, skip, hit);
-#endif
+            LeafHit lh = leaf_triangle_hit(SCENE_ARGS_ ray, wr, tri, skip, hit, mailbox);
+            hit = lh.hit;
+            mailbox = lh.mailbox;
             if (any_hit && hit.t < nearest) return hit;
             tri_next += 1u;
             tri_left -= 1u;
@@ -180,14 +187,9 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
             for (; tri_left > 0u; --tri_left) {
                 float nearest = hit.t;
                 uint tri = LEAF_INDEX(tri_next);
-#if defined(MCPT_KD_MAILBOX)
-                if (!mailbox_holds(mailbox, tri)) {
-                    mailbox = UV4(tri, mailbox.x, mailbox.y, mailbox.z);
-                    hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, tri, skip, hit);
-                }
-#else
-                hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, tri, skip, hit);
-#endif
+                LeafHit lh = leaf_triangle_hit(SCENE_ARGS_ ray, wr, tri, skip, hit, mailbox);
+                hit = lh.hit;
+                mailbox = lh.mailbox;
                 if (any_hit && hit.t < nearest) return hit;
                 tri_next += 1u;
             }
