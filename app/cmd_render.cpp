@@ -100,7 +100,8 @@ void run_render(const RenderArgs& a) {
     if (a.verbose && !g.tree_choice.empty()) std::printf("%s\n", g.tree_choice.c_str());
     std::printf("tree: %s%s\n", a.tree == "auto" ? "auto, " : "", describe_tree(g).c_str());
 
-    // Render in steps of a quarter second until the samples, the time or the error is there.
+    // Render in steps of a quarter second (or of the checkpoint interval, if shorter) until the
+    // samples, the time or the error is there.
     uint64_t spp = a.spp;
     double seconds = a.seconds;
     if (spp == 0 && seconds <= 0 && a.target_error <= 0) spp = 64;
@@ -115,7 +116,10 @@ void run_render(const RenderArgs& a) {
         last_save = std::chrono::steady_clock::now();
     };
     while (true) {
-        const double step_ms = seconds > 0 ? std::min(250.0, (seconds - elapsed) * 1e3) : 250.0;
+        const double step_cap_ms =
+            a.checkpoint.empty() ? 250.0 : std::clamp(a.checkpoint_every * 1e3, 1.0, 250.0);
+        const double step_ms =
+            seconds > 0 ? std::min(step_cap_ms, (seconds - elapsed) * 1e3) : step_cap_ms;
         try {
             st = session.render(std::max(step_ms, 0.0), a.target_error, spp);
         } catch (const Error& e) {

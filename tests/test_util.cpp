@@ -1,6 +1,12 @@
 #include "test_util.h"
 
+#include <sys/stat.h>
 #include <sys/wait.h>
+#include <unistd.h>
+
+#include <csignal>
+#include <chrono>
+#include <thread>
 
 #include <array>
 #include <cstdio>
@@ -25,9 +31,58 @@ CliRun run_mcpt(const std::string& args, const std::string& env) {
                        args);
 }
 
-CliRun run_mcpt_killed_after(double seconds, const std::string& args) {
-    return run_command("timeout -s KILL " + std::to_string(seconds) + " " +
-                       std::string(MCPT_BINARY) + " " + args);
+namespace {
+
+// A file's identity: the inode and modification time (an atomic rename gives a new inode).
+std::string file_identity(const std::string& path) {
+    struct stat st {};
+    if (stat(path.c_str(), &st) != 0) return "";
+    return std::to_string(st.st_ino) + ":" + std::to_string(st.st_mtim.tv_sec) + "." +
+           std::to_string(st.st_mtim.tv_nsec);
+}
+
+}  // namespace
+
+WatchedRun run_mcpt_killed_after_write(const std::string& args, const std::string& watched,
+                                       double then) {
+    using clock = std::chrono::steady_clock;
+    WatchedRun r;
+    char log_name[] = "/tmp/mcpt_watched_XXXXXX";
+    const int log = mkstemp(log_name);
+    if (log < 0) return r;
+    const std::string before = file_identity(watched);
+    const std::string command = "exec " + std::string(MCPT_BINARY) + " " + args;
+    const auto start = clock::now();
+    const auto since_start = [&] {
+        return std::chrono::duration<double>(clock::now() - start).count();
+    };
+    const pid_t pid = fork();
+    if (pid == 0) {
+        dup2(log, 1), dup2(log, 2);
+        execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char*>(nullptr));
+        _exit(127);
+    }
+    int status = 0;
+    bool killed = false;
+    while (pid > 0) {
+        if (waitpid(pid, &status, WNOHANG) == pid) break;
+        const double t = since_start();
+        if (r.first_write < 0 && file_identity(watched) != before) r.first_write = t;
+        // Killed `then` seconds after the first write, or after 10 minutes in any case.
+        if ((r.first_write >= 0 && t >= r.first_write + then) || t > 600) {
+            kill(pid, SIGKILL);
+            waitpid(pid, &status, 0);
+            killed = true;
+            break;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    r.ended = since_start();
+    r.status = killed ? 137 : WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.output = read_file(log_name);
+    close(log);
+    unlink(log_name);
+    return r;
 }
 
 CliRun run_command(const std::string& command) {

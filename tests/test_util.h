@@ -49,8 +49,17 @@ struct CliRun {
     std::string output;
 };
 CliRun run_mcpt(const std::string& args, const std::string& env = "");
-// The same, killed with SIGKILL after `seconds` if still running (status 137 then).
-CliRun run_mcpt_killed_after(double seconds, const std::string& args);
+// The mcpt binary run with `args` while `watched` (a checkpoint file) is watched: once this
+// run has written it (a new file: created, or replaced by an atomic rename), the run is killed
+// with SIGKILL `then` seconds later if still running (status 137). Times measured from the
+// run's own first write, so that a kill falls mid-render whatever the machine's speed and its
+// start-up time. `first_write` and `ended` are the seconds from the start to that write (-1:
+// none) and to the run's end.
+struct WatchedRun : CliRun {
+    double first_write = -1, ended = 0;
+};
+WatchedRun run_mcpt_killed_after_write(const std::string& args, const std::string& watched,
+                                       double then);
 // A shell command (stderr into stdout).
 CliRun run_command(const std::string& command);
 // The command line's options for the test device of `api` ("--backend opencl --device 0").

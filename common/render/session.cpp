@@ -113,8 +113,9 @@ PassStats Session::render(double budget_ms, double target_error, uint64_t max_sp
     if (!lost_.empty())
         throw DeviceLost("the device stopped earlier (" + lost_ +
                          "); open a new session to render more");
-    if (dirty_ || !same(settings_, committed_settings_)) commit();
+    // A cancel() from now on, during the commit too, ends this render.
     cancel_.store(false);
+    if (dirty_ || !same(settings_, committed_settings_)) commit();
     const auto start = clock::now();
     auto elapsed = [&] { return std::chrono::duration<double>(clock::now() - start).count(); };
     RenderResult& r = progressive_->result();
@@ -124,10 +125,6 @@ PassStats Session::render(double budget_ms, double target_error, uint64_t max_sp
     try {
         while (true) {
             if (max_spp > 0 && r.spp >= max_spp) break;
-            if (cancel_.load()) {
-                st.cancelled = true;
-                break;
-            }
             progressive_->pass(max_spp > 0 ? max_spp - r.spp : UINT64_MAX);
             // Samples to the host after the first pass, then at least once a second (a lost
             // device loses no more), and after every pass when the error is checked.
@@ -135,6 +132,11 @@ PassStats Session::render(double budget_ms, double target_error, uint64_t max_sp
             if (target_error > 0 || progressive_->seconds_since_flush() > 1.0) {
                 progressive_->flush();
                 if (target_error > 0 && r.spp >= 2 && r.relative_error() <= target_error) break;
+            }
+            // Cancelled: after at least one pass, as the budget.
+            if (cancel_.load()) {
+                st.cancelled = true;
+                break;
             }
             // Stop when the next pass would overrun the budget.
             if (t + progressive_->last_pass_seconds() > budget_s) break;
