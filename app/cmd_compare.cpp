@@ -15,6 +15,7 @@ namespace {
 
 struct CompareArgs {
     std::string scene = "cornell";
+    LightingArgs lighting;
     std::string a = "opencl", b = "vulkan";
     int width = 64, height = 64;
     int batches = 32;
@@ -39,6 +40,8 @@ struct Side {
 
 void run_compare(const CompareArgs& args) {
     Scene scene = load_scene_argument(args.scene);
+    scene.environment = lighting_environment(args.lighting);
+    check_lit(scene);
     RenderOptions ro;
     ro.width = args.width, ro.height = args.height;
     ro.max_depth = uint32_t(args.max_depth >= 0 ? args.max_depth : default_max_depth(scene));
@@ -150,6 +153,7 @@ void add_compare_command(CLI::App& app) {
     auto a = std::make_shared<CompareArgs>();
     CLI::App* sub = app.add_subcommand("compare", "A/B-test two backends on one scene");
     sub->add_option("scene", a->scene, "Built-in scene or .gltf/.glb file")->capture_default_str();
+    add_lighting_options(sub, a->lighting);
     sub->add_option("--a", a->a, "Backend A: opencl|vulkan[:device][,limits=phone]")
         ->capture_default_str();
     sub->add_option("--b", a->b, "Backend B: opencl|vulkan[:device][,limits=phone]")

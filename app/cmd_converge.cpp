@@ -25,6 +25,7 @@ namespace {
 
 struct ConvergeArgs {
     std::string scene = "cornell";
+    LightingArgs lighting;
     std::vector<std::string> backends{"opencl"};
     int width = 256, height = 256;
     double seconds = 10;
@@ -168,6 +169,8 @@ void write_plot(const std::string& path, const std::string& scene, const std::ve
 void run_converge(const ConvergeArgs& a) {
     // Scene, tree, render settings.
     Scene scene = load_scene_argument(a.scene);
+    scene.environment = lighting_environment(a.lighting);
+    check_lit(scene);
     const TreeOptions tree_opts = tree_options(a.tree);
     const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, tree_opts));
     RenderOptions ro;
@@ -268,6 +271,7 @@ void add_converge_command(CLI::App& app) {
     auto a = std::make_shared<ConvergeArgs>();
     CLI::App* sub = app.add_subcommand("converge", "Error against run time, per backend");
     sub->add_option("scene", a->scene, "Built-in scene or .gltf/.glb file")->capture_default_str();
+    add_lighting_options(sub, a->lighting);
     sub->add_option("--backend", a->backends, "opencl|vulkan[:device], repeatable")
         ->capture_default_str();
     sub->add_option("--width", a->width)->check(CLI::Range(1, 16384))->capture_default_str();

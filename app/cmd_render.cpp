@@ -44,6 +44,7 @@ struct RenderArgs {
     bool adaptive = false;
     std::string checkpoint;        // resume from / save to this file
     double checkpoint_every = 30;  // seconds between checkpoints
+    LightingArgs lighting;
 };
 
 void print_progress(double frac, const RenderResult& r) {
@@ -64,6 +65,7 @@ void run_render(const RenderArgs& a) {
     bo.limits = a.limits;
     check_image_path(a.output);  // before anything renders
     Session session(a.backend + (a.device.empty() ? "" : ":" + a.device), bo);
+    session.set_environment(lighting_environment(a.lighting));
     Scene loaded = load_scene(a.scene);
     for (const std::string& w : loaded.warnings) std::cerr << "mcpt: warning: " << w << "\n";
     session.set_scene(std::move(loaded));
@@ -77,6 +79,8 @@ void run_render(const RenderArgs& a) {
     s.reproducible = a.reproducible || !a.checkpoint.empty();
     s.adaptive = a.adaptive;
     session.commit();
+    for (const std::string& w : session.prepared().warnings)
+        std::cerr << "mcpt: warning: " << w << "\n";
     // Resume where an earlier run of this command stopped.
     if (!a.checkpoint.empty()) {
         std::error_code ec;
@@ -97,6 +101,16 @@ void run_render(const RenderArgs& a) {
     std::printf("scene: %s: %zu triangles, %zu spheres, %zu materials, %u lights\n",
                 scene.name.empty() ? a.scene.c_str() : scene.name.c_str(), scene.triangles.size(),
                 scene.spheres.size(), scene.materials.size(), g.params.num_lights);
+    if (!scene.punctual_lights.empty() || scene.environment.present())
+        std::printf("lights: %zu punctual (KHR_lights_punctual)%s%s\n",
+                    scene.punctual_lights.size(),
+                    scene.environment.present() ? ", environment " : "",
+                    scene.environment.present()
+                        ? (scene.environment.name + " " +
+                           std::to_string(g.params.env_width) + "x" +
+                           std::to_string(g.params.env_height))
+                              .c_str()
+                        : "");
     if (a.verbose && !g.tree_choice.empty()) std::printf("%s\n", g.tree_choice.c_str());
     std::printf("tree: %s%s\n", a.tree == "auto" ? "auto, " : "", describe_tree(g).c_str());
 
@@ -268,6 +282,7 @@ void add_render_command(CLI::App& app) {
                     "Seconds between checkpoints (and one at the end)")
         ->check(CLI::Range(0.0, 1e7))
         ->capture_default_str();
+    add_lighting_options(sub, args->lighting);
     sub->add_flag("-q,--quiet", args->quiet, "No progress bar");
     sub->add_flag("-v,--verbose", args->verbose, "Say what the build left out and why");
     sub->callback([args] { run_render(*args); });

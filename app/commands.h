@@ -3,6 +3,7 @@
 #pragma once
 #include <CLI/CLI.hpp>
 #include <string>
+#include <vector>
 
 #include "common/render/device_registry.h"
 #include "common/render/prepare.h"
@@ -24,5 +25,16 @@ void add_bench_command(CLI::App& app);
 
 // load_scene(arg) with its warnings printed to stderr.
 Scene load_scene_argument(const std::string& arg);
+
+// Light from the environment, for every command that renders: --env FILE.exr|.hdr
+// (--env-rotate DEG, --env-scale S) or --background R,G,B.
+struct LightingArgs {
+    std::string env;
+    float env_rotate = 0.f, env_scale = 1.f;
+    std::vector<float> background;
+};
+void add_lighting_options(CLI::App* sub, LightingArgs& a);
+// The environment the options ask for (none: Environment{}). Throws mcpt::Error.
+Environment lighting_environment(const LightingArgs& a);
 
 }  // namespace mcpt

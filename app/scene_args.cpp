@@ -1,6 +1,7 @@
 #include <iostream>
 
 #include "app/commands.h"
+#include "common/scene/environment.h"
 
 namespace mcpt {
 
@@ -8,6 +9,35 @@ Scene load_scene_argument(const std::string& arg) {
     Scene scene = load_scene(arg);
     for (const std::string& w : scene.warnings) std::cerr << "mcpt: warning: " << w << "\n";
     return scene;
+}
+
+void add_lighting_options(CLI::App* sub, LightingArgs& a) {
+    auto* env = sub->add_option("--env", a.env,
+                                "Environment map lighting the scene (equirectangular, linear "
+                                ".exr or .hdr; +Y up)");
+    sub->add_option("--env-rotate", a.env_rotate, "Turn the environment about +Y (degrees)")
+        ->check(CLI::Range(-1e6, 1e6));
+    sub->add_option("--env-scale", a.env_scale, "Scale the environment's radiance")
+        ->check(CLI::Range(0.0, 1e30));
+    sub->add_option("--background", a.background,
+                    "Constant background radiance R,G,B lighting the scene (default: black)")
+        ->delimiter(',')
+        ->expected(3)
+        ->excludes(env);
+}
+
+Environment lighting_environment(const LightingArgs& a) {
+    Environment env;
+    if (!a.env.empty())
+        env = load_environment(a.env);
+    else if (!a.background.empty())
+        env = constant_environment(glm::vec3(a.background[0], a.background[1], a.background[2]));
+    if (env.present() && a.env.empty() &&
+        !(a.background[0] > 0 || a.background[1] > 0 || a.background[2] > 0))
+        return Environment{};  // a black background: no light
+    env.rotate_deg = a.env_rotate;
+    env.scale = a.env_scale;
+    return env;
 }
 
 }  // namespace mcpt

@@ -1,10 +1,12 @@
-// The path tracer: camera rays, next-event estimation to a point on an emitter chosen in
-// proportion to its power, BSDF sampling, both combined by multiple importance sampling
-// (power heuristic), Russian roulette. Shared verbatim by OpenCL C, GLSL and C++.
+// The path tracer: camera rays, next-event estimation to a light chosen in proportion to its
+// power (a point on an emitter, a punctual light, a direction of the environment), BSDF
+// sampling, both combined by multiple importance sampling (power heuristic; delta lights
+// by NEE alone), Russian roulette. Shared verbatim by OpenCL C, GLSL and C++.
 #ifndef MCPT_GPU_INTEGRATOR_H
 #define MCPT_GPU_INTEGRATOR_H
 
 #include "bsdf.h"
+#include "lights.h"
 #include "sampler.h"
 #include "traverse.h"
 
@@ -100,16 +102,6 @@ MCPT_FN SurfacePoint surface_at(SCENE_PARAMS_ Ray ray, Hit hit) {
     return s;
 }
 
-MCPT_STRUCT(LightSample) {
-    vec3 wi;       // unit direction from the shading point to the light point
-    vec3 p;        // point on the light
-    vec3 p_error;  // its rounding-error bound
-    vec3 n;        // light normal at p (emitting side)
-    vec3 le;       // emitted radiance toward the shading point
-    float pdf;     // solid-angle pdf of choosing this direction
-    bool valid;
-};
-
 // Probability per unit area of a point on an emitter: power-proportional light choice
 // (area * mean(Le) / total) times uniform area sampling.
 MCPT_FN float emitter_area_pdf(SCENE_PARAMS_ GpuMaterial m) {
@@ -126,23 +118,22 @@ MCPT_FN float sphere_light_pdf(SCENE_PARAMS_ GpuSphere sph, vec3 x) {
     return pmf / (2.0f * MCPT_PI * one_minus_cos_cone(r2 / d2));
 }
 
-// Choose an emitter by power (alias table), then a point on it seen from x. u: 3 uniforms.
+// Choose a light by power (alias table), then a point on it, a direction of it, seen from x.
+// u: 3 uniforms.
 MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
-    LightSample ls;
-    ls.valid = false;
-    ls.wi = V3S(0.0f);
-    ls.p = V3S(0.0f);
-    ls.p_error = V3S(0.0f);
-    ls.n = V3S(0.0f);
-    ls.le = V3S(0.0f);
-    ls.pdf = 0.0f;
+    LightSample ls = no_light_sample();
     // Alias table lookup.
     uint count = PARAM(num_lights);
     float scaled = u.x * F32(count);
     uint slot = min(U32(scaled), count - 1u);
     GpuLight light = LIGHT(slot);
-    uint prim = (scaled - F32(slot)) < light.prob ? light.prim : LIGHT(light.alias).prim;
-    if (HAS_FEATURE(FEATURE_SPHERE_LIGHTS) && (prim & LIGHT_SPHERE_BIT) != 0u) {
+    if ((scaled - F32(slot)) >= light.prob) light = LIGHT(light.alias);
+    uint prim = light.prim;
+    if (HAS_FEATURE(FEATURE_PUNCTUAL_LIGHTS) && (prim & LIGHT_PUNCTUAL_BIT) != 0u) {
+        ls = sample_punctual(SCENE_ARGS_ prim & LIGHT_INDEX_MASK, x, light.pmf);
+    } else if (HAS_FEATURE(FEATURE_ENVIRONMENT) && prim == LIGHT_ENVIRONMENT) {
+        ls = sample_environment(SCENE_ARGS_ u.y, u.z, light.pmf);
+    } else if (HAS_FEATURE(FEATURE_SPHERE_LIGHTS) && (prim & LIGHT_SPHERE_BIT) != 0u) {
         // Sphere: uniform direction in the cone it subtends.
         GpuSphere sph = SPHERE(prim & ~LIGHT_SPHERE_BIT);
         vec3 c = V3(sph.cx, sph.cy, sph.cz);
@@ -165,7 +156,7 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
         ls.le = material_emission(m);
         ls.pdf = sphere_light_pdf(SCENE_ARGS_ sph, x);
         ls.valid = ls.pdf > 0.0f;
-    } else if (HAS_FEATURE(FEATURE_TRIANGLE_LIGHTS) && (prim & LIGHT_SPHERE_BIT) == 0u) {
+    } else if (HAS_FEATURE(FEATURE_TRIANGLE_LIGHTS) && (prim & ~LIGHT_INDEX_MASK) == 0u) {
         // Triangle: uniform point, one-sided emission.
         GpuTriangle tri = TRIANGLE(prim);
         vec3 v0 = tri_v0(tri), v1 = tri_v1(tri), v2 = tri_v2(tri);
@@ -284,6 +275,16 @@ MCPT_FN PathState bounce_path(SCENE_PARAMS_ PathState st, uint pixel) {
         return st;
     }
     if (hit.prim == NO_HIT) {
+        // The environment, MIS-weighted unless NEE could not have sampled the direction.
+        if (HAS_FEATURE(FEATURE_ENVIRONMENT) && PARAM(env_width) > 0u) {
+            vec4 t = env_lookup(SCENE_ARGS_ ray.d);
+            float w = 1.0f;
+            if (!st.specular) {
+                float env_pdf = PARAM(env_pmf) * env_solid_angle_pdf(t, ray.d);
+                w = power_heuristic(st.prev_pdf, env_pdf);
+            }
+            st.radiance += st.beta * V3(t.x, t.y, t.z) * (w * light_scale);
+        }
         st.status = PATH_ENDED;
         return st;
     }
@@ -338,6 +339,11 @@ MCPT_FN PathState bounce_path(SCENE_PARAMS_ PathState st, uint pixel) {
             shadow.o = offset_ray_origin(s.p, s.p_error, s.ng, ls.wi);
             shadow.d = offset_ray_origin(ls.p, ls.p_error, ls.n, -ls.wi) - shadow.o;
             shadow.tmax = 1.0f - SHADOW_EPSILON;
+            if ((HAS_FEATURE(FEATURE_PUNCTUAL_LIGHTS) || HAS_FEATURE(FEATURE_ENVIRONMENT)) &&
+                ls.at_infinity) {
+                shadow.d = ls.wi;
+                shadow.tmax = MCPT_FLT_MAX;
+            }
             Hit blocker = trace_ray(SCENE_ARGS_ shadow, true);
             st.rays += 1u;
             MCPT_COUNT_RAY(blocker);
@@ -347,7 +353,7 @@ MCPT_FN PathState bounce_path(SCENE_PARAMS_ PathState st, uint pixel) {
             }
             if (blocker.prim == NO_HIT) {
                 BsdfEval e = eval_bsdf(m, ns, wo, ls.wi, front);
-                float w = power_heuristic(ls.pdf, e.pdf);
+                float w = ls.delta ? 1.0f : power_heuristic(ls.pdf, e.pdf);
                 st.radiance += st.beta * e.f * ls.le * (light_scale * cos_x * w / ls.pdf);
             }
         }

@@ -41,6 +41,7 @@ using glm::min;
 using glm::mix;
 using glm::normalize;
 using std::abs;
+using std::acos;
 using std::floor;
 using std::sqrt;
 inline float inversesqrt(float x) { return 1.0f / std::sqrt(x); }

@@ -126,6 +126,12 @@ layout(std430, binding = BINDING_SHADING) readonly buffer TextureBlock { GpuText
 layout(std430, binding = BINDING_SHADING) readonly buffer TexelBlock { uvec2 shading_texels[]; };
 #define TEXTURE(i) shading_textures[SHADING_LIGHTS_WORD(params.num_spheres, params.num_materials) / 4u + params.num_lights + (i)]
 #define TEXEL(i) shading_texels[params.texels_word / 2u + (i)]
+// Words and 16-byte groups after texels_word (punctual lights and the environment, lights.h;
+// a group starts on a multiple of 4 words from the buffer's start).
+layout(std430, binding = BINDING_SHADING) readonly buffer WordBlock { uint shading_words[]; };
+layout(std430, binding = BINDING_SHADING) readonly buffer Vec4Block { vec4 shading_vec4[]; };
+#define SCENE_WORD(w) shading_words[params.texels_word + (w)]
+#define SCENE_VEC4(w) shading_vec4[(params.texels_word + (w)) / 4u]
 #else
 #if defined(MCPT_CPP)
 #define MCPT_UNUSED [[maybe_unused]]
@@ -151,10 +157,15 @@ layout(std430, binding = BINDING_SHADING) readonly buffer TexelBlock { uvec2 sha
 #define LIGHT(i) lights[i]
 #define ATTRIBUTES(i) attributes[i]
 #define TEXTURE(i) textures[i]
+#define SCENE_WORD(w) texels[w]
 #if defined(MCPT_OPENCL)
 #define TEXEL(i) vload2(i, texels)
+#define SCENE_VEC4(w) as_float4(vload4(0, texels + (w)))
 #else
 #define TEXEL(i) uvec2(texels[2u * (i)], texels[2u * (i) + 1u])
+#define SCENE_VEC4(w)                                                                 \
+    vec4(uint_as_float(texels[w]), uint_as_float(texels[(w) + 1u]),                   \
+         uint_as_float(texels[(w) + 2u]), uint_as_float(texels[(w) + 3u]))
 #endif
 // OpenCL on GPUs reads words too (-DMCPT_TRIANGLE_WORDS); PoCL's CPU code is 6-11% faster
 // with the plain struct read (measured with mcpt compare --b-defines).

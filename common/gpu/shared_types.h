@@ -15,8 +15,17 @@ MCPT_NAMESPACE_BEGIN
 #define MAT_PBR 3u  // glTF metallic-roughness: GGX specular (Schlick Fresnel) over a diffuse base
 #define MAT_ROUGH_GLASS 4u  // rough dielectric: GGX reflection and refraction (Walter 2007)
 
-// Light kinds (GpuLight.prim high bit).
+// Light kinds (GpuLight.prim high bits): a triangle index, a sphere index | LIGHT_SPHERE_BIT,
+// a punctual light index | LIGHT_PUNCTUAL_BIT, or LIGHT_ENVIRONMENT (the one environment).
 #define LIGHT_SPHERE_BIT 0x80000000u
+#define LIGHT_PUNCTUAL_BIT 0x40000000u
+#define LIGHT_ENVIRONMENT 0x20000000u
+#define LIGHT_INDEX_MASK 0x1fffffffu
+
+// Punctual light kinds (GpuPunctualLight.type): glTF KHR_lights_punctual.
+#define PUNCTUAL_POINT 0u
+#define PUNCTUAL_SPOT 1u
+#define PUNCTUAL_DIRECTIONAL 2u
 
 // Scene features (bits of MCPT_FEATURES): code a scene does not need is compiled out,
 // through -D in OpenCL and a specialization constant in Vulkan (common/scene_features.h).
@@ -32,11 +41,13 @@ MCPT_NAMESPACE_BEGIN
 #define FEATURE_SHADING_NORMALS 512u  // per-vertex normals (smooth shading) and normal maps
 #define FEATURE_TEXTURES 1024u      // texture coordinates and texture fetches (texture.h)
 #define FEATURE_ALPHA_MASK 2048u    // alphaMode MASK: cut-out surfaces rays pass through
-#define FEATURE_ALL 4095u          // every feature a scene can use: the full kernel
-#define FEATURE_TEST_NAN 4096u     // tests only: poison samples of pixels 0 and 1 (never in ALL)
-#define FEATURE_INDEPENDENT_SAMPLER 8192u  // independent uniforms, not Sobol (A/B, never in ALL)
-#define FEATURE_BITS 16383u        // every bit above
-#define FEATURE_COUNT 14
+#define FEATURE_PUNCTUAL_LIGHTS 4096u  // point, spot and directional lights (KHR_lights_punctual)
+#define FEATURE_ENVIRONMENT 8192u   // an environment map or constant background (lights.h)
+#define FEATURE_ALL 16383u          // every feature a scene can use: the full kernel
+#define FEATURE_TEST_NAN 16384u     // tests only: poison samples of pixels 0 and 1 (never in ALL)
+#define FEATURE_INDEPENDENT_SAMPLER 32768u  // independent uniforms, not Sobol (A/B, never in ALL)
+#define FEATURE_BITS 65535u         // every bit above
+#define FEATURE_COUNT 16
 
 // The smallest GGX alpha a MAT_PBR material keeps (roughness 0.01): below it the lobe's peak
 // exceeds float range in NEE; roughness 0 metals are MAT_MIRROR.
@@ -135,6 +146,21 @@ MCPT_STRUCT(GpuMaterial) {
     uint tex_base, tex_metal_rough, tex_normal, tex_emission;
 };
 
+// A punctual light (KHR_lights_punctual) in world space: 64 bytes, in the texel region from
+// GpuParams.punctual_word (a multiple of 4 words from the buffer's start). Intensity in W/sr
+// (point, spot) or W/m^2 (directional); `dx, dy, dz` the unit direction light travels (spot,
+// directional); range 0: unbounded; the spot's smooth falloff is glTF's:
+// clamp(cos * spot_scale + spot_offset, 0, 1)^2.
+MCPT_STRUCT(GpuPunctualLight) {
+    float px, py, pz;
+    uint type;  // PUNCTUAL_*
+    float dx, dy, dz;
+    float range;
+    float r, g, b;
+    float spot_scale, spot_offset;
+    uint pad0, pad1, pad2;
+};
+
 // One entry of the light alias table (Walker/Vose): pick i uniformly, keep it with
 // probability `prob`, else take `alias`. `pmf` is the total probability of light i.
 MCPT_STRUCT(GpuLight) {
@@ -179,6 +205,17 @@ MCPT_STRUCT(GpuParams) {
     // plan[2i + 1] samples from sample index plan[2i]; 0: every pixel takes
     // samples_per_dispatch samples from sample_offset.
     uint sample_plan;
+    // Punctual lights: their number, and their first word after texels_word.
+    uint num_punctual, punctual_word;
+    // The environment (equirectangular, row 0 at +Y), words after texels_word: env_word, one
+    // 16-byte texel each (radiance rgb, then the pdf of its uv square: w); env_rows_word, the
+    // alias table of its rows (two words each: prob, alias); env_cols_word, that of each row's
+    // columns. env_u_shift: the rotation about +Y as a shift of u. env_pmf: the probability
+    // that next-event estimation picks the environment.
+    uint env_width, env_height;
+    uint env_word, env_rows_word, env_cols_word;
+    float env_u_shift, env_pmf;
+    uint pad_params0, pad_params1, pad_params2;  // std140: a multiple of 16 bytes
 };
 // GpuParams.scene_flags: the triangle buffer holds GpuTriangleAttributes after the triangles;
 // some material has an alpha mask (the traversal reads materials only then).
@@ -207,7 +244,8 @@ static_assert(sizeof(mcpt::gpu::GpuTriangle) % 8 == 0, "GLSL reads triangles as 
 static_assert(sizeof(mcpt::gpu::GpuSphere) == 32, "GpuSphere must be 32 bytes");
 static_assert(sizeof(mcpt::gpu::GpuMaterial) == 64, "GpuMaterial must be 64 bytes");
 static_assert(sizeof(mcpt::gpu::GpuLight) == 16, "GpuLight must be 16 bytes");
-static_assert(sizeof(mcpt::gpu::GpuParams) == 44 * 4, "GpuParams must be 44 words");
+static_assert(sizeof(mcpt::gpu::GpuParams) == 56 * 4, "GpuParams must be 56 words");
+static_assert(sizeof(mcpt::gpu::GpuPunctualLight) == 64, "GpuPunctualLight must be 64 bytes");
 static_assert(sizeof(mcpt::gpu::GpuTriangleAttributes) == 40, "GpuTriangleAttributes: 40 bytes");
 static_assert(sizeof(mcpt::gpu::GpuTexture) == 16, "GpuTexture must be 16 bytes");
 static_assert(offsetof(mcpt::gpu::GpuParams, light_power_total) == 14 * 4, "GpuParams layout");

@@ -156,6 +156,11 @@ std::vector<float> read_exr(const std::string& path, int& width, int& height) {
         if (!in || !in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(size)))
             throw Error("cannot read EXR image " + path);
     }
+    return read_exr_memory(bytes.data(), bytes.size(), path, width, height);
+}
+
+std::vector<float> read_exr_memory(const unsigned char* data, size_t size, const std::string& path,
+                                   int& width, int& height) {
     // Header and pixels through tinyexr's lower-level calls, each freed by its owner (LoadEXR
     // leaks the header's channel list when the pixels fail to decode; a failed pixel load
     // frees its own buffers but leaves their pointers, so only a loaded image is freed).
@@ -173,12 +178,12 @@ std::vector<float> read_exr(const std::string& path, int& width, int& height) {
         return Error("cannot read EXR image " + path + ": " + why);
     };
     EXRVersion version;
-    if (ParseEXRVersionFromMemory(&version, bytes.data(), bytes.size()) != TINYEXR_SUCCESS)
+    if (ParseEXRVersionFromMemory(&version, data, size) != TINYEXR_SUCCESS)
         throw fail("not an OpenEXR file");
     if (version.multipart || version.non_image)
         throw fail("multi-part and deep files are not read");
     const char* err = nullptr;
-    if (ParseEXRHeaderFromMemory(&exr.header, &version, bytes.data(), bytes.size(), &err) !=
+    if (ParseEXRHeaderFromMemory(&exr.header, &version, data, size, &err) !=
         TINYEXR_SUCCESS)
         throw fail(take_exr_error(err));
     if (exr.header.tiled) throw fail("tiled files are not read (mcpt writes scan lines)");
@@ -197,7 +202,7 @@ std::vector<float> read_exr(const std::string& path, int& width, int& height) {
     }
     if (exr.header.num_channels == 1) rgb_channel[0] = rgb_channel[1] = rgb_channel[2] = 0;
     if (*std::min_element(rgb_channel, rgb_channel + 3) < 0) throw fail("no R, G and B channels");
-    if (LoadEXRImageFromMemory(&exr.image, &exr.header, bytes.data(), bytes.size(), &err) !=
+    if (LoadEXRImageFromMemory(&exr.image, &exr.header, data, size, &err) !=
         TINYEXR_SUCCESS)
         throw fail(take_exr_error(err));
     exr.image_loaded = true;

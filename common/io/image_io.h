@@ -1,5 +1,6 @@
 // Image output for renders (linear EXR, 8-bit sRGB PNG) and EXR input for tests and tools.
 #pragma once
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -22,6 +23,9 @@ void check_image_path(const std::string& path);
 // 16384x16384 pixels (3 floats per pixel, top row first, half channels widened to float);
 // throws mcpt::Error naming the file when it cannot be read.
 std::vector<float> read_exr(const std::string& path, int& width, int& height);
+// The same from `size` bytes in memory; `name` names them in errors.
+std::vector<float> read_exr_memory(const unsigned char* data, size_t size, const std::string& name,
+                                   int& width, int& height);
 
 // Linear value -> 8-bit sRGB as written to PNG: clamp to [0, 1], sRGB OETF, round to nearest.
 // Non-finite input maps to 0 (write_image paints such pixels magenta instead).

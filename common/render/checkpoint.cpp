@@ -92,6 +92,19 @@ uint64_t scene_hash(const Scene& s) {
         h = fnv1a(head, sizeof head, h);
         if (!t.rgba.empty()) h = fnv1a(t.rgba.data(), t.rgba.size() * sizeof(uint16_t), h);
     }
+    for (const PunctualLight& l : s.punctual_lights) {
+        const float f[] = {float(l.kind),  l.position.x,  l.position.y,  l.position.z,
+                           l.direction.x,  l.direction.y, l.direction.z, l.intensity.x,
+                           l.intensity.y,  l.intensity.z, l.range,       l.inner_cone,
+                           l.outer_cone};
+        h = fnv1a(f, sizeof f, h);
+    }
+    if (s.environment.present()) {
+        const Environment& e = s.environment;
+        const float head[] = {float(e.width), float(e.height), e.rotate_deg, e.scale};
+        h = fnv1a(head, sizeof head, h);
+        h = fnv1a(e.rgb.data(), e.rgb.size() * sizeof(float), h);
+    }
     h = fnv1a(&s.camera, sizeof s.camera, h);
     h = fnv1a(&s.has_camera, sizeof s.has_camera, h);
     return fnv1a(&s.max_depth_hint, sizeof s.max_depth_hint, h);

@@ -7,6 +7,7 @@
 
 #include "common/error.h"
 #include "common/render/scene_features.h"
+#include "common/scene/environment.h"
 
 namespace mcpt {
 
@@ -32,6 +33,97 @@ gpu::GpuMaterial pack_material(const Material& m) {
 
 double mean_emission(const Material& m) {
     return (double(m.emission.x) + double(m.emission.y) + double(m.emission.z)) / 3.0;
+}
+
+// A punctual light's power (its weight in the light choice): a point's 4 pi I, a spot's
+// 2 pi (1 - cos outer) I (its cone), a directional light's E over the scene's disk.
+double punctual_power(const PunctualLight& l, double disk) {
+    const double mean = (double(l.intensity.x) + double(l.intensity.y) + double(l.intensity.z)) / 3;
+    switch (l.kind) {
+        case PunctualKind::Point:
+            return 4 * M_PI * mean;
+        case PunctualKind::Spot:
+            return 2 * M_PI * (1 - std::cos(double(l.outer_cone))) * mean;
+        default:
+            return disk * mean;
+    }
+}
+
+// The environment's sampling weight of each texel (luminance * sin(theta) * scale), and its
+// power per unit area of the disk: the integral of mean radiance over the sphere.
+double environment_weights(const Environment& env, std::vector<double>& weights) {
+    const size_t w = size_t(env.width), h = size_t(env.height);
+    weights.assign(w * h, 0.0);
+    double integral = 0;
+    for (size_t y = 0; y < h; ++y) {
+        const double sin_theta = std::sin(M_PI * (double(y) + 0.5) / double(h));
+        const double texel_sr = (2 * M_PI / double(w)) * (M_PI / double(h)) * sin_theta;
+        for (size_t x = 0; x < w; ++x) {
+            const float* c = &env.rgb[3 * (y * w + x)];
+            weights[y * w + x] = double(env_luminance(c[0], c[1], c[2])) * sin_theta;
+            integral += (double(c[0]) + double(c[1]) + double(c[2])) / 3 * texel_sr;
+        }
+    }
+    return integral * double(env.scale);
+}
+
+// Appends the punctual lights and the environment (texels, alias tables) to the texel region,
+// each on a 16-byte boundary of the shading buffer, and sets their GpuParams fields.
+void pack_punctual_and_environment(const Scene& scene, const std::vector<double>& env_weights,
+                                   GpuScene& g) {
+    gpu::GpuParams& p = g.params;
+    const auto align16 = [&] {
+        while ((p.texels_word + g.texels.size()) % 4 != 0) g.texels.push_back(0);
+    };
+    const auto word = [](float f) {
+        uint32_t u;
+        std::memcpy(&u, &f, 4);
+        return u;
+    };
+    align16();
+    p.num_punctual = uint32_t(scene.punctual_lights.size());
+    p.punctual_word = uint32_t(g.texels.size());
+    for (const PunctualLight& l : scene.punctual_lights) {
+        const float cos_inner = std::cos(l.inner_cone), cos_outer = std::cos(l.outer_cone);
+        const float scale = 1.f / std::max(0.001f, cos_inner - cos_outer);
+        const float f[16] = {l.position.x,  l.position.y,  l.position.z,  0.f,
+                             l.direction.x, l.direction.y, l.direction.z, l.range,
+                             l.intensity.x, l.intensity.y, l.intensity.z, scale,
+                             -cos_outer * scale, 0.f, 0.f, 0.f};
+        for (int k = 0; k < 16; ++k) g.texels.push_back(word(f[k]));
+        g.texels[g.texels.size() - 13] = uint32_t(l.kind);  // type, word 3
+    }
+    const Environment& env = scene.environment;
+    if (!env.present()) return;
+    const size_t w = size_t(env.width), h = size_t(env.height);
+    p.env_width = uint32_t(w), p.env_height = uint32_t(h);
+    p.env_u_shift = float(std::fmod(double(env.rotate_deg) / 360.0, 1.0));
+    // Texels: radiance, and the pdf of their uv square (pmf * texel count).
+    const double sum = std::accumulate(env_weights.begin(), env_weights.end(), 0.0);
+    p.env_word = uint32_t(g.texels.size());
+    for (size_t i = 0; i < w * h; ++i) {
+        const float* c = &env.rgb[3 * i];
+        const double pdf = sum > 0 ? env_weights[i] / sum * double(w * h) : 0.0;
+        for (float v : {c[0] * env.scale, c[1] * env.scale, c[2] * env.scale, float(pdf)})
+            g.texels.push_back(word(v));
+    }
+    // The rows by their total weight, then each row's columns by theirs.
+    std::vector<gpu::GpuLight> table;
+    const auto append_table = [&](const std::vector<double>& weights) {
+        build_alias_table(weights, table);
+        for (const gpu::GpuLight& e : table) g.texels.push_back(word(e.prob)), g.texels.push_back(e.alias);
+    };
+    std::vector<double> rows(h, 0.0);
+    for (size_t y = 0; y < h; ++y)
+        for (size_t x = 0; x < w; ++x) rows[y] += env_weights[y * w + x];
+    p.env_rows_word = uint32_t(g.texels.size());
+    append_table(rows);
+    p.env_cols_word = uint32_t(g.texels.size());
+    for (size_t y = 0; y < h; ++y)
+        append_table(std::vector<double>(env_weights.begin() + long(y * w),
+                                         env_weights.begin() + long((y + 1) * w)));
+    for (const gpu::GpuLight& l : g.lights)
+        if (l.prim == LIGHT_ENVIRONMENT) p.env_pmf = l.pmf;
 }
 
 }  // namespace
@@ -141,10 +233,26 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
         weights.push_back(4.0 * M_PI * double(s.radius) * double(s.radius) * mean_emission(m));
         prims.push_back(uint32_t(i) | LIGHT_SPHERE_BIT);
     }
-    const double total = std::accumulate(weights.begin(), weights.end(), 0.0);
-    if (weights.empty() || !(total > 0) || !std::isfinite(total)) {
-        throw Error("scene has no light: no triangle or sphere with positive finite emission");
+    // Punctual lights and the environment, weighted by their power into a disk of the scene's
+    // bounding radius (directions).
+    const Bounds bounds = scene.bounds();
+    const double radius =
+        bounds.empty() ? 1.0 : 0.5 * glm::length(glm::dvec3(bounds.max) - glm::dvec3(bounds.min));
+    const double disk = M_PI * radius * radius;
+    for (size_t i = 0; i < scene.punctual_lights.size(); ++i) {
+        weights.push_back(punctual_power(scene.punctual_lights[i], disk));
+        prims.push_back(uint32_t(i) | LIGHT_PUNCTUAL_BIT);
     }
+    std::vector<double> env_weights;
+    if (scene.environment.present()) {
+        weights.push_back(disk * environment_weights(scene.environment, env_weights));
+        prims.push_back(LIGHT_ENVIRONMENT);
+    }
+    // Lights of zero power are never picked (and not kept).
+    for (size_t i = weights.size(); i-- > 0;)
+        if (!(weights[i] > 0)) weights.erase(weights.begin() + long(i)), prims.erase(prims.begin() + long(i));
+    const double total = std::accumulate(weights.begin(), weights.end(), 0.0);
+    if (weights.empty() || !(total > 0) || !std::isfinite(total)) check_lit(Scene{});
     build_alias_table(weights, g.lights);
     for (size_t i = 0; i < g.lights.size(); ++i) g.lights[i].prim = prims[i];
     // Scene constants.
@@ -161,6 +269,7 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
     p.texels_word = SHADING_LIGHTS_WORD(p.num_spheres, p.num_materials) + 4u * p.num_lights +
                     4u * p.num_textures;
     p.light_power_total = float(total);
+    pack_punctual_and_environment(scene, env_weights, g);
     p.scene_min_x = tree.bounds.min.x, p.scene_min_y = tree.bounds.min.y;
     p.scene_min_z = tree.bounds.min.z;
     p.scene_max_x = tree.bounds.max.x, p.scene_max_y = tree.bounds.max.y;
@@ -258,6 +367,12 @@ std::vector<uint32_t> shading_buffer(const GpuScene& s) {
     append_words(out, s.texels);
     if (out.empty()) out.push_back(0);
     return out;
+}
+
+uint64_t shading_buffer_bytes(const GpuScene& s) {
+    return uint64_t(SHADING_MATERIALS_WORD(uint32_t(s.spheres.size()))) * 4 +
+           s.materials.size() * sizeof(gpu::GpuMaterial) + s.lights.size() * sizeof(gpu::GpuLight) +
+           s.textures.size() * sizeof(gpu::GpuTexture) + s.texels.size() * 4;
 }
 
 std::vector<uint32_t> triangle_buffer(const GpuScene& s) {

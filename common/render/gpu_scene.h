@@ -28,6 +28,7 @@ struct GpuScene {
     TreeStats tree_stats;
     TreeKind tree_kind = TreeKind::None;  // the tree packed (never Auto)
     std::string tree_choice;              // TreeKind::Auto: what it chose and why
+    std::vector<std::string> warnings;    // what preparing it changed (a downsampled map)
     size_t device_bytes() const;          // total of all arrays
 };
 
@@ -40,6 +41,7 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree);
 // 32-bit words. Never empty: one zero word stands for no data.
 std::vector<uint32_t> tree_buffer(const GpuScene& scene);
 std::vector<uint32_t> shading_buffer(const GpuScene& scene);
+uint64_t shading_buffer_bytes(const GpuScene& scene);
 // The triangle buffer: the triangles, then their attributes (when the scene has any).
 std::vector<uint32_t> triangle_buffer(const GpuScene& scene);
 

@@ -1,10 +1,13 @@
 #include "common/render/prepare.h"
 
+#include <algorithm>
 #include <cstdio>
 
 #include "common/error.h"
+#include "common/io/host_memory.h"
 #include "common/render/device_limits.h"
 #include "common/render/scene_features.h"
+#include "common/scene/environment.h"
 
 namespace mcpt {
 
@@ -21,7 +24,33 @@ GpuScene prepare_scene(const Scene& scene, const DeviceInfo& device, TreeOptions
     if (width <= 0 || height <= 0 || width > 16384 || height > 16384)
         throw Error("image size must be between 1x1 and 16384x16384");
     tree.auto_model = tree_cost_model(device);
-    GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, tree));
+    const KdTree kd = build_kdtree(scene.triangles, tree);
+    GpuScene g = pack_scene(scene, kd);
+    // An environment map the shading buffer cannot hold is halved until it fits (lighting
+    // keeps its mean; only its finest detail goes), with a warning: a phone still renders the
+    // file. Refused only when the rest of the scene leaves no room.
+    const MemoryLimits& m = device.memory;
+    uint64_t limit = m.max_buffer_bytes;
+    if (m.max_allocation_bytes > 0 && (limit == 0 || m.max_allocation_bytes < limit))
+        limit = m.max_allocation_bytes;
+    const uint64_t shading = shading_buffer_bytes(g);
+    if (scene.environment.present() && limit > 0 && shading > limit) {
+        const Environment& env = scene.environment;
+        const uint64_t env_bytes = environment_device_bytes(env.width, env.height);
+        const uint64_t rest = shading - std::min(shading, env_bytes);
+        if (rest + 64 < limit) {
+            Scene fitted = scene;
+            shrink_environment(fitted.environment, limit - rest - 64);
+            g = pack_scene(fitted, kd);
+            g.warnings.push_back(
+                "environment map " + env.name + " (" + std::to_string(env.width) + "x" +
+                std::to_string(env.height) + ", " + human_bytes(env_bytes) +
+                " on the device) exceeds " + (limit == m.max_buffer_bytes ? m.max_buffer_name : m.max_allocation_name) +
+                " (" + human_bytes(limit) + ") with the scene: downsampled to " +
+                std::to_string(fitted.environment.width) + "x" +
+                std::to_string(fitted.environment.height) + " (mean radiance kept)");
+        }
+    }
     check_device_limits(g, width, height, device, device.backend + ": " + device.name);
     return g;
 }

@@ -10,7 +10,7 @@ namespace {
 const char* const kFeatureNames[FEATURE_COUNT] = {
     "triangles",     "spheres",  "diffuse",           "mirror", "glass", "triangle lights",
     "sphere lights", "k-d tree", "microfacet", "shading normals", "textures", "alpha mask",
-    "test NaN injection", "independent sampler"};
+    "punctual lights", "environment", "test NaN injection", "independent sampler"};
 
 // The features of a material: its kind, then its textures and alpha mask.
 uint32_t material_features(const gpu::GpuMaterial& m) {
@@ -48,7 +48,12 @@ uint32_t scene_features(const GpuScene& g) {
     if (g.vertex_normals) f |= FEATURE_SHADING_NORMALS;
     // Emitters.
     for (const gpu::GpuLight& l : g.lights)
-        f |= (l.prim & LIGHT_SPHERE_BIT) ? FEATURE_SPHERE_LIGHTS : FEATURE_TRIANGLE_LIGHTS;
+        f |= (l.prim & LIGHT_PUNCTUAL_BIT)  ? FEATURE_PUNCTUAL_LIGHTS
+             : l.prim == LIGHT_ENVIRONMENT ? FEATURE_ENVIRONMENT
+             : (l.prim & LIGHT_SPHERE_BIT) ? FEATURE_SPHERE_LIGHTS
+                                           : FEATURE_TRIANGLE_LIGHTS;
+    // The environment is seen by rays that escape, even when it is black.
+    if (g.params.env_width > 0) f |= FEATURE_ENVIRONMENT;
     // The tree, when it has more than one leaf.
     for (const gpu::KdNode& n : g.nodes)
         if ((n.flags & 3u) != KD_LEAF) f |= FEATURE_KDTREE;

@@ -61,7 +61,14 @@ Session::~Session() = default;
 
 void Session::set_scene(Scene scene) {
     scene_ = std::move(scene);
+    if (environment_.present()) scene_.environment = environment_;
     has_scene_ = true;
+    dirty_ = true;
+}
+
+void Session::set_environment(Environment env) {
+    environment_ = std::move(env);
+    scene_.environment = environment_;
     dirty_ = true;
 }
 

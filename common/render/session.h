@@ -64,6 +64,9 @@ class Session {
     // A validated scene (scene_load.h); replaces the previous one.
     void set_scene(Scene scene);
     bool has_scene() const { return has_scene_; }
+    // Lights this scene, and every scene set after, with `env` (an environment map or a
+    // constant background; Environment{} removes it).
+    void set_environment(Environment env);
     const Scene& scene() const { return scene_; }
 
     // Changes take effect at the next render().
@@ -118,6 +121,7 @@ class Session {
     std::unique_ptr<Backend> backend_;
     Scene scene_;
     bool has_scene_ = false;
+    Environment environment_;
     SessionSettings settings_;
     SessionSettings committed_settings_;
     bool dirty_ = true;

@@ -17,6 +17,9 @@
 //          metallicFactor, roughnessFactor, KHR_materials_ior.ior and
 //          KHR_materials_specular.specularFactor (default 1).
 //   A primitive without a material gets a grey (0.8) Diffuse material.
+// Lamps (KHR_lights_punctual) on nodes: point, spot and directional lights at the node's
+// world transform (position; direction -Z), color * intensity / 683 lm/W (candela to W/sr,
+// lux to W/m^2, as Blender's importer converts them), range and cone angles as glTF says.
 //   Ignored with a warning: textures (only the factors are used), normal maps, skins,
 //   animations, morph targets, non-perspective cameras, primitive modes other than TRIANGLES
 //   and extensions other than the four above. Alpha is ignored. A file that requires
@@ -62,9 +65,15 @@ const char* const kTransmission = "KHR_materials_transmission";
 const char* const kIor = "KHR_materials_ior";
 const char* const kSpecular = "KHR_materials_specular";
 
+const char* const kLightsPunctual = "KHR_lights_punctual";
+
 bool supported_extension(const std::string& name) {
-    return name == kEmissiveStrength || name == kTransmission || name == kIor || name == kSpecular;
+    return name == kEmissiveStrength || name == kTransmission || name == kIor ||
+           name == kSpecular || name == kLightsPunctual;
 }
+
+// glTF's photometric units to radiometric ones: 683 lm/W, as Blender's glTF importer.
+constexpr double kLumensPerWatt = 683.0;
 
 // The JSON parser recurses once per nesting level: a file nesting arrays tens of thousands
 // deep would overflow the stack. glTF itself nests a handful of levels; extras may add some.
@@ -305,6 +314,7 @@ class GltfLoader {
     void check_triangle_budget(const std::vector<int>& roots) const;
     glm::dmat4 local_transform(const tg::Node& node, int index);
     void take_camera(int camera, const glm::dmat4& world);
+    void add_light(int light, const glm::dmat4& world, int node);
     void add_mesh(int mesh, const glm::dmat4& world);
     uint32_t material_index(int material, const std::string& where);
     const unsigned char* view_data(int view, size_t offset, size_t count, size_t stride,
@@ -636,6 +646,14 @@ void GltfLoader::traverse(const std::vector<int>& roots) {
         // Its camera, its mesh, then its children in order.
         if (node.camera >= 0 || node.camera < -1) take_camera(node.camera, world);
         if (node.mesh >= 0 || node.mesh < -1) add_mesh(node.mesh, world);
+        const auto lamp = node.extensions.find(kLightsPunctual);
+        if (lamp != node.extensions.end()) {
+            const tg::Value& light = lamp->second.Get("light");
+            if (!light.IsNumber())
+                fail("node " + std::to_string(index) + ": " + kLightsPunctual +
+                     " without a light index");
+            add_light(light.GetNumberAsInt(), world, index);
+        }
         for (auto c = node.children.rbegin(); c != node.children.rend(); ++c)
             stack.emplace_back(*c, world);
     }
@@ -666,6 +684,53 @@ glm::dmat4 GltfLoader::local_transform(const tg::Node& node, int index) {
         m = glm::scale(m, glm::make_vec3(node.scale.data()));
     }
     return m;
+}
+
+// A lamp of KHR_lights_punctual at the node's world transform: position, direction -Z.
+void GltfLoader::add_light(int light, const glm::dmat4& world, int node) {
+    if (light < 0 || size_t(light) >= model_.lights.size())
+        fail("node " + std::to_string(node) + ": light index " + std::to_string(light) +
+             " out of range (file has " + std::to_string(model_.lights.size()) + " lights)");
+    const tg::Light& l = model_.lights[size_t(light)];
+    const std::string label = "light " + (l.name.empty() ? std::to_string(light) : "'" + l.name + "'");
+    PunctualLight p;
+    p.name = l.name;
+    if (l.type == "point")
+        p.kind = PunctualKind::Point;
+    else if (l.type == "spot")
+        p.kind = PunctualKind::Spot;
+    else if (l.type == "directional")
+        p.kind = PunctualKind::Directional;
+    else
+        fail(label + ": unknown type '" + l.type + "' (point, spot or directional)");
+    glm::dvec3 color(1.0);
+    if (!l.color.empty()) {
+        if (l.color.size() != 3) fail(label + ": color must have 3 numbers");
+        color = glm::make_vec3(l.color.data());
+    }
+    const auto finite_nonnegative = [](double v) { return std::isfinite(v) && v >= 0; };
+    if (!finite_nonnegative(color.x) || !finite_nonnegative(color.y) ||
+        !finite_nonnegative(color.z) || !finite_nonnegative(l.intensity))
+        fail(label + ": color and intensity must be finite and >= 0");
+    p.intensity = glm::vec3(color * (l.intensity / kLumensPerWatt));
+    if (!finite_nonnegative(l.range)) fail(label + ": range must be finite and > 0");
+    p.range = p.kind == PunctualKind::Directional ? 0.f : float(l.range);
+    if (p.kind == PunctualKind::Spot) {
+        const double inner = l.spot.innerConeAngle, outer = l.spot.outerConeAngle;
+        if (!(inner >= 0 && inner <= outer && outer <= M_PI / 2 + 1e-9))
+            fail(label + ": spot cone angles must satisfy 0 <= inner <= outer <= pi/2 (inner " +
+                 std::to_string(inner) + ", outer " + std::to_string(outer) + ")");
+        p.inner_cone = float(inner), p.outer_cone = float(outer);
+    }
+    p.position = glm::vec3(world * glm::dvec4(0, 0, 0, 1));
+    const glm::dvec3 dir = glm::dmat3(world) * glm::dvec3(0, 0, -1);
+    const double len = glm::length(dir);
+    if (p.kind != PunctualKind::Point && !(len > 1e-12 && std::isfinite(len)))
+        fail(label + ": degenerate node transform (no direction)");
+    if (p.kind != PunctualKind::Point) p.direction = glm::vec3(dir / len);
+    if (!std::isfinite(p.position.x + p.position.y + p.position.z))
+        fail(label + ": non-finite position");
+    scene_.punctual_lights.push_back(p);
 }
 
 // The first perspective camera: position, forward = -Z and up = +Y of the node, in world space.

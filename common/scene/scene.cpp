@@ -236,17 +236,27 @@ ValidationReport validate_scene(Scene& scene) {
         throw Error("scene '" + scene.name + "' is empty: all " + std::to_string(before) +
                     " triangles are degenerate and there are no spheres");
 
-    // At least one emitter among the remaining primitives.
+    return report;
+}
+
+void check_lit(const Scene& scene) {
     const auto emits = [&](uint32_t m) { return scene.materials[m].is_emissive(); };
-    const bool lit = std::any_of(scene.triangles.begin(), scene.triangles.end(),
-                                 [&](const Triangle& t) { return emits(t.material); }) ||
-                     std::any_of(scene.spheres.begin(), scene.spheres.end(),
-                                 [&](const Sphere& s) { return emits(s.material); });
+    const auto positive = [](const glm::vec3& v) {
+        return std::isfinite(v.x + v.y + v.z) && (v.x > 0.f || v.y > 0.f || v.z > 0.f);
+    };
+    const bool lit =
+        std::any_of(scene.triangles.begin(), scene.triangles.end(),
+                    [&](const Triangle& t) { return emits(t.material); }) ||
+        std::any_of(scene.spheres.begin(), scene.spheres.end(),
+                    [&](const Sphere& s) { return emits(s.material); }) ||
+        std::any_of(scene.punctual_lights.begin(), scene.punctual_lights.end(),
+                    [&](const PunctualLight& l) { return positive(l.intensity); }) ||
+        (scene.environment.present() && scene.environment.scale > 0.f);
     if (!lit)
         throw Error(
-            "scene has no light: no triangle or sphere uses a material with emission > 0 "
-            "(glTF: set a material's emissiveFactor)");
-    return report;
+            "scene has no light: light it with an emissive material (glTF emissiveFactor), a "
+            "glTF lamp (KHR_lights_punctual), an environment map (--env FILE.exr|.hdr) or a "
+            "background colour (--background R,G,B)");
 }
 
 void frame_camera(Scene& scene) {

@@ -57,6 +57,32 @@ struct Texture {
     bool nearest = false;  // magnification filter NEAREST (else bilinear)
 };
 
+// A punctual light (glTF KHR_lights_punctual) in world space, in radiometric units: glTF's
+// candela (point, spot) and lux (directional) divided by 683 lm/W, as Blender's importer does.
+enum class PunctualKind : uint32_t { Point = 0, Spot = 1, Directional = 2 };
+struct PunctualLight {
+    std::string name;
+    PunctualKind kind = PunctualKind::Point;
+    glm::vec3 position{0.f};
+    glm::vec3 direction{0.f, 0.f, -1.f};  // unit: the way the light travels (spot, directional)
+    glm::vec3 intensity{0.f};  // W/sr (point, spot), W/m^2 (directional): color * intensity
+    float range = 0.f;         // 0: unbounded; else glTF's window (1 - (d/range)^4) on 1/d^2
+    float inner_cone = 0.f, outer_cone = 0.7853982f;  // spot: radians, 0 <= inner <= outer
+};
+
+// Light from every direction no surface covers: an equirectangular map of linear radiance
+// (Blender's and glTF viewers' orientation: row 0 at +Y, u = 0.5 at -X, u growing towards
+// -Z), or a constant background (a map of one colour). Turned by rotate_deg about +Y and
+// scaled by `scale`.
+struct Environment {
+    std::string name;            // the file, or "background"
+    int width = 0, height = 0;   // 0: none
+    std::vector<float> rgb;      // width * height texels, row 0 first
+    float rotate_deg = 0.f;
+    float scale = 1.f;
+    bool present() const { return width > 0 && height > 0; }
+};
+
 struct Sphere {
     glm::vec3 center{0.f};
     float radius = 1.f;
@@ -85,6 +111,8 @@ struct Scene {
     std::vector<VertexAttributes> attributes;  // empty, or one per triangle
     bool vertex_normals = false;               // attributes carry normals (else zero)
     std::vector<Texture> textures;
+    std::vector<PunctualLight> punctual_lights;
+    Environment environment;
     Camera camera;
     bool has_camera = false;  // false: frame the scene bounds automatically
     int max_depth_hint = 0;   // > 0: a bounce limit the scene asks for (0: the renderer's default)
@@ -107,8 +135,13 @@ Texture texture_from_rgba8(const std::string& name, int width, int height,
                            const unsigned char* rgba8, bool srgb);
 
 // Checks a scene before rendering: throws mcpt::Error on non-finite vertices, bad material
-// indices, an empty scene or no emitter; drops degenerate triangles and counts them.
+// indices or an empty scene; drops degenerate triangles and counts them. (A scene may get its
+// light afterwards, an environment: check_lit() says whether it has any.)
 ValidationReport validate_scene(Scene& scene);
+
+// Throws mcpt::Error naming the ways to light a scene when it has no light: no emissive
+// triangle or sphere, no punctual light and no environment.
+void check_lit(const Scene& scene);
 
 // Points the camera at the scene bounds from the +z side (used when a file has no camera).
 void frame_camera(Scene& scene);

@@ -1,0 +1,181 @@
+// Lights that are not surfaces: punctual lights (KHR_lights_punctual: point, spot,
+// directional), reached by next-event estimation only, and the environment (an equirectangular
+// map or a constant background), sampled by luminance * sin(theta) through two alias tables
+// and combined with BSDF sampling by MIS. Their data lives after the texels (shared_types.h).
+#ifndef MCPT_GPU_LIGHTS_H
+#define MCPT_GPU_LIGHTS_H
+
+#include "sampling.h"
+#include "scene_access.h"
+
+MCPT_NAMESPACE_BEGIN
+
+// A light sample for next-event estimation: toward an emitter point, a punctual light or the
+// environment. Delta lights (punctual) have pdf = the probability of picking them, and no MIS.
+MCPT_STRUCT(LightSample) {
+    vec3 wi;       // unit direction from the shading point to the light point
+    vec3 p;        // point on the light (unused for lights at infinity)
+    vec3 p_error;  // its rounding-error bound
+    vec3 n;        // light normal at p (emitting side)
+    vec3 le;       // emitted radiance toward the shading point (delta lights: their irradiance)
+    float pdf;     // solid-angle pdf of choosing this direction (delta lights: the pick's)
+    bool valid;
+    bool delta;    // a point, spot or directional light: no MIS, no BSDF hit can reach it
+    bool at_infinity;  // a direction (directional light, environment): shadow rays are unbounded
+};
+
+MCPT_FN LightSample no_light_sample() {
+    LightSample ls;
+    ls.valid = false;
+    ls.delta = false;
+    ls.at_infinity = false;
+    ls.wi = V3S(0.0f);
+    ls.p = V3S(0.0f);
+    ls.p_error = V3S(0.0f);
+    ls.n = V3S(0.0f);
+    ls.le = V3S(0.0f);
+    ls.pdf = 0.0f;
+    return ls;
+}
+
+// ---------------------------------------------------------------- punctual lights
+
+MCPT_FN GpuPunctualLight load_punctual(SCENE_PARAMS_ uint i) {
+    uint w = PARAM(punctual_word) + 16u * i;
+    vec4 a = SCENE_VEC4(w), b = SCENE_VEC4(w + 4u), c = SCENE_VEC4(w + 8u), d = SCENE_VEC4(w + 12u);
+    GpuPunctualLight l;
+    l.px = a.x;
+    l.py = a.y;
+    l.pz = a.z;
+    l.type = float_as_uint(a.w);
+    l.dx = b.x;
+    l.dy = b.y;
+    l.dz = b.z;
+    l.range = b.w;
+    l.r = c.x;
+    l.g = c.y;
+    l.b = c.z;
+    l.spot_scale = c.w;
+    l.spot_offset = d.x;
+    l.pad0 = 0u;
+    l.pad1 = 0u;
+    l.pad2 = 0u;
+    return l;
+}
+
+// The light punctual light i gives x: intensity / d^2 with glTF's range window and spot
+// falloff (point, spot), or the irradiance (directional). pdf: the probability `pmf` of
+// having picked it.
+MCPT_FN LightSample sample_punctual(SCENE_PARAMS_ uint i, vec3 x, float pmf) {
+    LightSample ls = no_light_sample();
+    GpuPunctualLight l = load_punctual(SCENE_ARGS_ i);
+    vec3 dir = V3(l.dx, l.dy, l.dz);
+    vec3 le = V3(l.r, l.g, l.b);
+    if (l.type == PUNCTUAL_DIRECTIONAL) {
+        ls.wi = -dir;
+        ls.at_infinity = true;
+    } else {
+        vec3 to_l = V3(l.px, l.py, l.pz) - x;
+        float d2 = dot(to_l, to_l);
+        if (!(d2 > 0.0f)) return ls;
+        float d = sqrt(d2);
+        ls.wi = to_l / d;
+        ls.p = V3(l.px, l.py, l.pz);
+        le = le / d2;
+        if (l.range > 0.0f) {
+            float q = d / l.range;
+            le = le * clamp(1.0f - q * q * q * q, 0.0f, 1.0f);
+        }
+        if (l.type == PUNCTUAL_SPOT) {
+            float a = clamp(dot(dir, -ls.wi) * l.spot_scale + l.spot_offset, 0.0f, 1.0f);
+            le = le * (a * a);
+        }
+    }
+    ls.n = -ls.wi;
+    ls.le = le;
+    ls.pdf = pmf;
+    ls.delta = true;
+    ls.valid = max_component(le) > 0.0f && pmf > 0.0f;
+    return ls;
+}
+
+// ---------------------------------------------------------------- the environment
+
+// The unit direction of map coordinates (u, v) in [0, 1]^2 (v = 0 at +Y), turned by the
+// rotation: theta = pi v from +Y, phi = 2 pi (u - 1/2) from -X toward -Z.
+MCPT_FN vec3 env_direction(SCENE_PARAMS_ float u, float v) {
+    float theta = MCPT_PI * v;
+    float phi = 2.0f * MCPT_PI * (u + PARAM(env_u_shift) - 0.5f);
+    float s = SINF(theta);
+    return V3(-s * COSF(phi), COSF(theta), -s * SINF(phi));
+}
+
+// The texel (x, y): radiance rgb, and the pdf w of the uv square it covers.
+MCPT_FN vec4 env_texel(SCENE_PARAMS_ uint x, uint y) {
+    return SCENE_VEC4(PARAM(env_word) + 4u * (y * PARAM(env_width) + x));
+}
+
+// The texel a unit direction falls in (nearest: radiance is piecewise constant, as the pdf).
+MCPT_FN vec4 env_lookup(SCENE_PARAMS_ vec3 d) {
+    float u = ATAN2(-d.z, -d.x) * (0.5f / MCPT_PI) + 0.5f - PARAM(env_u_shift);
+    u = u - floor(u);
+    float v = acos(clamp(d.y, -1.0f, 1.0f)) * (1.0f / MCPT_PI);
+    uint w = PARAM(env_width), h = PARAM(env_height);
+    uint x = min(U32(u * F32(w)), w - 1u);
+    uint y = min(U32(v * F32(h)), h - 1u);
+    return env_texel(SCENE_ARGS_ x, y);
+}
+
+// Solid-angle pdf of sampling direction d with texel t (without the light pick): the uv pdf
+// over the Jacobian 2 pi^2 sin(theta).
+MCPT_FN float env_solid_angle_pdf(vec4 t, vec3 d) {
+    float sin_theta = sqrt(d.x * d.x + d.z * d.z);  // accurate near the poles, unlike 1 - y^2
+    return sin_theta > 0.0f ? t.w / (2.0f * MCPT_PI * MCPT_PI * sin_theta) : 0.0f;
+}
+
+// One pick from the alias table at word `table` (n entries of prob, alias), with u's unused
+// part remapped to a fresh uniform in [0, 1) (the position inside the texel).
+MCPT_STRUCT(AliasPick) {
+    uint index;
+    float u;
+};
+
+MCPT_FN AliasPick alias_pick(SCENE_PARAMS_ uint table, uint n, float u) {
+    float scaled = u * F32(n);
+    uint slot = min(U32(scaled), n - 1u);
+    float f = MINF(scaled - F32(slot), 0.99999994f);
+    float prob = uint_as_float(SCENE_WORD(table + 2u * slot));
+    AliasPick p;
+    if (f < prob) {
+        p.index = slot;
+        p.u = f / prob;
+    } else {
+        p.index = SCENE_WORD(table + 2u * slot + 1u);
+        p.u = (f - prob) / (1.0f - prob);
+    }
+    p.u = MINF(p.u, 0.99999994f);
+    return p;
+}
+
+// A direction toward the environment, by luminance * sin(theta): a row, a column of it, then
+// a uniform point of the texel. pdf: solid angle, times `pmf` (the pick of the environment).
+MCPT_FN LightSample sample_environment(SCENE_PARAMS_ float u1, float u2, float pmf) {
+    LightSample ls = no_light_sample();
+    uint w = PARAM(env_width), h = PARAM(env_height);
+    AliasPick row = alias_pick(SCENE_ARGS_ PARAM(env_rows_word), h, u1);
+    AliasPick col = alias_pick(SCENE_ARGS_ PARAM(env_cols_word) + 2u * w * row.index, w, u2);
+    float u = (F32(col.index) + col.u) / F32(w);
+    float v = (F32(row.index) + row.u) / F32(h);
+    vec4 t = env_texel(SCENE_ARGS_ col.index, row.index);
+    ls.wi = env_direction(SCENE_ARGS_ u, v);
+    ls.pdf = pmf * env_solid_angle_pdf(t, ls.wi);
+    ls.le = V3(t.x, t.y, t.z);
+    ls.at_infinity = true;
+    ls.n = -ls.wi;
+    ls.valid = ls.pdf > 0.0f;
+    return ls;
+}
+
+MCPT_NAMESPACE_END
+
+#endif  // MCPT_GPU_LIGHTS_H

@@ -1,0 +1,363 @@
+// Lights that are not surfaces, against analytic radiance on both APIs: a point light, a spot
+// (its cone edge, and inner = outer), a point light with a range, and a directional light
+// above a Lambertian plane, exact per pixel; point lights at 1e-3 and 1e4 distance; a convex
+// Lambertian sphere under a uniform environment (rho L at any bounce limit); a plane under an
+// environment with a sun 1e6 times its sky, and under a single non-zero texel. Each check has
+// a negative control (a 2% brighter light must fail it). The environment's sampling routine
+// against its pdf (chi-square), with a pdf missing sin(theta) as the control.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <random>
+
+#include "common/accel/kdtree.h"
+#include "common/analysis/stats.h"
+#include "common/gpu/lights.h"
+#include "common/render/gpu_scene.h"
+#include "common/scene/environment.h"
+#include "test_util.h"
+
+namespace mcpt {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// A Lambertian square of half-size s at y = 0 (front side up), seen from (0, 3h, 0) straight
+// down, the image inside the square.
+Scene plane_scene(float albedo, float s, float h) {
+    Scene scene;
+    Material m;
+    m.color = glm::vec3(albedo);
+    scene.add_material(m);
+    const glm::vec3 a(-s, 0, -s), b(-s, 0, s), c(s, 0, s), d(s, 0, -s);
+    scene.triangles.push_back({a, b, c, 0});
+    scene.triangles.push_back({a, c, d, 0});
+    scene.camera.position = glm::vec3(0, 3 * h, 0);
+    scene.camera.forward = glm::vec3(0, -1, 0);
+    scene.camera.up = glm::vec3(0, 0, -1);
+    scene.camera.yfov = float(2 * std::atan(0.8 * s / (3 * h)));
+    scene.has_camera = true;
+    return scene;
+}
+
+// The point of the plane y = 0 the camera ray through image point (fx, fy) meets.
+glm::dvec3 plane_point(const Camera& cam, double fx, double fy, double aspect) {
+    const glm::dvec3 w = glm::normalize(glm::dvec3(cam.forward));
+    const glm::dvec3 u = glm::normalize(glm::cross(w, glm::dvec3(cam.up)));
+    const glm::dvec3 v = glm::cross(u, w);
+    const double t = std::tan(0.5 * double(cam.yfov));
+    const glm::dvec3 d = glm::normalize(w + u * (t * aspect * fx) + v * (t * fy));
+    const glm::dvec3 o(cam.position);
+    return o + d * (-o.y / d.y);
+}
+
+// Per pixel: the mean of `radiance` over the pixel (32 x 32 points), against the render.
+template <class Radiance>
+std::vector<double> expected_image(const Scene& scene, int size, Radiance radiance) {
+    std::vector<double> out(size_t(size) * size_t(size));
+    constexpr int kSub = 32;
+    for (int py = 0; py < size; ++py)
+        for (int px = 0; px < size; ++px) {
+            double sum = 0;
+            for (int j = 0; j < kSub; ++j)
+                for (int i = 0; i < kSub; ++i) {
+                    const double fx = (px + (i + 0.5) / kSub) / size * 2 - 1;
+                    const double fy = 1 - (py + (j + 0.5) / kSub) / size * 2;
+                    sum += radiance(plane_point(scene.camera, fx, fy, 1.0));
+                }
+            out[size_t(py) * size_t(size) + size_t(px)] = sum / (kSub * kSub);
+        }
+    return out;
+}
+
+RenderResult render_scene(const std::string& api, const Scene& scene, int size, uint64_t spp,
+                          uint32_t max_depth = 8, float light_scale = 1.f) {
+    const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, TreeOptions{}));
+    auto backend = test::test_backend(api);
+    RenderOptions o;
+    o.width = size, o.height = size;
+    o.spp = spp;
+    o.max_depth = max_depth;
+    o.seed = 5;
+    o.light_scale = light_scale;
+    return render(*backend, g, scene.camera, o);
+}
+
+// Pixels (channel 0) whose mean differs from `expected` beyond the Sidak-corrected z limit,
+// counting the sample error and 0.2% for the expected value's own integration.
+int pixels_off(const RenderResult& r, const std::vector<double>& expected) {
+    const double z_limit = stats::normal_quantile(1 - stats::sidak_level(1e-4, expected.size()) / 2);
+    // Float rounding where the light fades to zero (a range's or a cone's edge): 1e-4 of the
+    // brightest pixel, absolute.
+    const double floor = 1e-4 * *std::max_element(expected.begin(), expected.end());
+    int off = 0;
+    for (size_t i = 0; i < expected.size(); ++i) {
+        const double n = double(r.spp) - double(r.nonfinite[i]);
+        const double mean = r.sum[3 * i] / n;
+        const double var = std::max(0.0, r.sum_sq[3 * i] / n - mean * mean) * n / (n - 1);
+        const double sigma = std::sqrt(var / n + std::pow(2e-3 * expected[i], 2) + floor * floor);
+        const bool is_off = std::abs(mean - expected[i]) / sigma > z_limit;
+        if (is_off && std::getenv("MCPT_TEST_VERBOSE"))
+            std::printf("pixel %zu: mean %.6g expected %.6g sigma %.3g\n", i, mean, expected[i], sigma);
+        off += is_off;
+    }
+    return off;
+}
+
+// The image's mean difference from `expected` over its standard error (sample error, and
+// 0.05% for the expected value's integration): what a light 2% too bright cannot pass.
+double image_z(const RenderResult& r, const std::vector<double>& expected) {
+    double diff = 0, var = 0;
+    for (size_t i = 0; i < expected.size(); ++i) {
+        const double n = double(r.spp) - double(r.nonfinite[i]);
+        const double mean = r.sum[3 * i] / n;
+        const double v = std::max(0.0, r.sum_sq[3 * i] / n - mean * mean) * n / (n - 1);
+        diff += mean - expected[i];
+        var += v / n + std::pow(5e-4 * expected[i], 2);
+    }
+    return diff / std::sqrt(var);
+}
+
+class ExactLights : public ::testing::TestWithParam<std::string> {};
+
+// Renders the plane lit by `light` at two scales (h = 1 and h = `far`), each exact per pixel,
+// and a 2% brighter light rejected.
+template <class Radiance>
+void expect_plane_exact(const std::string& api, const char* what, PunctualLight light,
+                        Radiance radiance_at_unit_height) {
+    constexpr int kSize = 24;
+    constexpr float kAlbedo = 0.5f;
+    for (float h : {1e-3f, 1.f, 1e4f}) {
+        Scene scene = plane_scene(kAlbedo, h, h);
+        PunctualLight l = light;
+        l.position *= h;
+        l.range *= h;
+        // Intensity grows with h^2 so that the image stays the same.
+        if (l.kind != PunctualKind::Directional) l.intensity *= h * h;
+        scene.punctual_lights.push_back(l);
+        const std::vector<double> exact = expected_image(scene, kSize, [&](glm::dvec3 p) {
+            return kAlbedo / kPi * radiance_at_unit_height(p / double(h));
+        });
+        const RenderResult r = render_scene(api, scene, kSize, 256);
+        EXPECT_EQ(r.nonfinite_total, 0u) << what << " at h = " << h;
+        const int off = pixels_off(r, exact);
+        const double z = image_z(r, exact);
+        std::printf("%s, %s, h = %g: %d of %d pixels off, image z %.2f\n", api.c_str(), what, h,
+                    off, kSize * kSize, z);
+        EXPECT_EQ(off, 0) << api << ": " << what << " at h = " << h;
+        EXPECT_LT(std::abs(z), 4.5) << api << ": " << what << " at h = " << h;
+        if (h != 1.f) continue;
+        // Negative control: the light 2% brighter.
+        const RenderResult bright = render_scene(api, scene, kSize, 256, 8, 1.02f);
+        const double bright_z = image_z(bright, exact);
+        std::printf("%s, %s, 2%% brighter: image z %.1f\n", api.c_str(), what, bright_z);
+        EXPECT_GT(bright_z, 4.5) << api << ": " << what << ": control passed";
+    }
+}
+
+// Irradiance at p on the plane y = 0 from a light at (0, 1, 0): I cos / r^2 (cos = 1 / r).
+double point_irradiance(glm::dvec3 p, double intensity) {
+    const glm::dvec3 to_l = glm::dvec3(0, 1, 0) - p;
+    const double r = glm::length(to_l);
+    return intensity / (r * r * r);
+}
+
+// glTF's spot falloff at cos_d of the axis.
+double spot_falloff(double cos_d, double inner, double outer) {
+    const double scale = 1.0 / std::max(0.001, std::cos(inner) - std::cos(outer));
+    const double a = std::clamp((cos_d - std::cos(outer)) * scale, 0.0, 1.0);
+    return a * a;
+}
+
+TEST_P(ExactLights, PointLightAbovePlane) {
+    PunctualLight l;
+    l.kind = PunctualKind::Point;
+    l.position = glm::vec3(0, 1, 0);
+    l.intensity = glm::vec3(2.f);
+    expect_plane_exact(GetParam(), "point", l,
+                       [](glm::dvec3 p) { return point_irradiance(p, 2.0); });
+}
+
+TEST_P(ExactLights, PointLightWithRange) {
+    PunctualLight l;
+    l.kind = PunctualKind::Point;
+    l.position = glm::vec3(0, 1, 0);
+    l.intensity = glm::vec3(2.f);
+    l.range = 1.2f;
+    expect_plane_exact(GetParam(), "point with range 1.2", l, [](glm::dvec3 p) {
+        const double r = glm::length(glm::dvec3(0, 1, 0) - p);
+        return point_irradiance(p, 2.0) * std::clamp(1 - std::pow(r / 1.2, 4), 0.0, 1.0);
+    });
+}
+
+TEST_P(ExactLights, SpotConeEdge) {
+    for (const auto& [inner, outer] : {std::pair{0.3, 0.45}, std::pair{0.35, 0.35}}) {
+        PunctualLight l;
+        l.kind = PunctualKind::Spot;
+        l.position = glm::vec3(0, 1, 0);
+        l.direction = glm::vec3(0, -1, 0);
+        l.intensity = glm::vec3(3.f);
+        l.inner_cone = float(inner), l.outer_cone = float(outer);
+        const std::string what = "spot " + std::to_string(inner) + "/" + std::to_string(outer);
+        expect_plane_exact(GetParam(), what.c_str(), l, [&](glm::dvec3 p) {
+            const double r = glm::length(glm::dvec3(0, 1, 0) - p);
+            return point_irradiance(p, 3.0) * spot_falloff(1.0 / r, inner, outer);
+        });
+    }
+}
+
+TEST_P(ExactLights, DirectionalLightTilted) {
+    PunctualLight l;
+    l.kind = PunctualKind::Directional;
+    l.direction = glm::normalize(glm::vec3(0.5f, -1.f, 0.3f));
+    l.intensity = glm::vec3(1.5f);
+    const double cos_t = -double(l.direction.y);
+    expect_plane_exact(GetParam(), "directional", l, [&](glm::dvec3) { return 1.5 * cos_t; });
+}
+
+// A map of w x h texels of radiance `sky`, with `sun` at texel (x, y).
+Environment map_with_sun(int w, int h, float sky, int x, int y, float sun) {
+    Environment env;
+    env.name = "test map";
+    env.width = w, env.height = h;
+    env.rgb.assign(size_t(w) * size_t(h) * 3, sky);
+    for (int c = 0; c < 3; ++c) env.rgb[(size_t(y) * size_t(w) + size_t(x)) * 3 + size_t(c)] = sun;
+    return env;
+}
+
+// Irradiance of the upward plane under a map: the integral of L cos over the upper half.
+double upward_irradiance(const Environment& env) {
+    constexpr int kSub = 16;
+    double e = 0;
+    for (int y = 0; y < env.height * kSub; ++y) {
+        const double theta = kPi * (y + 0.5) / (env.height * kSub);
+        if (std::cos(theta) <= 0) continue;
+        const double d_omega =
+            (2 * kPi / env.width) * (kPi / (env.height * kSub)) * std::sin(theta);
+        for (int x = 0; x < env.width; ++x)
+            e += env.rgb[(size_t(y / kSub) * size_t(env.width) + size_t(x)) * 3] * std::cos(theta) *
+                 d_omega;
+    }
+    return e;
+}
+
+TEST_P(ExactLights, PlaneUnderExtremeEnvironments) {
+    const std::string api = GetParam();
+    constexpr int kSize = 16;
+    constexpr float kAlbedo = 0.5f;
+    const struct {
+        const char* what;
+        Environment env;
+    } cases[] = {{"uniform sky", map_with_sun(64, 32, 1.f, 0, 0, 1.f)},
+                 {"sun 1e6 x sky", map_with_sun(64, 32, 1.f, 20, 8, 1e6f)},
+                 {"one texel", map_with_sun(64, 32, 0.f, 40, 10, 100.f)}};
+    for (const auto& c : cases) {
+        Scene scene = plane_scene(kAlbedo, 1.f, 1.f);
+        scene.environment = c.env;
+        const double exact = kAlbedo / kPi * upward_irradiance(c.env);
+        const std::vector<double> image(kSize * kSize, exact);
+        const RenderResult r = render_scene(api, scene, kSize, 256);
+        EXPECT_EQ(r.nonfinite_total, 0u) << c.what;
+        const test::MeanEstimate e = test::pooled_mean(r);
+        const int off = pixels_off(r, image);
+        std::printf("%s, plane under %s: mean %.6g, exact %.6g, z %.2f, %d pixels off\n",
+                    api.c_str(), c.what, e.mean, exact, e.z(exact), off);
+        EXPECT_LT(std::abs(e.z(exact)), 4.5) << api << ": " << c.what;
+        EXPECT_EQ(off, 0) << api << ": " << c.what;
+        const RenderResult bright = render_scene(api, scene, kSize, 256, 8, 1.02f);
+        EXPECT_GT(std::abs(test::pooled_mean(bright).z(exact)), 4.5)
+            << api << ": " << c.what << ": a 2% brighter environment passed";
+    }
+}
+
+// A convex Lambertian sphere of albedo rho under a uniform environment L reflects rho L
+// everywhere (it never sees itself), whatever the bounce limit >= 1.
+TEST_P(ExactLights, SphereUnderUniformEnvironment) {
+    const std::string api = GetParam();
+    const float rho = 0.6f, radiance = 0.8f;
+    Scene scene;
+    Material m;
+    m.color = glm::vec3(rho);
+    scene.add_material(m);
+    scene.spheres.push_back({glm::vec3(0.f), 1.f, 0});
+    scene.camera.position = glm::vec3(0, 0, 3);
+    scene.camera.yfov = 0.4f;  // the image within the sphere's outline
+    scene.has_camera = true;
+    scene.environment = constant_environment(glm::vec3(radiance));
+    const double exact = double(rho) * double(radiance);
+    for (uint32_t depth : {1u, 8u}) {
+        const RenderResult r = render_scene(api, scene, 16, 128, depth);
+        const test::MeanEstimate e = test::pooled_mean(r);
+        std::printf("%s, sphere under uniform L, max depth %u: mean %.6g, exact %.6g, z %.2f\n",
+                    api.c_str(), depth, e.mean, exact, e.z(exact));
+        EXPECT_EQ(r.nonfinite_total, 0u);
+        EXPECT_LT(std::abs(e.z(exact)), 4.5) << api << " depth " << depth;
+        EXPECT_LT(e.std_error / exact, 0.002);
+    }
+    const RenderResult bright = render_scene(api, scene, 16, 128, 8, 1.02f);
+    EXPECT_GT(std::abs(test::pooled_mean(bright).z(exact)), 4.5) << api << ": control passed";
+}
+
+INSTANTIATE_TEST_SUITE_P(Api, ExactLights, ::testing::ValuesIn(test::test_apis()),
+                         [](const auto& info) { return info.param; });
+
+// The environment's sampling routine (the device code, compiled for the CPU) against its pdf:
+// directions binned over the sphere in equal-area cells that do not follow the texels, the
+// expected counts from the pdf integrated over each cell. Control: the pdf without sin(theta).
+TEST(EnvironmentSampling, ChiSquareAgainstPdf) {
+    Scene scene = plane_scene(0.5f, 1.f, 1.f);
+    std::mt19937 rng(7);
+    Environment env = map_with_sun(24, 12, 1.f, 5, 3, 40.f);
+    for (float& v : env.rgb) v *= std::uniform_real_distribution<float>(0.2f, 1.f)(rng);
+    env.rotate_deg = 30.f;
+    scene.environment = env;
+    const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, TreeOptions{}));
+    const gpu::GpuParams* p = &g.params;
+    const uint32_t* texels = g.texels.data();
+#define ENV_ARGS p, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, texels,
+    constexpr int kPhi = 40, kCos = 20, kSamples = 400000;
+    const auto cell = [&](glm::vec3 d) {
+        const double phi = std::atan2(double(d.z), double(d.x)) + kPi;
+        const int i = std::min(kPhi - 1, int(phi / (2 * kPi) * kPhi));
+        const int j = std::min(kCos - 1, int((double(d.y) + 1) / 2 * kCos));
+        return size_t(j * kPhi + i);
+    };
+    std::vector<double> observed(kPhi * kCos, 0.0);
+    std::uniform_real_distribution<float> uniform(0.f, 1.f);
+    for (int k = 0; k < kSamples; ++k) {
+        const gpu::LightSample s = gpu::sample_environment(ENV_ARGS uniform(rng), uniform(rng), 1.f);
+        ASSERT_TRUE(s.valid) << "sample " << k;
+        observed[cell(s.wi)] += 1;
+    }
+    // Expected: the pdf integrated over each cell (16 x 16 points, equal-area in cos theta).
+    const auto expected_counts = [&](bool with_sin) {
+        std::vector<double> expected(kPhi * kCos, 0.0);
+        constexpr int kSub = 16;
+        const double d_omega = (2 * kPi / (kPhi * kSub)) * (2.0 / (kCos * kSub));
+        for (int j = 0; j < kCos * kSub; ++j)
+            for (int i = 0; i < kPhi * kSub; ++i) {
+                const double cos_t = -1 + 2 * (j + 0.5) / (kCos * kSub);
+                const double phi = 2 * kPi * (i + 0.5) / (kPhi * kSub) - kPi;
+                const double sin_t = std::sqrt(1 - cos_t * cos_t);
+                const glm::vec3 d(float(sin_t * std::cos(phi)), float(cos_t),
+                                  float(sin_t * std::sin(phi)));
+                const glm::vec4 t = gpu::env_lookup(ENV_ARGS d);
+                const double pdf = with_sin ? gpu::env_solid_angle_pdf(t, d)
+                                            : t.w / (2 * kPi * kPi);  // the control's
+                expected[cell(d)] += pdf * d_omega * kSamples;
+            }
+        return expected;
+    };
+#undef ENV_ARGS
+    const double p_value = stats::chi_square_test(observed, expected_counts(true));
+    const double p_control = stats::chi_square_test(observed, expected_counts(false));
+    std::printf("chi-square, environment sampling: p = %.3f; control (no sin theta): p = %.3g\n",
+                p_value, p_control);
+    EXPECT_GT(p_value, 1e-3);
+    EXPECT_LT(p_control, 1e-6);
+}
+
+}  // namespace
+}  // namespace mcpt
