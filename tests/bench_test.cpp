@@ -74,7 +74,8 @@ TEST(BenchCli, SpecializeTableHasEveryScene) {
         run_mcpt("bench --specialize --quick --frames 1 --models " + (dir / "no-models").string() +
                  " --backend opencl:" + test::test_opencl_device() + " -o " + prefix);
     ASSERT_EQ(r.status, 0) << r.output;
-    const std::string kMaterialBits = "microfacet, shading normals, textures, alpha mask";
+    const std::string kMaterialBits =
+        "microfacet, shading normals, textures, alpha mask, punctual lights, environment";
     const std::string expected[][2] = {
         {"walls only (diffuse mesh)", "spheres, mirror, glass, sphere lights, " + kMaterialBits},
         {"cornell", "sphere lights, " + kMaterialBits},

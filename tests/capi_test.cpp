@@ -481,6 +481,39 @@ TEST(CApi, CancelAndReleaseFromAnotherThread) {
     }
 }
 
+// Lamps from a glTF file and an environment set through the C API: both lit, both compiled in
+// only when used; bad environments refused with the reason.
+TEST(CApi, LampsAndEnvironment) {
+    for (const std::string& api : mcpt::test::test_apis()) {
+        Session s(spec_of(api));
+        ASSERT_EQ(mcpt_session_load_file(s.s, data("lamps.gltf").c_str()), MCPT_OK)
+            << s.error();
+        ASSERT_EQ(mcpt_session_set_size(s.s, 16, 16), MCPT_OK);
+        ASSERT_EQ(mcpt_session_render(s.s, 0, 0, 4, nullptr), MCPT_OK) << s.error();
+        mcpt_scene_info info{};
+        ASSERT_EQ(mcpt_session_scene_info(s.s, &info), MCPT_OK);
+        EXPECT_NE(std::string(info.features).find("punctual lights"), std::string::npos);
+        EXPECT_EQ(std::string(info.features).find("environment"), std::string::npos);
+        EXPECT_EQ(info.lights, 3u);
+        // A background: one more light, and the environment's code.
+        ASSERT_EQ(mcpt_session_set_background(s.s, 0.5f, 0.5f, 0.5f), MCPT_OK);
+        ASSERT_EQ(mcpt_session_render(s.s, 0, 0, 4, nullptr), MCPT_OK) << s.error();
+        ASSERT_EQ(mcpt_session_scene_info(s.s, &info), MCPT_OK);
+        EXPECT_NE(std::string(info.features).find("environment"), std::string::npos);
+        EXPECT_EQ(info.lights, 4u);
+        // Refused, with the reason; the session keeps working.
+        EXPECT_EQ(mcpt_session_set_environment(s.s, "/nonexistent.exr", 0, 1), MCPT_ERROR_SCENE);
+        EXPECT_NE(s.error().find("not a readable regular file"), std::string::npos) << s.error();
+        const char junk[] = "not an image";
+        EXPECT_EQ(mcpt_session_set_environment_memory(s.s, junk, sizeof junk, 0, 1),
+                  MCPT_ERROR_SCENE);
+        EXPECT_NE(s.error().find("not an OpenEXR or Radiance"), std::string::npos) << s.error();
+        EXPECT_EQ(mcpt_session_set_background(s.s, -1.f, 0.f, 0.f), MCPT_ERROR_INVALID_ARGUMENT);
+        EXPECT_EQ(mcpt_session_set_environment(s.s, "x.exr", 0, -1), MCPT_ERROR_SCENE);
+        EXPECT_EQ(mcpt_session_render(s.s, 0, 0, 8, nullptr), MCPT_OK) << s.error();
+    }
+}
+
 // The 8-bit image is the sRGB encoding of the float image.
 TEST(CApi, Rgba8IsSrgbOfRgba32f) {
     Session s(spec_of("opencl"));

@@ -404,7 +404,7 @@ TEST(GltfLoader, BinaryGlb) {
 
 TEST(GltfLoader, UnsupportedFeaturesWarnOnce) {
     Gltf g = quad_gltf();
-    g.doc["extensionsUsed"] = {"KHR_lights_punctual", "KHR_texture_transform"};
+    g.doc["extensionsUsed"] = {"KHR_materials_volume", "KHR_texture_transform"};
     g.doc["images"] = {{{"uri", "data:image/png;base64,AAAA"}}};  // never decoded
     g.doc["textures"] = {{{"source", 0}}};
     g.doc["materials"][0]["occlusionTexture"] = {{"index", 0}};
@@ -419,7 +419,7 @@ TEST(GltfLoader, UnsupportedFeaturesWarnOnce) {
     Scene s = load_gltf(g.write("warnings.gltf"));
     EXPECT_EQ(s.triangles.size(), 2u);
     for (const char* w :
-         {"KHR_lights_punctual", "KHR_texture_transform", "occlusion textures are not used",
+         {"KHR_materials_volume", "KHR_texture_transform", "occlusion textures are not used",
           "alphaMode BLEND", "LINES", "morph targets", "skins", "animations"})
         EXPECT_TRUE(has_warning(s, w)) << w << " in " << ::testing::PrintToString(s.warnings);
     EXPECT_EQ(s.warnings.size(), 8u) << ::testing::PrintToString(s.warnings);
@@ -692,6 +692,48 @@ TEST(GltfLoader, DataFiles) {
 
     const std::string e = load_error(dir + "/requires_draco.gltf");
     EXPECT_NE(e.find("KHR_draco_mesh_compression"), std::string::npos) << e;
+}
+
+// KHR_lights_punctual (tests/data/lamps.gltf, made by hand): a point light on a child of a
+// node scaled by 2, a spot turned -90 degrees about X, a sun turned -60 degrees; glTF's
+// candela and lux to W/sr and W/m^2 at 683 lm/W.
+TEST(GltfLoader, PunctualLights) {
+    const Scene s = load_gltf(std::string(MCPT_TEST_DATA_DIR) + "/lamps.gltf");
+    ASSERT_EQ(s.punctual_lights.size(), 3u);
+    EXPECT_TRUE(s.warnings.empty()) << ::testing::PrintToString(s.warnings);
+    // In node order, depth first: the point light's parent comes before the spot.
+    const PunctualLight &point = s.punctual_lights[0], &spot = s.punctual_lights[1],
+                        &sun = s.punctual_lights[2];
+    EXPECT_EQ(point.kind, PunctualKind::Point);
+    expect_vec(point.position, {1, 2, 1});
+    expect_vec(point.intensity, {2000.f / 683, 0.9f * 2000 / 683, 0.8f * 2000 / 683});
+    EXPECT_EQ(spot.kind, PunctualKind::Spot);
+    expect_vec(spot.position, {-1, 2.5f, 1});
+    expect_vec(spot.direction, {0, -1, 0});
+    EXPECT_FLOAT_EQ(spot.inner_cone, 0.3f);
+    EXPECT_FLOAT_EQ(spot.outer_cone, 0.5f);
+    EXPECT_EQ(sun.kind, PunctualKind::Directional);
+    expect_vec(sun.direction, {0, -std::sin(float(M_PI) / 3), -0.5f});
+    expect_vec(sun.intensity, {1.5f, 1.5f, 1.5f});
+}
+
+// Bad lamps are errors naming the light.
+TEST(GltfLoader, BadPunctualLights) {
+    const auto with_light = [](json light) {
+        Gltf g = quad_gltf();
+        g.doc["extensionsUsed"] = {"KHR_lights_punctual"};
+        g.doc["extensions"]["KHR_lights_punctual"]["lights"] = {light};
+        g.doc["nodes"].push_back({{"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}});
+        g.doc["scenes"][0]["nodes"].push_back(g.doc["nodes"].size() - 1);
+        return load_error(g.write("bad_light.gltf"));
+    };
+    EXPECT_NE(with_light({{"type", "area"}}).find("unknown type 'area'"), std::string::npos);
+    EXPECT_NE(with_light({{"type", "point"}, {"intensity", -1}}).find(">= 0"), std::string::npos);
+    EXPECT_NE(with_light({{"name", "s"}, {"type", "spot"},
+                          {"spot", {{"innerConeAngle", 0.6}, {"outerConeAngle", 0.5}}}})
+                  .find("light 's': spot cone angles"),
+              std::string::npos);
+    EXPECT_EQ(with_light({{"type", "point"}, {"intensity", 10}}), "");
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 // validate_scene(), Scene::bounds(), frame_camera() and the built-in scenes, including the
 // orientation of every built-in wall and light.
+#include "common/scene/environment.h"
 #include "common/scene/scene.h"
 
 #include <gtest/gtest.h>
@@ -75,14 +76,35 @@ TEST(Scene, RejectsEmptyScene) {
     EXPECT_NE(validation_error(s).find("empty"), std::string::npos);
 }
 
+std::string unlit_error(const Scene& s) {
+    try {
+        check_lit(s);
+    } catch (const Error& e) {
+        return e.what();
+    }
+    return "";
+}
+
+// No light at all is refused, naming the ways to light a scene; an emissive sphere, a lamp
+// or an environment is a light.
 TEST(Scene, RejectsSceneWithoutLight) {
     Scene s = lit_scene();
     s.triangles[0].material = 1;
     s.spheres.push_back({{0, 0, 0}, 1.f, 1});
-    EXPECT_NE(validation_error(s).find("scene has no light"), std::string::npos);
-    // An emissive sphere is a light.
+    const std::string e = unlit_error(s);
+    for (const char* way : {"scene has no light", "emissiveFactor", "KHR_lights_punctual",
+                            "--env", "--background"})
+        EXPECT_NE(e.find(way), std::string::npos) << way << " in " << e;
     s.spheres[0].material = 0;
-    EXPECT_EQ(validation_error(s), "");
+    EXPECT_EQ(unlit_error(s), "");
+    s.spheres[0].material = 1;
+    s.punctual_lights.push_back({});
+    EXPECT_NE(unlit_error(s), "") << "a lamp of intensity 0 is no light";
+    s.punctual_lights[0].intensity = glm::vec3(1.f);
+    EXPECT_EQ(unlit_error(s), "");
+    s.punctual_lights.clear();
+    s.environment = constant_environment(glm::vec3(0.5f));
+    EXPECT_EQ(unlit_error(s), "");
 }
 
 TEST(Scene, RejectsBadMaterialsAndSpheres) {

@@ -128,6 +128,32 @@ JNI_FN(nativeLoadBuiltin)(JNIEnv* env, jclass, jlong s, jstring name)->void {
         check(env, s, mcpt_session_load_builtin(handle(s), n.c_str()));
 }
 
+JNI_FN(nativeSetEnvironmentFile)(JNIEnv* env, jclass, jlong s, jstring path, jfloat rotate,
+                                 jfloat scale)->void {
+    std::string p;
+    if (!open(env, s)) return;
+    if (!path) return void(check(env, s, mcpt_session_set_environment(handle(s), nullptr, 0, 1)));
+    if (utf8(env, path, p))
+        check(env, s, mcpt_session_set_environment(handle(s), p.c_str(), rotate, scale));
+}
+
+JNI_FN(nativeSetEnvironmentMemory)(JNIEnv* env, jclass, jlong s, jbyteArray data, jfloat rotate,
+                                   jfloat scale)->void {
+    if (!open(env, s)) return;
+    if (!data) return throw_error(env, MCPT_ERROR_INVALID_ARGUMENT, "environment data is null");
+    const jsize n = env->GetArrayLength(data);
+    jbyte* bytes = env->GetByteArrayElements(data, nullptr);
+    if (!bytes) return;  // OutOfMemoryError pending
+    const mcpt_status st =
+        mcpt_session_set_environment_memory(handle(s), bytes, size_t(n), rotate, scale);
+    env->ReleaseByteArrayElements(data, bytes, JNI_ABORT);
+    check(env, s, st);
+}
+
+JNI_FN(nativeSetBackground)(JNIEnv* env, jclass, jlong s, jfloat r, jfloat g, jfloat b)->void {
+    if (open(env, s)) check(env, s, mcpt_session_set_background(handle(s), r, g, b));
+}
+
 JNI_FN(nativeSetSize)(JNIEnv* env, jclass, jlong s, jint w, jint h)->void {
     if (open(env, s)) check(env, s, mcpt_session_set_size(handle(s), w, h));
 }

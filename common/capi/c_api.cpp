@@ -14,6 +14,7 @@
 #include "common/render/prepare.h"
 #include "common/render/scene_features.h"
 #include "common/render/session.h"
+#include "common/scene/environment.h"
 #include "common/scene/scene_load.h"
 #include "mcpt/mcpt.h"
 
@@ -309,6 +310,46 @@ mcpt_status mcpt_session_load_builtin(mcpt_session s, const char* name) {
     return with_session(s, MCPT_ERROR_SCENE, [&](Session& session) {
         require(name != nullptr, "name is NULL");
         session.set_scene(mcpt::load_scene(name));
+        return MCPT_OK;
+    });
+}
+
+namespace {
+mcpt::Environment turned(mcpt::Environment env, float rotate_deg, float scale) {
+    require(std::isfinite(rotate_deg), "rotate_deg must be finite");
+    require(std::isfinite(scale) && scale >= 0, "scale must be finite and >= 0");
+    env.rotate_deg = rotate_deg, env.scale = scale;
+    return env;
+}
+}  // namespace
+
+mcpt_status mcpt_session_set_environment(mcpt_session s, const char* path, float rotate_deg,
+                                         float scale) {
+    return with_session(s, MCPT_ERROR_SCENE, [&](Session& session) {
+        session.set_environment(path ? turned(mcpt::load_environment(path), rotate_deg, scale)
+                                     : mcpt::Environment{});
+        return MCPT_OK;
+    });
+}
+
+mcpt_status mcpt_session_set_environment_memory(mcpt_session s, const void* data, size_t size,
+                                                float rotate_deg, float scale) {
+    return with_session(s, MCPT_ERROR_SCENE, [&](Session& session) {
+        require(data != nullptr && size > 0, "data is NULL or empty");
+        session.set_environment(turned(
+            mcpt::load_environment_memory(static_cast<const unsigned char*>(data), size, "memory"),
+            rotate_deg, scale));
+        return MCPT_OK;
+    });
+}
+
+mcpt_status mcpt_session_set_background(mcpt_session s, float r, float g, float b) {
+    return with_session(s, MCPT_ERROR_INTERNAL, [&](Session& session) {
+        require(std::isfinite(r + g + b) && r >= 0 && g >= 0 && b >= 0,
+                "the background must be finite and >= 0");
+        session.set_environment(r > 0 || g > 0 || b > 0
+                                    ? mcpt::constant_environment(glm::vec3(r, g, b))
+                                    : mcpt::Environment{});
         return MCPT_OK;
     });
 }

@@ -128,6 +128,21 @@ MCPT_API mcpt_status mcpt_session_load_memory(mcpt_session session, const void* 
 /* A built-in scene: "cornell" (the default scene), "furnace", "spheres". */
 MCPT_API mcpt_status mcpt_session_load_builtin(mcpt_session session, const char* name);
 
+/* Light from every direction no surface covers, for this scene and every scene loaded after:
+ * an equirectangular map of linear radiance (.exr or Radiance .hdr, +Y up, as Blender and
+ * glTF viewers orient it), turned by rotate_deg about +Y and scaled by `scale`. From a file,
+ * or from `size` bytes in memory (an Android asset); path NULL removes the environment.
+ * Importance-sampled by luminance and combined with BSDF sampling (MIS). A map too large for
+ * the device is halved until it fits, with a warning. */
+MCPT_API mcpt_status mcpt_session_set_environment(mcpt_session session, const char* path,
+                                                  float rotate_deg, float scale);
+MCPT_API mcpt_status mcpt_session_set_environment_memory(mcpt_session session, const void* data,
+                                                         size_t size, float rotate_deg,
+                                                         float scale);
+/* A constant background of radiance (r, g, b) lighting the scene the same way; (0, 0, 0)
+ * removes it. */
+MCPT_API mcpt_status mcpt_session_set_background(mcpt_session session, float r, float g, float b);
+
 /* What the session renders, after the first render (or mcpt_session_commit()). */
 typedef struct mcpt_scene_info {
     uint64_t triangles, spheres, materials, lights;

@@ -135,6 +135,9 @@ public final class RendererTest {
             expectError("small direct ByteBuffer", -1, "buffer too small",
                         () -> r.readRgba8(ByteBuffer.allocateDirect(16)));
             expectError("bad image format", -6, "x.bmp", () -> r.writeImage("x.bmp"));
+            expectError("missing environment", -4, "not a readable regular file",
+                        () -> r.setEnvironment("/nonexistent.exr", 0, 1));
+            expectError("negative background", -1, ">= 0", () -> r.setBackground(-1, 0, 0));
 
             // Cancel from another thread.
             RenderStats[] result = new RenderStats[1];

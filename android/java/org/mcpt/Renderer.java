@@ -47,6 +47,22 @@ public final class Renderer implements AutoCloseable {
     /** A built-in scene: "cornell", "furnace", "spheres". */
     public void loadBuiltin(String name) { nativeLoadBuiltin(session, name); }
 
+    /**
+     * An equirectangular environment map (.exr or .hdr, linear, +Y up) lighting this scene and
+     * every scene loaded after, turned by rotateDeg about +Y and scaled; null removes it.
+     */
+    public void setEnvironment(String path, float rotateDeg, float scale) {
+        nativeSetEnvironmentFile(session, path, rotateDeg, scale);
+    }
+
+    /** The same from the file's bytes (an asset). */
+    public void setEnvironment(byte[] data, float rotateDeg, float scale) {
+        nativeSetEnvironmentMemory(session, data, rotateDeg, scale);
+    }
+
+    /** A constant background radiance lighting the scene; (0, 0, 0) removes it. */
+    public void setBackground(float r, float g, float b) { nativeSetBackground(session, r, g, b); }
+
     public void setSize(int width, int height) { nativeSetSize(session, width, height); }
 
     /** Bounces per path; -1: the scene's default. */
@@ -133,6 +149,9 @@ public final class Renderer implements AutoCloseable {
     private static native void nativeLoadMemory(long s, byte[] data);
     private static native void nativeLoadFile(long s, String path);
     private static native void nativeLoadBuiltin(long s, String name);
+    private static native void nativeSetEnvironmentFile(long s, String path, float rotate, float scale);
+    private static native void nativeSetEnvironmentMemory(long s, byte[] data, float rotate, float scale);
+    private static native void nativeSetBackground(long s, float r, float g, float b);
     private static native void nativeSetSize(long s, int width, int height);
     private static native void nativeSetMaxBounces(long s, int bounces);
     private static native void nativeSetTree(long s, String kind, int depth);
