@@ -9,6 +9,10 @@
 #   3. prints and writes time to each relative RMSE target, a CSV, an SVG plot, and where the
 #      variance lives (per-pixel variance of each renderer from its two references).
 # With --export-glb PATH it only writes the box as glTF (Principled materials) and exits.
+# --scene lamps: a floor, a wall and a box (Lambert) lit by a point lamp, a spot (hard edge)
+# and a sun, exported by Blender's own glTF exporter (KHR_lights_punctual, 683 lm/W) for mcpt;
+# --scene hdri --env FILE: the same geometry lit by an equirectangular map (Cycles' world
+# Environment Texture, mcpt's --env). Both also print mean radiance per region (4 x 4).
 # Relative RMSE is mcpt converge's: sqrt(mean over pixels and channels of (image - ref)^2,
 # less the reference noise) / mean reference radiance.
 import argparse
@@ -37,6 +41,8 @@ def parse_args():
     p.add_argument("--targets", default="0.10,0.05,0.02")
     p.add_argument("--export-glb", help="only write the box as a .glb (Principled materials, "
                    "64x32-segment spheres) to this path, for mcpt's mesh benchmarks")
+    p.add_argument("--scene", default="cornell", choices=["cornell", "lamps", "hdri"])
+    p.add_argument("--env", help="--scene hdri: the equirectangular map (.exr or .hdr)")
     return p.parse_args(argv)
 
 
@@ -163,6 +169,8 @@ def add_sphere(name, centre, radius, mat, segments=256, rings=128):
 
 
 def build_scene(args, for_gltf=False):
+    if args.scene != "cornell":
+        return cycles_settings(args, build_lights_scene(args, for_gltf))
     bpy.ops.wm.read_factory_settings(use_empty=True)
     sc = bpy.context.scene
     for i, (corners, colour) in enumerate(WALLS):
@@ -192,6 +200,10 @@ def build_scene(args, for_gltf=False):
     world.use_nodes = False
     world.color = (0, 0, 0)
     sc.world = world
+    return cycles_settings(args, sc)
+
+
+def cycles_settings(args, sc):
     # Renderer settings that match mcpt's estimator.
     r, c = sc.render, sc.cycles
     r.engine = "CYCLES"
@@ -221,6 +233,70 @@ def build_scene(args, for_gltf=False):
     return sc
 
 
+# ---- the lamps and HDRI scenes (Blender coordinates, z up; the exporter turns them y up)
+LAMP_ROOM = [  # corners, colour: a floor, a back wall, a box
+    ([(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], (0.7, 0.7, 0.7)),
+    ([(-3, 2, 0), (3, 2, 0), (3, 2, 3), (-3, 2, 3)], (0.7, 0.3, 0.2)),
+]
+LAMP_BOX = ((0.3, 0.0, 0.5), 0.5, (0.3, 0.5, 0.7))  # centre, half size, colour
+
+
+def build_lights_scene(args, for_gltf):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    sc = bpy.context.scene
+    mat = lambda name, c: material(name, principled(c) if for_gltf else diffuse(c))
+    for i, (corners, colour) in enumerate(LAMP_ROOM):
+        # Faces toward the camera (+z for the floor, -y for the wall).
+        add_mesh("room%d" % i, corners, [(0, 1, 2, 3)], mat("room%d" % i, colour))
+    (cx, cy, cz), h, colour = LAMP_BOX
+    v = [(cx + sx * h, cy + sy * h, cz + sz * h) for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
+    faces = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+    add_mesh("box", v, faces, mat("box", colour))
+    if for_gltf:
+        for m in bpy.data.materials:  # no specular layer: glTF's Diffuse in mcpt
+            m.node_tree.nodes["Principled BSDF"].inputs["Specular"].default_value = 0.0
+    if args.scene == "lamps":
+        def lamp(name, kind, energy, location, rotation=(0, 0, 0), colour=(1, 1, 1)):
+            data = bpy.data.lights.new(name, kind)
+            data.energy = energy
+            data.color = colour
+            if kind != "SUN":
+                data.shadow_soft_size = 0.0
+            else:
+                data.angle = 0.0
+            obj = bpy.data.objects.new(name, data)
+            obj.location = location
+            obj.rotation_euler = rotation
+            sc.collection.objects.link(obj)
+            return data
+        lamp("point", "POINT", 40.0, (1, -1, 2), colour=(1, 0.9, 0.8))
+        spot = lamp("spot", "SPOT", 60.0, (-1, -1, 2.5), colour=(0.8, 0.9, 1))
+        spot.spot_size = 1.0  # full cone angle, radians
+        spot.spot_blend = 0.0  # a hard edge, as glTF's inner = outer
+        lamp("sun", "SUN", 1.5, (0, 0, 5), rotation=(math.radians(30), 0, math.radians(20)))
+        world = bpy.data.worlds.new("black")
+        world.use_nodes = False
+        world.color = (0, 0, 0)
+    else:
+        world = bpy.data.worlds.new("env")
+        world.use_nodes = True
+        nt = world.node_tree
+        tex = nt.nodes.new("ShaderNodeTexEnvironment")
+        tex.image = bpy.data.images.load(os.path.abspath(args.env))
+        tex.interpolation = "Closest"  # mcpt reads texels, nearest
+        nt.links.new(tex.outputs["Color"], nt.nodes["Background"].inputs["Color"])
+    sc.world = world
+    cam_data = bpy.data.cameras.new("camera")
+    cam_data.sensor_fit = "VERTICAL"
+    cam_data.angle_y = 0.8
+    cam = bpy.data.objects.new("camera", cam_data)
+    cam.location = (0, -5, 2)
+    cam.rotation_euler = (math.radians(75), 0, 0)
+    sc.collection.objects.link(cam)
+    sc.camera = cam
+    return sc
+
+
 # ---- rendering
 def read_exr(path, size):
     img = bpy.data.images.load(path, check_existing=False)
@@ -239,9 +315,9 @@ def render_cycles(sc, spp, seed, path):
 
 
 def render_mcpt(args, backend, sampler, spp, seed, path):
-    cmd = [args.mcpt, "render", "cornell", "--backend", backend, "--spp", str(spp), "--seed",
+    cmd = [args.mcpt, "render", args.mcpt_scene, "--backend", backend, "--spp", str(spp), "--seed",
            str(seed), "--sampler", sampler, "--width", str(args.size), "--height", str(args.size),
-           "-q", "-o", path]
+           "-q", "-o", path] + args.mcpt_extra
     out = subprocess.run(cmd, capture_output=True, text=True)
     if out.returncode != 0:
         sys.exit("mcpt failed: " + " ".join(cmd) + "\n" + out.stdout + out.stderr)
@@ -288,7 +364,7 @@ def write_svg(path, runs, targets):
     s = ['<svg xmlns="http://www.w3.org/2000/svg" width="%d" height="%d" font-family="sans-serif" '
          'font-size="12">' % (w, h), '<rect width="100%" height="100%" fill="white"/>',
          '<text x="%d" y="20" font-size="14">Relative RMSE against render time (log-log), '
-         'Cornell box %s</text>' % (m, "same machine"),
+         '%s, %s</text>' % (m, SCENE_TITLE[0], "same machine"),
          '<text x="%d" y="%d">seconds</text>' % (w // 2, h - 15),
          '<text x="10" y="%d" transform="rotate(-90 10 %d)">relative RMSE</text>' % (h // 2, h // 2)]
     for e in targets:
@@ -313,8 +389,13 @@ def write_svg(path, runs, targets):
         f.write("\n".join(s))
 
 
+SCENE_TITLE = ["Cornell box"]
+
+
 def main():
     args = parse_args()
+    SCENE_TITLE[0] = {"cornell": "Cornell box", "lamps": "lamps (point, spot, sun)",
+                      "hdri": "HDRI " + os.path.basename(args.env or "")}[args.scene]
     backends = args.backend or ["opencl", "vulkan"]
     samplers = args.sampler or ["sobol"]
     targets = [float(t) for t in args.targets.split(",")]
@@ -325,6 +406,17 @@ def main():
         print("wrote %s" % args.export_glb)
         return
     os.makedirs(args.out, exist_ok=True)
+    args.mcpt_scene, args.mcpt_extra = "cornell", []
+    if args.scene != "cornell":
+        if args.scene == "hdri" and not args.env:
+            sys.exit("--scene hdri needs --env FILE")
+        # mcpt renders what Blender's own glTF exporter writes.
+        build_scene(args, for_gltf=True)
+        args.mcpt_scene = os.path.abspath(os.path.join(args.out, args.scene + ".glb"))
+        bpy.ops.export_scene.gltf(filepath=args.mcpt_scene, export_format="GLB",
+                                  export_cameras=True, export_lights=True, export_apply=True)
+        if args.scene == "hdri":
+            args.mcpt_extra = ["--env", os.path.abspath(args.env)]
     sc = build_scene(args)
     print("Cycles: %s, %d threads, pattern %s, box filter 1 px, max bounces %d"
           % (bpy.app.version_string, args.threads, sc.cycles.sampling_pattern, sc.cycles.max_bounces))
@@ -353,6 +445,16 @@ def main():
     print("  cycles vs mcpt references: mean radiance ratio %.4f, RMS difference beyond noise "
           "%.2f%% of the mean" % (float(np.mean(c.mean) / np.mean(m.mean)),
                                   100 * math.sqrt(mismatch) / float(np.mean(m.mean))))
+    # Mean radiance per region: 4 x 4 blocks of the image, row 0 at the top.
+    q = args.size // 4
+    print("  mean radiance per region, mcpt / Cycles (4 x 4, bottom row first):")
+    for by in range(4):
+        cells = []
+        for bx in range(4):
+            mc = float(np.mean(c.mean[by * q:(by + 1) * q, bx * q:(bx + 1) * q]))
+            mm = float(np.mean(m.mean[by * q:(by + 1) * q, bx * q:(bx + 1) * q]))
+            cells.append("%.4f/%.4f = %.3f" % (mm, mc, mm / mc if mc > 0 else float("nan")))
+        print("    " + " | ".join(cells))
 
     # Error against time.
     runs = []
