@@ -337,6 +337,16 @@ TEST(GltfLoader, MaterialMapping) {
     Scene d = load_gltf(g.write("materials_noior.gltf"));
     EXPECT_FLOAT_EQ(d.materials[1].ior, 1.5f);
     EXPECT_EQ(d.materials[1].type, MaterialType::Glass);
+
+    // Blender's exporter writes Specular 0 as specularColorFactor [0, 0, 0]: no specular layer
+    // either; a grey colour scales the factor by its mean.
+    g.doc["materials"][3]["extensions"]["KHR_materials_specular"] = {
+        {"specularColorFactor", {0, 0, 0}}};
+    g.doc["materials"][5]["extensions"]["KHR_materials_specular"]["specularColorFactor"] = {
+        0.2, 0.4, 0.6};
+    Scene c = load_gltf(g.write("materials_specular_color.gltf"));
+    EXPECT_EQ(c.materials[3].type, MaterialType::Diffuse);
+    EXPECT_FLOAT_EQ(c.materials[5].specular, 0.5f * 0.4f);
 }
 
 class GltfIndexTypes : public ::testing::TestWithParam<int> {};

@@ -102,12 +102,13 @@ MCPT_FN LightSample sample_punctual(SCENE_PARAMS_ uint i, vec3 x, float pmf) {
 // ---------------------------------------------------------------- the environment
 
 // The unit direction of map coordinates (u, v) in [0, 1]^2 (v = 0 at +Y), turned by the
-// rotation: theta = pi v from +Y, phi = 2 pi (u - 1/2) from -X toward -Z.
+// rotation: theta = pi v from +Y, phi = 2 pi (u - 1/2) from +X toward +Z (Cycles' mapping of
+// a world texture, seen through the glTF exporter's axes: Blender's +X, -Y, +Z are X, Z, Y).
 MCPT_FN vec3 env_direction(SCENE_PARAMS_ float u, float v) {
     float theta = MCPT_PI * v;
     float phi = 2.0f * MCPT_PI * (u + PARAM(env_u_shift) - 0.5f);
     float s = SINF(theta);
-    return V3(-s * COSF(phi), COSF(theta), -s * SINF(phi));
+    return V3(s * COSF(phi), COSF(theta), s * SINF(phi));
 }
 
 // The texel (x, y): radiance rgb, and the pdf w of the uv square it covers.
@@ -117,7 +118,7 @@ MCPT_FN vec4 env_texel(SCENE_PARAMS_ uint x, uint y) {
 
 // The texel a unit direction falls in (nearest: radiance is piecewise constant, as the pdf).
 MCPT_FN vec4 env_lookup(SCENE_PARAMS_ vec3 d) {
-    float u = ATAN2(-d.z, -d.x) * (0.5f / MCPT_PI) + 0.5f - PARAM(env_u_shift);
+    float u = ATAN2(d.z, d.x) * (0.5f / MCPT_PI) + 0.5f - PARAM(env_u_shift);
     u = u - floor(u);
     float v = acos(clamp(d.y, -1.0f, 1.0f)) * (1.0f / MCPT_PI);
     uint w = PARAM(env_width), h = PARAM(env_height);

@@ -2,8 +2,10 @@
 
 #include <stb_image.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <stdexcept>
 #include <filesystem>
 #include <fstream>
 #include <vector>
@@ -11,9 +13,78 @@
 #include "common/error.h"
 #include "common/io/image_io.h"
 
+#if MCPT_WITH_OPENEXR
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfIO.h>
+#include <ImfInputFile.h>
+#endif
+
 namespace mcpt {
 
 namespace {
+
+#if MCPT_WITH_OPENEXR
+// OpenEXR reading from memory (the bytes of a file or of an asset).
+class MemoryStream : public Imf::IStream {
+  public:
+    MemoryStream(const unsigned char* data, size_t size, const std::string& name)
+        : Imf::IStream(name.c_str()), data_(data), size_(size) {}
+    bool read(char c[], int n) override {
+        if (n < 0 || uint64_t(n) > size_ - pos_) throw std::runtime_error("unexpected end of file");
+        std::memcpy(c, data_ + pos_, size_t(n));
+        pos_ += uint64_t(n);
+        return pos_ < size_;
+    }
+    uint64_t tellg() override { return pos_; }
+    void seekg(uint64_t pos) override { pos_ = std::min<uint64_t>(pos, size_); }
+
+  private:
+    const unsigned char* data_;
+    uint64_t size_, pos_ = 0;
+};
+
+// R, G, B (or Y, as grey) of a scan-line or tiled EXR of any compression, as floats.
+std::vector<float> read_openexr(const unsigned char* data, size_t size, const std::string& name,
+                                int& width, int& height) {
+    try {
+        MemoryStream stream(data, size, name);
+        Imf::InputFile file(stream);
+        const Imath::Box2i dw = file.header().dataWindow();
+        const int64_t w = int64_t(dw.max.x) - dw.min.x + 1, h = int64_t(dw.max.y) - dw.min.y + 1;
+        if (w < 1 || h < 1 || w > kMaxEnvironmentWidth || h > kMaxEnvironmentWidth / 2)
+            throw Error("environment map " + name + ": " + std::to_string(w) + "x" +
+                        std::to_string(h) + " texels, outside 1x1 to 16384x8192");
+        const Imf::ChannelList& channels = file.header().channels();
+        const bool rgb = channels.findChannel("R") && channels.findChannel("G") &&
+                         channels.findChannel("B");
+        if (!rgb && !channels.findChannel("Y"))
+            throw Error("environment map " + name + ": no R, G and B (or Y) channels");
+        width = int(w), height = int(h);
+        const size_t n = size_t(w) * size_t(h);
+        std::vector<float> planes(3 * n);
+        Imf::FrameBuffer fb;
+        for (int k = 0; k < 3; ++k) {
+            // The slice's origin is pixel (0, 0), which the data window may not contain.
+            char* base = reinterpret_cast<char*>(planes.data() + size_t(k) * n) -
+                         (int64_t(dw.min.x) + int64_t(dw.min.y) * w) * int64_t(sizeof(float));
+            fb.insert(rgb ? std::string(1, "RGB"[k]) : std::string("Y"),
+                      Imf::Slice(Imf::FLOAT, base, sizeof(float), size_t(w) * sizeof(float)));
+        }
+        file.setFrameBuffer(fb);
+        file.readPixels(dw.min.y, dw.max.y);
+        std::vector<float> out(3 * n);
+        for (size_t i = 0; i < n; ++i)
+            for (size_t k = 0; k < 3; ++k) out[3 * i + k] = planes[k * n + i];
+        return out;
+    } catch (const Error&) {
+        throw;
+    } catch (const std::exception& e) {
+        throw Error("environment map " + name + ": " + e.what());
+    }
+}
+#endif
 
 // Checks the texels (finite; negatives clamped to 0) and the size.
 Environment checked(std::vector<float> rgb, int width, int height, const std::string& name) {
@@ -49,7 +120,11 @@ Environment load_environment_memory(const unsigned char* data, size_t size,
     if (!data || size == 0) throw Error("environment map " + name + ": no data");
     if (size >= 4 && std::memcmp(data, kExrMagic, 4) == 0) {
         int w = 0, h = 0;
+#if MCPT_WITH_OPENEXR
+        std::vector<float> rgb = read_openexr(data, size, name, w, h);
+#else
         std::vector<float> rgb = read_exr_memory(data, size, name, w, h);
+#endif
         return checked(std::move(rgb), w, h, name);
     }
     if (starts_with(data, size, "#?RADIANCE") || starts_with(data, size, "#?RGBE")) {

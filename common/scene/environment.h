@@ -1,5 +1,6 @@
 // Environment light for a scene: an equirectangular map of linear radiance read from .exr
-// (tinyexr) or Radiance .hdr (stb_image), or a constant background colour; and the host side
+// (OpenEXR: every compression, Blender's DWAB included; tinyexr where OpenEXR is not built
+// in) or Radiance .hdr (stb_image), or a constant background colour; and the host side
 // of its importance sampling (per-texel weights luminance * sin(theta), as pbrt-v4 and Cycles).
 #pragma once
 #include <cstddef>

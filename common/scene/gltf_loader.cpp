@@ -10,7 +10,7 @@
 //          (default 1.5), color = baseColorFactor.rgb
 //   otherwise metallicFactor = 1 and roughnessFactor <= 0.01
 //       -> Mirror, color = baseColorFactor.rgb (the limit of roughness 0, traced exactly)
-//   otherwise metallicFactor = 0 and KHR_materials_specular.specularFactor = 0
+//   otherwise metallicFactor = 0 and KHR_materials_specular specularFactor * mean(specularColorFactor) = 0
 //       -> Diffuse, color = baseColorFactor.rgb (no specular layer: exactly Lambertian)
 //   otherwise
 //       -> Pbr: glTF's metallic-roughness BRDF (gpu/microfacet.h) with baseColorFactor,
@@ -229,6 +229,21 @@ double extension_number(const tg::ExtensionMap& ext, const char* name, const cha
     if (it == ext.end() || !it->second.Has(key)) return fallback;
     const tg::Value& v = it->second.Get(key);
     return v.IsNumber() ? v.GetNumberAsDouble() : fallback;
+}
+
+// The mean of KHR_materials_specular's specularColorFactor (1 when absent or malformed).
+double specular_color_mean(const tg::ExtensionMap& ext) {
+    const auto it = ext.find(kSpecular);
+    if (it == ext.end() || !it->second.Has("specularColorFactor")) return 1.0;
+    const tg::Value& c = it->second.Get("specularColorFactor");
+    if (!c.IsArray() || c.ArrayLen() != 3) return 1.0;
+    double sum = 0;
+    for (int k = 0; k < 3; ++k) {
+        const tg::Value& v = c.Get(k);
+        if (!v.IsNumber() || !(v.GetNumberAsDouble() >= 0)) return 1.0;
+        sum += v.GetNumberAsDouble();
+    }
+    return sum / 3;
 }
 
 glm::vec3 rgb(const std::vector<double>& v, float fallback) {
@@ -530,7 +545,10 @@ void GltfLoader::convert_materials() {
         m.ior = float(extension_number(g.extensions, kIor, "ior", 1.5));
         m.metallic = float(pbr.metallicFactor);
         m.roughness = float(pbr.roughnessFactor);
-        m.specular = float(extension_number(g.extensions, kSpecular, "specularFactor", 1.0));
+        // KHR_materials_specular: specularFactor times specularColorFactor, the colour taken
+        // as its mean (a scalar layer; Blender writes [0, 0, 0] for Specular 0).
+        m.specular = float(extension_number(g.extensions, kSpecular, "specularFactor", 1.0) *
+                           specular_color_mean(g.extensions));
         // Textures (texture coordinates 0), color ones sRGB-decoded.
         const std::string what = "material '" + m.name + "'";
         m.tex_base = texture_for(pbr.baseColorTexture, true, what + " baseColorTexture");

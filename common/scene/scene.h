@@ -71,8 +71,8 @@ struct PunctualLight {
 };
 
 // Light from every direction no surface covers: an equirectangular map of linear radiance
-// (Blender's and glTF viewers' orientation: row 0 at +Y, u = 0.5 at -X, u growing towards
-// -Z), or a constant background (a map of one colour). Turned by rotate_deg about +Y and
+// (Blender's orientation seen through glTF's axes: row 0 at +Y, u = 0.5 at +X, u growing
+// towards +Z), or a constant background (a map of one colour). Turned by rotate_deg about +Y and
 // scaled by `scale`.
 struct Environment {
     std::string name;            // the file, or "background"

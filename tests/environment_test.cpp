@@ -1,0 +1,191 @@
+// Environment maps: read from float EXR (values far beyond half's range kept exactly), from
+// DWAB-compressed EXR (Blender's own maps; OpenEXR), from Radiance .hdr, from memory; bad
+// files refused with the reason; a map too large for the device halved with a warning, its
+// mean radiance kept.
+#include <gtest/gtest.h>
+
+#include <stb_image_write.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <functional>
+#include <fstream>
+#include <numeric>
+
+#include "common/error.h"
+#include "common/io/image_io.h"
+#include "common/render/prepare.h"
+#include "common/scene/environment.h"
+
+#if MCPT_WITH_OPENEXR
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfOutputFile.h>
+#include <half.h>
+#endif
+
+namespace mcpt {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path temp(const std::string& name) {
+    const fs::path dir = fs::path(::testing::TempDir()) / "mcpt_environment_test";
+    fs::create_directories(dir);
+    return dir / name;
+}
+
+// A w x h map: a sky brightening toward the top, a sun 1e6 at (3, 2), a dim texel 1e-6.
+std::vector<float> test_map(int w, int h) {
+    std::vector<float> rgb(size_t(w) * size_t(h) * 3);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int c = 0; c < 3; ++c)
+                rgb[size_t((y * w + x) * 3 + c)] = 0.5f + float(h - y) / float(h) + 0.1f * float(c);
+    const auto at = [&](int x, int y) { return size_t((std::min(y, h - 1) * w + std::min(x, w - 1)) * 3); };
+    for (size_t c = 0; c < 3; ++c) rgb[at(3, 2) + c] = 1e6f;
+    for (size_t c = 0; c < 3; ++c) rgb[at(7, 5) + c] = 1e-6f;
+    return rgb;
+}
+
+std::string error_of(const std::function<void()>& f) {
+    try {
+        f();
+    } catch (const Error& e) {
+        return e.what();
+    }
+    return "";
+}
+
+TEST(Environment, FloatExrKeepsEveryValue) {
+    const std::vector<float> rgb = test_map(32, 16);
+    const std::string path = temp("sky.exr").string();
+    write_image(path, 32, 16, rgb);
+    const Environment env = load_environment(path);
+    ASSERT_EQ(env.width, 32);
+    ASSERT_EQ(env.height, 16);
+    EXPECT_EQ(env.rgb, rgb);  // float channels: 1e6 and 1e-6 exactly
+}
+
+TEST(Environment, RadianceHdr) {
+    const std::vector<float> rgb = test_map(32, 16);
+    const std::string path = temp("sky.hdr").string();
+    ASSERT_NE(stbi_write_hdr(path.c_str(), 32, 16, 3, rgb.data()), 0);
+    const Environment env = load_environment(path);
+    ASSERT_EQ(env.rgb.size(), rgb.size());
+    for (size_t i = 0; i < rgb.size(); ++i)
+        if (rgb[i] > 1e-3f) {
+            EXPECT_NEAR(env.rgb[i] / rgb[i], 1.0, 0.01) << i;  // RGBE: 8 bits of mantissa
+        }
+}
+
+#if MCPT_WITH_OPENEXR
+// Blender's studio lights are DWAB-compressed half floats, which tinyexr cannot read.
+TEST(Environment, DwabCompressedExr) {
+    const int w = 64, h = 32;
+    std::vector<float> planes(size_t(w) * size_t(h) * 3);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int c = 0; c < 3; ++c)
+                planes[size_t(c * w * h + y * w + x)] = 0.25f + 0.5f * float(y) / float(h) + 0.1f * float(c);
+    const std::string path = temp("dwab.exr").string();
+    {
+        Imf::Header header(w, h);
+        header.compression() = Imf::DWAB_COMPRESSION;
+        Imf::FrameBuffer fb;
+        std::vector<half> halves(planes.begin(), planes.end());
+        for (int c = 0; c < 3; ++c) {
+            header.channels().insert(std::string(1, "RGB"[c]), Imf::Channel(Imf::HALF));
+            fb.insert(std::string(1, "RGB"[c]),
+                      Imf::Slice(Imf::HALF, reinterpret_cast<char*>(&halves[size_t(c * w * h)]),
+                                 sizeof(half), sizeof(half) * w));
+        }
+        Imf::OutputFile file(path.c_str(), header);
+        file.setFrameBuffer(fb);
+        file.writePixels(h);
+    }
+    const Environment env = load_environment(path);
+    ASSERT_EQ(env.width, w);
+    ASSERT_EQ(env.height, h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int c = 0; c < 3; ++c)
+                EXPECT_NEAR(env.rgb[size_t((y * w + x) * 3 + c)],
+                            planes[size_t(c * w * h + y * w + x)], 0.01)
+                    << x << "," << y;
+}
+#endif
+
+TEST(Environment, FromMemoryAsFromTheFile) {
+    const std::string path = temp("memory.exr").string();
+    write_image(path, 32, 16, test_map(32, 16));
+    std::ifstream in(path, std::ios::binary);
+    const std::string bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+    const Environment env = load_environment_memory(
+        reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(), "asset");
+    EXPECT_EQ(env.rgb, load_environment(path).rgb);
+}
+
+TEST(Environment, BadFilesAreRefusedWithTheReason) {
+    EXPECT_NE(error_of([] { load_environment("/nonexistent.exr"); }).find("not a readable"),
+              std::string::npos);
+    const std::string junk = temp("junk.exr").string();
+    std::ofstream(junk) << "not an image at all";
+    EXPECT_NE(error_of([&] { load_environment(junk); }).find("not an OpenEXR or Radiance"),
+              std::string::npos);
+    // A NaN texel: counted, refused.
+    std::vector<float> rgb = test_map(8, 4);
+    rgb[5] = std::nanf("");
+    const std::string nan = temp("nan.exr").string();
+    write_image(nan, 8, 4, rgb);
+    EXPECT_NE(error_of([&] { load_environment(nan); }).find("1 non-finite"), std::string::npos);
+    // A cut file.
+    const std::string cut = temp("cut.exr").string();
+    write_image(cut, 32, 16, test_map(32, 16));
+    fs::resize_file(cut, fs::file_size(cut) / 2);
+    EXPECT_NE(error_of([&] { load_environment(cut); }), "");
+    EXPECT_NE(error_of([] { constant_environment(glm::vec3(-1, 0, 0)); }).find(">= 0"),
+              std::string::npos);
+}
+
+// Halving keeps the mean radiance; prepare_scene halves a map the device's largest buffer
+// cannot hold, and says so.
+TEST(Environment, TooLargeForTheDeviceIsHalvedWithAWarning) {
+    Environment env;
+    env.name = "big";
+    env.width = 512, env.height = 256;
+    env.rgb = test_map(512, 256);
+    for (float& v : env.rgb) v = std::min(v, 100.f);
+    const auto mean = [](const Environment& e) {
+        return std::accumulate(e.rgb.begin(), e.rgb.end(), 0.0) / double(e.rgb.size());
+    };
+    Environment half = env;
+    EXPECT_EQ(shrink_environment(half, environment_device_bytes(256, 128)), 1);
+    EXPECT_EQ(half.width, 256);
+    EXPECT_NEAR(mean(half) / mean(env), 1.0, 1e-6);
+
+    Scene scene;
+    scene.add_material(Material{});
+    scene.triangles.push_back({glm::vec3(0), glm::vec3(1, 0, 0), glm::vec3(0, 1, 0), 0});
+    scene.environment = env;
+    DeviceInfo device;
+    device.backend = "test";
+    device.name = "a small device";
+    device.memory.max_buffer_bytes = uint64_t(1) << 20;
+    device.memory.max_buffer_name = "maxStorageBufferRange";
+    const GpuScene g = prepare_scene(scene, device, tree_options("none"), 8, 8);
+    EXPECT_EQ(g.params.env_width, 256u);
+    EXPECT_EQ(g.params.env_height, 128u);
+    ASSERT_EQ(g.warnings.size(), 1u);
+    EXPECT_NE(g.warnings[0].find("512x256"), std::string::npos) << g.warnings[0];
+    EXPECT_NE(g.warnings[0].find("downsampled to 256x128"), std::string::npos) << g.warnings[0];
+    EXPECT_LE(shading_buffer_bytes(g), device.memory.max_buffer_bytes);
+    // Nothing halved where it fits.
+    device.memory.max_buffer_bytes = 0;
+    EXPECT_TRUE(prepare_scene(scene, device, tree_options("none"), 8, 8).warnings.empty());
+}
+
+}  // namespace
+}  // namespace mcpt
