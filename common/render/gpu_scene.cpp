@@ -35,18 +35,14 @@ double mean_emission(const Material& m) {
     return (double(m.emission.x) + double(m.emission.y) + double(m.emission.z)) / 3.0;
 }
 
-// A punctual light's power (its weight in the light choice): a point's 4 pi I, a spot's
-// 2 pi (1 - cos outer) I (its cone), a directional light's E over the scene's disk.
+// A punctual light's weight in the light choice: 4 pi I for a point and for a spot (inside its
+// cone a spot lights a point as a point light does, and the choice does not know where the
+// cone points: weighting a spot by its cone's flux starved the regions it lights, 2.5% of
+// the samples in the Cycles side-by-side's lamps scene), E over the scene's disk for a
+// directional light.
 double punctual_power(const PunctualLight& l, double disk) {
     const double mean = (double(l.intensity.x) + double(l.intensity.y) + double(l.intensity.z)) / 3;
-    switch (l.kind) {
-        case PunctualKind::Point:
-            return 4 * M_PI * mean;
-        case PunctualKind::Spot:
-            return 2 * M_PI * (1 - std::cos(double(l.outer_cone))) * mean;
-        default:
-            return disk * mean;
-    }
+    return l.kind == PunctualKind::Directional ? disk * mean : 4 * M_PI * mean;
 }
 
 // The environment's sampling weight of each texel (luminance * sin(theta) * scale), and its
