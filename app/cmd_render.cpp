@@ -101,16 +101,15 @@ void run_render(const RenderArgs& a) {
     std::printf("scene: %s: %zu triangles, %zu spheres, %zu materials, %u lights\n",
                 scene.name.empty() ? a.scene.c_str() : scene.name.c_str(), scene.triangles.size(),
                 scene.spheres.size(), scene.materials.size(), g.params.num_lights);
-    if (!scene.punctual_lights.empty() || scene.environment.present())
-        std::printf("lights: %zu punctual (KHR_lights_punctual)%s%s\n",
-                    scene.punctual_lights.size(),
-                    scene.environment.present() ? ", environment " : "",
-                    scene.environment.present()
-                        ? (scene.environment.name + " " +
-                           std::to_string(g.params.env_width) + "x" +
-                           std::to_string(g.params.env_height))
-                              .c_str()
-                        : "");
+    // Lights that are not surfaces: the glTF file's lamps, the environment (as packed).
+    std::string lamps;
+    if (!scene.punctual_lights.empty())
+        lamps = std::to_string(scene.punctual_lights.size()) + " lamps (KHR_lights_punctual)";
+    if (scene.environment.present())
+        lamps += (lamps.empty() ? "" : ", ") + std::string("environment ") +
+                 scene.environment.name + " " + std::to_string(g.params.env_width) + "x" +
+                 std::to_string(g.params.env_height);
+    if (!lamps.empty()) std::printf("lights: %s\n", lamps.c_str());
     if (a.verbose && !g.tree_choice.empty()) std::printf("%s\n", g.tree_choice.c_str());
     std::printf("tree: %s%s\n", a.tree == "auto" ? "auto, " : "", describe_tree(g).c_str());
 
