@@ -486,8 +486,7 @@ TEST(CApi, CancelAndReleaseFromAnotherThread) {
 TEST(CApi, LampsAndEnvironment) {
     for (const std::string& api : mcpt::test::test_apis()) {
         Session s(spec_of(api));
-        ASSERT_EQ(mcpt_session_load_file(s.s, data("lamps.gltf").c_str()), MCPT_OK)
-            << s.error();
+        ASSERT_EQ(mcpt_session_load_file(s.s, data("lamps.gltf").c_str()), MCPT_OK) << s.error();
         ASSERT_EQ(mcpt_session_set_size(s.s, 16, 16), MCPT_OK);
         ASSERT_EQ(mcpt_session_render(s.s, 0, 0, 4, nullptr), MCPT_OK) << s.error();
         mcpt_scene_info info{};

@@ -34,24 +34,31 @@ std::unique_ptr<Backend> vulkan_backend() {
     return open_device("vulkan", BackendOptions{});
 }
 
-// A on OpenCL, B on Vulkan, independent seeds; returns the agreement.
-Agreement compare(const Case& c, const std::string& a_defines = "", float b_light_scale = 1.f) {
-    auto a = test::test_opencl_backend(a_defines);
-    auto b = vulkan_backend();
+// A on OpenCL with scene `a` (built with `a_defines`), B on Vulkan with scene `b` (the same
+// geometry; its lights scaled by `b_light_scale`), independent seeds; returns the agreement.
+Agreement compare_scenes(const Case& a, const Case& b, const std::string& a_defines = "",
+                         float b_light_scale = 1.f) {
+    auto da = test::test_opencl_backend(a_defines);
+    auto db = vulkan_backend();
     BatchOptions bo;
     bo.batches = 32;
     bo.spp_per_batch = 8;
     bo.seed_base = 100;
-    const BatchSet sa = render_batches(*a, c.gpu, c.scene.camera, c.options, bo);
-    RenderOptions ob = c.options;
+    const BatchSet sa = render_batches(*da, a.gpu, a.scene.camera, a.options, bo);
+    RenderOptions ob = b.options;
     ob.light_scale = b_light_scale;
     bo.seed_base = 5000;
-    const BatchSet sb = render_batches(*b, c.gpu, c.scene.camera, ob, bo);
+    const BatchSet sb = render_batches(*db, b.gpu, b.scene.camera, ob, bo);
     const Agreement g = test_agreement(sa, sb, 0.01);
     std::printf("%s\n", g.verdict().c_str());
     ::testing::Test::RecordProperty("detectable_bias_percent",
                                     std::to_string(100 * g.detectable_bias));
     return g;
+}
+
+// The same scene on both sides.
+Agreement compare(const Case& c, const std::string& a_defines = "", float b_light_scale = 1.f) {
+    return compare_scenes(c, c, a_defines, b_light_scale);
 }
 
 TEST(CompareBackends, CornellAgrees) {
@@ -135,38 +142,22 @@ Scene environment_scene(float rotate_deg = 0.f) {
         for (int x = 0; x < 64; ++x)
             for (int c = 0; c < 3; ++c)
                 env.rgb[size_t((y * 64 + x) * 3 + c)] =
-                    (x == 20 && y == 9) ? 1000.f : (0.3f + 0.7f * float(32 - y) / 32) * (c == 2 ? 1.f : 0.7f);
+                    (x == 20 && y == 9)
+                        ? 1000.f
+                        : (0.3f + 0.7f * float(32 - y) / 32) * (c == 2 ? 1.f : 0.7f);
     env.rotate_deg = rotate_deg;
     return s;
 }
 
-// A on OpenCL with scene `a`, B on Vulkan with scene `b` (the same geometry).
-Agreement compare_scenes(const Case& a, const Case& b, float b_light_scale = 1.f) {
-    auto da = test::test_opencl_backend();
-    auto db = vulkan_backend();
-    BatchOptions bo;
-    bo.batches = 32;
-    bo.spp_per_batch = 8;
-    bo.seed_base = 100;
-    const BatchSet sa = render_batches(*da, a.gpu, a.scene.camera, a.options, bo);
-    RenderOptions ob = b.options;
-    ob.light_scale = b_light_scale;
-    bo.seed_base = 5000;
-    const BatchSet sb = render_batches(*db, b.gpu, b.scene.camera, ob, bo);
-    const Agreement g = test_agreement(sa, sb, 0.01);
-    std::printf("%s\n", g.verdict().c_str());
-    return g;
-}
-
 TEST(CompareBackends, LampsAgree) {
     const Case c = make_case(lamps_scene());
-    EXPECT_TRUE(compare_scenes(c, c).agree);
-    EXPECT_FALSE(compare_scenes(c, c, 1.02f).agree) << "a lamp 2% brighter passed";
+    EXPECT_TRUE(compare(c).agree);
+    EXPECT_FALSE(compare(c, "", 1.02f).agree) << "a lamp 2% brighter passed";
 }
 
 TEST(CompareBackends, EnvironmentAgrees) {
     const Case c = make_case(environment_scene());
-    EXPECT_TRUE(compare_scenes(c, c).agree);
+    EXPECT_TRUE(compare(c).agree);
     const Case turned = make_case(environment_scene(360.f / 64));
     EXPECT_FALSE(compare_scenes(c, turned).agree) << "a map turned by one column passed";
 }

@@ -2,21 +2,21 @@
 // DWAB-compressed EXR (Blender's own maps; OpenEXR), from Radiance .hdr, from memory; bad
 // files refused with the reason; a map too large for the device halved with a warning, its
 // mean radiance kept.
-#include <gtest/gtest.h>
+#include "common/scene/environment.h"
 
+#include <gtest/gtest.h>
 #include <stb_image_write.h>
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <functional>
 #include <fstream>
+#include <functional>
 #include <numeric>
 
 #include "common/error.h"
 #include "common/io/image_io.h"
 #include "common/render/prepare.h"
-#include "common/scene/environment.h"
 
 #if MCPT_WITH_OPENEXR
 #include <ImfChannelList.h>
@@ -44,7 +44,9 @@ std::vector<float> test_map(int w, int h) {
         for (int x = 0; x < w; ++x)
             for (int c = 0; c < 3; ++c)
                 rgb[size_t((y * w + x) * 3 + c)] = 0.5f + float(h - y) / float(h) + 0.1f * float(c);
-    const auto at = [&](int x, int y) { return size_t((std::min(y, h - 1) * w + std::min(x, w - 1)) * 3); };
+    const auto at = [&](int x, int y) {
+        return size_t((std::min(y, h - 1) * w + std::min(x, w - 1)) * 3);
+    };
     for (size_t c = 0; c < 3; ++c) rgb[at(3, 2) + c] = 1e6f;
     for (size_t c = 0; c < 3; ++c) rgb[at(7, 5) + c] = 1e-6f;
     return rgb;
@@ -89,7 +91,8 @@ TEST(Environment, DwabCompressedExr) {
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x)
             for (int c = 0; c < 3; ++c)
-                planes[size_t(c * w * h + y * w + x)] = 0.25f + 0.5f * float(y) / float(h) + 0.1f * float(c);
+                planes[size_t(c * w * h + y * w + x)] =
+                    0.25f + 0.5f * float(y) / float(h) + 0.1f * float(c);
     const std::string path = temp("dwab.exr").string();
     {
         Imf::Header header(w, h);

@@ -739,7 +739,8 @@ TEST(GltfLoader, BadPunctualLights) {
     };
     EXPECT_NE(with_light({{"type", "area"}}).find("unknown type 'area'"), std::string::npos);
     EXPECT_NE(with_light({{"type", "point"}, {"intensity", -1}}).find(">= 0"), std::string::npos);
-    EXPECT_NE(with_light({{"name", "s"}, {"type", "spot"},
+    EXPECT_NE(with_light({{"name", "s"},
+                          {"type", "spot"},
                           {"spot", {{"innerConeAngle", 0.6}, {"outerConeAngle", 0.5}}}})
                   .find("light 's': spot cone angles"),
               std::string::npos);

@@ -5,6 +5,8 @@
 // environment with a sun 1e6 times its sky, and under a single non-zero texel. Each check has
 // a negative control (a 2% brighter light must fail it). The environment's sampling routine
 // against its pdf (chi-square), with a pdf missing sin(theta) as the control.
+#include "common/gpu/lights.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -14,7 +16,6 @@
 
 #include "common/accel/kdtree.h"
 #include "common/analysis/stats.h"
-#include "common/gpu/lights.h"
 #include "common/render/gpu_scene.h"
 #include "common/scene/environment.h"
 #include "test_util.h"
@@ -91,7 +92,8 @@ RenderResult render_scene(const std::string& api, const Scene& scene, int size, 
 // Pixels (channel 0) whose mean differs from `expected` beyond the Sidak-corrected z limit,
 // counting the sample error and 0.2% for the expected value's own integration.
 int pixels_off(const RenderResult& r, const std::vector<double>& expected) {
-    const double z_limit = stats::normal_quantile(1 - stats::sidak_level(1e-4, expected.size()) / 2);
+    const double z_limit =
+        stats::normal_quantile(1 - stats::sidak_level(1e-4, expected.size()) / 2);
     // Float rounding where the light fades to zero (a range's or a cone's edge): 1e-4 of the
     // brightest pixel, absolute.
     const double floor = 1e-4 * *std::max_element(expected.begin(), expected.end());
@@ -103,7 +105,8 @@ int pixels_off(const RenderResult& r, const std::vector<double>& expected) {
         const double sigma = std::sqrt(var / n + std::pow(2e-3 * expected[i], 2) + floor * floor);
         const bool is_off = std::abs(mean - expected[i]) / sigma > z_limit;
         if (is_off && std::getenv("MCPT_TEST_VERBOSE"))
-            std::printf("pixel %zu: mean %.6g expected %.6g sigma %.3g\n", i, mean, expected[i], sigma);
+            std::printf("pixel %zu: mean %.6g expected %.6g sigma %.3g\n", i, mean, expected[i],
+                        sigma);
         off += is_off;
     }
     return off;
@@ -357,8 +360,9 @@ TEST(EnvironmentMis, VarianceBoundedWhereOneStrategyExplodes) {
     } cases[] = {{"Lambertian plane, sun 1e4 x sky", diffuse, 2},
                  {"metal, roughness 0.05, smooth sky", metal, 1},
                  {"metal, roughness 0.3, sun 1e4 x sky", glossy_sun, 0}};
-    std::printf("| scene | variance MIS | NEE only / MIS | BSDF only / MIS | mu^2/2 |\n"
-                "|---|---|---|---|---|\n");
+    std::printf(
+        "| scene | variance MIS | NEE only / MIS | BSDF only / MIS | mu^2/2 |\n"
+        "|---|---|---|---|---|\n");
     for (const auto& c : cases) {
         double var[3], mean[3], se[3], mu2 = 0;
         for (int k = 0; k < 3; ++k) {
@@ -384,8 +388,8 @@ TEST(EnvironmentMis, VarianceBoundedWhereOneStrategyExplodes) {
     // Negative control: both strategies unweighted count the environment twice; the mean check
     // above must see it.
     const RenderResult mis = render_scene("opencl", diffuse, 16, 256);
-    const RenderResult twice = render_scene("opencl", diffuse, 16, 256, 8, 1.f,
-                                            "-DMCPT_ENV_STRATEGY=3");
+    const RenderResult twice =
+        render_scene("opencl", diffuse, 16, 256, 8, 1.f, "-DMCPT_ENV_STRATEGY=3");
     const test::MeanEstimate a = test::pooled_mean(mis), b = test::pooled_mean(twice);
     EXPECT_GT(std::abs(b.mean - a.mean) / std::hypot(a.std_error, b.std_error), 4.5)
         << "counting the environment twice passed";
@@ -415,7 +419,8 @@ TEST(EnvironmentSampling, ChiSquareAgainstPdf) {
     std::vector<double> observed(kPhi * kCos, 0.0);
     std::uniform_real_distribution<float> uniform(0.f, 1.f);
     for (int k = 0; k < kSamples; ++k) {
-        const gpu::LightSample s = gpu::sample_environment(ENV_ARGS uniform(rng), uniform(rng), 1.f);
+        const gpu::LightSample s =
+            gpu::sample_environment(ENV_ARGS uniform(rng), uniform(rng), 1.f);
         ASSERT_TRUE(s.valid) << "sample " << k;
         observed[cell(s.wi)] += 1;
     }

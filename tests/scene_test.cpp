@@ -1,6 +1,5 @@
 // validate_scene(), Scene::bounds(), frame_camera() and the built-in scenes, including the
 // orientation of every built-in wall and light.
-#include "common/scene/environment.h"
 #include "common/scene/scene.h"
 
 #include <gtest/gtest.h>
@@ -11,6 +10,7 @@
 
 #include "common/error.h"
 #include "common/scene/builtin_scenes.h"
+#include "common/scene/environment.h"
 
 namespace mcpt {
 namespace {
@@ -92,8 +92,8 @@ TEST(Scene, RejectsSceneWithoutLight) {
     s.triangles[0].material = 1;
     s.spheres.push_back({{0, 0, 0}, 1.f, 1});
     const std::string e = unlit_error(s);
-    for (const char* way : {"scene has no light", "emissiveFactor", "KHR_lights_punctual",
-                            "--env", "--background"})
+    for (const char* way :
+         {"scene has no light", "emissiveFactor", "KHR_lights_punctual", "--env", "--background"})
         EXPECT_NE(e.find(way), std::string::npos) << way << " in " << e;
     s.spheres[0].material = 0;
     EXPECT_EQ(unlit_error(s), "");

@@ -128,8 +128,8 @@ JNI_FN(nativeLoadBuiltin)(JNIEnv* env, jclass, jlong s, jstring name)->void {
         check(env, s, mcpt_session_load_builtin(handle(s), n.c_str()));
 }
 
-JNI_FN(nativeSetEnvironmentFile)(JNIEnv* env, jclass, jlong s, jstring path, jfloat rotate,
-                                 jfloat scale)->void {
+JNI_FN(nativeSetEnvironmentFile)
+(JNIEnv* env, jclass, jlong s, jstring path, jfloat rotate, jfloat scale)->void {
     std::string p;
     if (!open(env, s)) return;
     if (!path) return void(check(env, s, mcpt_session_set_environment(handle(s), nullptr, 0, 1)));
@@ -137,8 +137,8 @@ JNI_FN(nativeSetEnvironmentFile)(JNIEnv* env, jclass, jlong s, jstring path, jfl
         check(env, s, mcpt_session_set_environment(handle(s), p.c_str(), rotate, scale));
 }
 
-JNI_FN(nativeSetEnvironmentMemory)(JNIEnv* env, jclass, jlong s, jbyteArray data, jfloat rotate,
-                                   jfloat scale)->void {
+JNI_FN(nativeSetEnvironmentMemory)
+(JNIEnv* env, jclass, jlong s, jbyteArray data, jfloat rotate, jfloat scale)->void {
     if (!open(env, s)) return;
     if (!data) return throw_error(env, MCPT_ERROR_INVALID_ARGUMENT, "environment data is null");
     const jsize n = env->GetArrayLength(data);

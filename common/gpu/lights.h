@@ -20,7 +20,7 @@ MCPT_STRUCT(LightSample) {
     vec3 le;       // emitted radiance toward the shading point (delta lights: their irradiance)
     float pdf;     // solid-angle pdf of choosing this direction (delta lights: the pick's)
     bool valid;
-    bool delta;    // a point, spot or directional light: no MIS, no BSDF hit can reach it
+    bool delta;        // a point, spot or directional light: no MIS, no BSDF hit can reach it
     bool at_infinity;  // a direction (directional light, environment): shadow rays are unbounded
 };
 

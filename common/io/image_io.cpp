@@ -183,8 +183,7 @@ std::vector<float> read_exr_memory(const unsigned char* data, size_t size, const
     if (version.multipart || version.non_image)
         throw fail("multi-part and deep files are not read");
     const char* err = nullptr;
-    if (ParseEXRHeaderFromMemory(&exr.header, &version, data, size, &err) !=
-        TINYEXR_SUCCESS)
+    if (ParseEXRHeaderFromMemory(&exr.header, &version, data, size, &err) != TINYEXR_SUCCESS)
         throw fail(take_exr_error(err));
     if (exr.header.tiled) throw fail("tiled files are not read (mcpt writes scan lines)");
     // The image size before tinyexr allocates it: at most what mcpt renders.
@@ -202,8 +201,7 @@ std::vector<float> read_exr_memory(const unsigned char* data, size_t size, const
     }
     if (exr.header.num_channels == 1) rgb_channel[0] = rgb_channel[1] = rgb_channel[2] = 0;
     if (*std::min_element(rgb_channel, rgb_channel + 3) < 0) throw fail("no R, G and B channels");
-    if (LoadEXRImageFromMemory(&exr.image, &exr.header, data, size, &err) !=
-        TINYEXR_SUCCESS)
+    if (LoadEXRImageFromMemory(&exr.image, &exr.header, data, size, &err) != TINYEXR_SUCCESS)
         throw fail(take_exr_error(err));
     exr.image_loaded = true;
     if (!exr.image.images || exr.image.width != wide || exr.image.height != high)

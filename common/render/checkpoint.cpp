@@ -93,9 +93,9 @@ uint64_t scene_hash(const Scene& s) {
         if (!t.rgba.empty()) h = fnv1a(t.rgba.data(), t.rgba.size() * sizeof(uint16_t), h);
     }
     for (const PunctualLight& l : s.punctual_lights) {
-        const float f[] = {float(l.kind),  l.position.x,  l.position.y,  l.position.z,
-                           l.direction.x,  l.direction.y, l.direction.z, l.intensity.x,
-                           l.intensity.y,  l.intensity.z, l.range,       l.inner_cone,
+        const float f[] = {float(l.kind), l.position.x,  l.position.y,  l.position.z,
+                           l.direction.x, l.direction.y, l.direction.z, l.intensity.x,
+                           l.intensity.y, l.intensity.z, l.range,       l.inner_cone,
                            l.outer_cone};
         h = fnv1a(f, sizeof f, h);
     }

@@ -82,10 +82,10 @@ void pack_punctual_and_environment(const Scene& scene, const std::vector<double>
     for (const PunctualLight& l : scene.punctual_lights) {
         const float cos_inner = std::cos(l.inner_cone), cos_outer = std::cos(l.outer_cone);
         const float scale = 1.f / std::max(0.001f, cos_inner - cos_outer);
-        const float f[16] = {l.position.x,  l.position.y,  l.position.z,  0.f,
-                             l.direction.x, l.direction.y, l.direction.z, l.range,
-                             l.intensity.x, l.intensity.y, l.intensity.z, scale,
-                             -cos_outer * scale, 0.f, 0.f, 0.f};
+        const float f[16] = {l.position.x,       l.position.y,  l.position.z,  0.f,
+                             l.direction.x,      l.direction.y, l.direction.z, l.range,
+                             l.intensity.x,      l.intensity.y, l.intensity.z, scale,
+                             -cos_outer * scale, 0.f,           0.f,           0.f};
         for (int k = 0; k < 16; ++k) g.texels.push_back(word(f[k]));
         g.texels[g.texels.size() - 13] = uint32_t(l.kind);  // type, word 3
     }
@@ -107,7 +107,8 @@ void pack_punctual_and_environment(const Scene& scene, const std::vector<double>
     std::vector<gpu::GpuLight> table;
     const auto append_table = [&](const std::vector<double>& weights) {
         build_alias_table(weights, table);
-        for (const gpu::GpuLight& e : table) g.texels.push_back(word(e.prob)), g.texels.push_back(e.alias);
+        for (const gpu::GpuLight& e : table)
+            g.texels.push_back(word(e.prob)), g.texels.push_back(e.alias);
     };
     std::vector<double> rows(h, 0.0);
     for (size_t y = 0; y < h; ++y)
@@ -246,7 +247,8 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
     }
     // Lights of zero power are never picked (and not kept).
     for (size_t i = weights.size(); i-- > 0;)
-        if (!(weights[i] > 0)) weights.erase(weights.begin() + long(i)), prims.erase(prims.begin() + long(i));
+        if (!(weights[i] > 0))
+            weights.erase(weights.begin() + long(i)), prims.erase(prims.begin() + long(i));
     const double total = std::accumulate(weights.begin(), weights.end(), 0.0);
     if (weights.empty() || !(total > 0) || !std::isfinite(total)) check_lit(Scene{});
     build_alias_table(weights, g.lights);

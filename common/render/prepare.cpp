@@ -45,8 +45,9 @@ GpuScene prepare_scene(const Scene& scene, const DeviceInfo& device, TreeOptions
             g.warnings.push_back(
                 "environment map " + env.name + " (" + std::to_string(env.width) + "x" +
                 std::to_string(env.height) + ", " + human_bytes(env_bytes) +
-                " on the device) exceeds " + (limit == m.max_buffer_bytes ? m.max_buffer_name : m.max_allocation_name) +
-                " (" + human_bytes(limit) + ") with the scene: downsampled to " +
+                " on the device) exceeds " +
+                (limit == m.max_buffer_bytes ? m.max_buffer_name : m.max_allocation_name) + " (" +
+                human_bytes(limit) + ") with the scene: downsampled to " +
                 std::to_string(fitted.environment.width) + "x" +
                 std::to_string(fitted.environment.height) + " (mean radiance kept)");
         }

@@ -5,9 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <stdexcept>
 #include <filesystem>
 #include <fstream>
+#include <stdexcept>
 #include <vector>
 
 #include "common/error.h"
@@ -57,8 +57,8 @@ std::vector<float> read_openexr(const unsigned char* data, size_t size, const st
             throw Error("environment map " + name + ": " + std::to_string(w) + "x" +
                         std::to_string(h) + " texels, outside 1x1 to 16384x8192");
         const Imf::ChannelList& channels = file.header().channels();
-        const bool rgb = channels.findChannel("R") && channels.findChannel("G") &&
-                         channels.findChannel("B");
+        const bool rgb =
+            channels.findChannel("R") && channels.findChannel("G") && channels.findChannel("B");
         if (!rgb && !channels.findChannel("Y"))
             throw Error("environment map " + name + ": no R, G and B (or Y) channels");
         width = int(w), height = int(h);
@@ -128,8 +128,7 @@ Environment load_environment_memory(const unsigned char* data, size_t size,
         return checked(std::move(rgb), w, h, name);
     }
     if (starts_with(data, size, "#?RADIANCE") || starts_with(data, size, "#?RGBE")) {
-        if (size > size_t(INT32_MAX))
-            throw Error("environment map " + name + ": over 2 GiB");
+        if (size > size_t(INT32_MAX)) throw Error("environment map " + name + ": over 2 GiB");
         int w = 0, h = 0, channels = 0;
         // The size first, so that nothing larger than the limit is decoded.
         if (!stbi_info_from_memory(data, int(size), &w, &h, &channels))
@@ -192,7 +191,9 @@ int shrink_environment(Environment& env, uint64_t max_bytes) {
                     for (int dy = 0; dy < fy; ++dy)
                         for (int dx = 0; dx < fx; ++dx)
                             sum += env.rgb[(size_t(y * fy + dy) * size_t(env.width) +
-                                            size_t(x * fx + dx)) * 3 + size_t(c)];
+                                            size_t(x * fx + dx)) *
+                                               3 +
+                                           size_t(c)];
                     out[(size_t(y) * size_t(w) + size_t(x)) * 3 + size_t(c)] =
                         float(sum / double(fx * fy));
                 }

@@ -10,7 +10,8 @@
 //          (default 1.5), color = baseColorFactor.rgb
 //   otherwise metallicFactor = 1 and roughnessFactor <= 0.01
 //       -> Mirror, color = baseColorFactor.rgb (the limit of roughness 0, traced exactly)
-//   otherwise metallicFactor = 0 and KHR_materials_specular specularFactor * mean(specularColorFactor) = 0
+//   otherwise metallicFactor = 0 and KHR_materials_specular specularFactor *
+//   mean(specularColorFactor) = 0
 //       -> Diffuse, color = baseColorFactor.rgb (no specular layer: exactly Lambertian)
 //   otherwise
 //       -> Pbr: glTF's metallic-roughness BRDF (gpu/microfacet.h) with baseColorFactor,
@@ -710,7 +711,8 @@ void GltfLoader::add_light(int light, const glm::dmat4& world, int node) {
         fail("node " + std::to_string(node) + ": light index " + std::to_string(light) +
              " out of range (file has " + std::to_string(model_.lights.size()) + " lights)");
     const tg::Light& l = model_.lights[size_t(light)];
-    const std::string label = "light " + (l.name.empty() ? std::to_string(light) : "'" + l.name + "'");
+    const std::string label =
+        "light " + (l.name.empty() ? std::to_string(light) : "'" + l.name + "'");
     PunctualLight p;
     p.name = l.name;
     if (l.type == "point")

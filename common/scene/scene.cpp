@@ -244,14 +244,13 @@ void check_lit(const Scene& scene) {
     const auto positive = [](const glm::vec3& v) {
         return std::isfinite(v.x + v.y + v.z) && (v.x > 0.f || v.y > 0.f || v.z > 0.f);
     };
-    const bool lit =
-        std::any_of(scene.triangles.begin(), scene.triangles.end(),
-                    [&](const Triangle& t) { return emits(t.material); }) ||
-        std::any_of(scene.spheres.begin(), scene.spheres.end(),
-                    [&](const Sphere& s) { return emits(s.material); }) ||
-        std::any_of(scene.punctual_lights.begin(), scene.punctual_lights.end(),
-                    [&](const PunctualLight& l) { return positive(l.intensity); }) ||
-        (scene.environment.present() && scene.environment.scale > 0.f);
+    const bool lit = std::any_of(scene.triangles.begin(), scene.triangles.end(),
+                                 [&](const Triangle& t) { return emits(t.material); }) ||
+                     std::any_of(scene.spheres.begin(), scene.spheres.end(),
+                                 [&](const Sphere& s) { return emits(s.material); }) ||
+                     std::any_of(scene.punctual_lights.begin(), scene.punctual_lights.end(),
+                                 [&](const PunctualLight& l) { return positive(l.intensity); }) ||
+                     (scene.environment.present() && scene.environment.scale > 0.f);
     if (!lit)
         throw Error(
             "scene has no light: light it with an emissive material (glTF emissiveFactor), a "
