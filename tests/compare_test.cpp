@@ -163,9 +163,9 @@ TEST(CompareBackends, EnvironmentAgrees) {
 }
 
 // The same-seed check, OpenCL against Vulkan: unbiased renders diverge in at most
-// kSameSeedDivergedLimit of the pixels on scenes with glass, mirrors, a furnace and a mesh;
-// a light 0.2% brighter on one side (below what the statistical test sees in the furnace)
-// diverges in far more, and is rejected.
+// kSameSeedDivergedLimit of the pixels on scenes with glass, mirrors, a furnace, a mesh, lamps
+// and an environment; a light 0.2% brighter on one side (below what the statistical test sees
+// in the furnace) diverges in far more, and is rejected.
 TEST(CompareBackends, SameSeedCountsAndCatchesASmallBias) {
     RenderOptions o;
     o.width = o.height = 32;
@@ -173,7 +173,8 @@ TEST(CompareBackends, SameSeedCountsAndCatchesASmallBias) {
     o.seed = 7;
     for (Scene scene :
          {make_builtin_scene("cornell"), make_builtin_scene("spheres"),
-          make_furnace_scene(0.8f, 1.f), make_builtin_scene("materials"), textured_scene()}) {
+          make_furnace_scene(0.8f, 1.f), make_builtin_scene("materials"), textured_scene(),
+          lamps_scene(), environment_scene()}) {
         Case c = make_case(scene);
         o.max_depth = c.options.max_depth;
         auto a = test::test_opencl_backend();
