@@ -171,10 +171,9 @@ TEST(CompareBackends, SameSeedCountsAndCatchesASmallBias) {
     o.width = o.height = 32;
     o.spp = 4;
     o.seed = 7;
-    for (Scene scene :
-         {make_builtin_scene("cornell"), make_builtin_scene("spheres"),
-          make_furnace_scene(0.8f, 1.f), make_builtin_scene("materials"), textured_scene(),
-          lamps_scene(), environment_scene()}) {
+    for (Scene scene : {make_builtin_scene("cornell"), make_builtin_scene("spheres"),
+                        make_furnace_scene(0.8f, 1.f), make_builtin_scene("materials"),
+                        textured_scene(), lamps_scene(), environment_scene()}) {
         Case c = make_case(scene);
         o.max_depth = c.options.max_depth;
         auto a = test::test_opencl_backend();
