@@ -143,19 +143,21 @@ void write_image(const std::string& path, int width, int height, const std::vect
     });
 }
 
-std::vector<float> read_exr(const std::string& path, int& width, int& height) {
-    // The whole file, from a regular file of at most 4 GiB.
+std::vector<unsigned char> read_file_bytes(const std::string& path, const std::string& what) {
     std::error_code ec;
     const auto size = std::filesystem::file_size(path, ec);
     if (ec || !std::filesystem::is_regular_file(path, ec))
-        throw Error("cannot read EXR image " + path + ": not a readable regular file");
-    if (size > (uint64_t(4) << 30)) throw Error("cannot read EXR image " + path + ": over 4 GiB");
+        throw Error(what + " " + path + ": not a readable regular file");
+    if (size > (uint64_t(4) << 30)) throw Error(what + " " + path + ": over 4 GiB");
     std::vector<unsigned char> bytes(size);
-    {
-        std::ifstream in(path, std::ios::binary);
-        if (!in || !in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(size)))
-            throw Error("cannot read EXR image " + path);
-    }
+    std::ifstream in(path, std::ios::binary);
+    if (!in || !in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(size)))
+        throw Error(what + " " + path + ": cannot be read");
+    return bytes;
+}
+
+std::vector<float> read_exr(const std::string& path, int& width, int& height) {
+    const std::vector<unsigned char> bytes = read_file_bytes(path, "cannot read EXR image");
     return read_exr_memory(bytes.data(), bytes.size(), path, width, height);
 }
 

@@ -19,6 +19,9 @@ void write_image(const std::string& path, int width, int height, const std::vect
 // existing, writable folder: what a command checks before it renders.
 void check_image_path(const std::string& path);
 
+// The bytes of a regular file of at most 4 GiB; throws mcpt::Error "<what> <path>: <why>".
+std::vector<unsigned char> read_file_bytes(const std::string& path, const std::string& what);
+
 // Reads the R, G, B channels (a single channel as gray) of a scan-line EXR file of at most
 // 16384x16384 pixels (3 floats per pixel, top row first, half channels widened to float);
 // throws mcpt::Error naming the file when it cannot be read.

@@ -5,8 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <filesystem>
-#include <fstream>
 #include <stdexcept>
 #include <vector>
 
@@ -146,15 +144,7 @@ Environment load_environment_memory(const unsigned char* data, size_t size,
 }
 
 Environment load_environment(const std::string& path) {
-    std::error_code ec;
-    const auto size = std::filesystem::file_size(path, ec);
-    if (ec || !std::filesystem::is_regular_file(path, ec))
-        throw Error("environment map " + path + ": not a readable regular file");
-    if (size > (uint64_t(4) << 30)) throw Error("environment map " + path + ": over 4 GiB");
-    std::vector<unsigned char> bytes(size);
-    std::ifstream in(path, std::ios::binary);
-    if (!in || !in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(size)))
-        throw Error("environment map " + path + ": cannot be read");
+    const std::vector<unsigned char> bytes = read_file_bytes(path, "environment map");
     return load_environment_memory(bytes.data(), bytes.size(), path);
 }
 
