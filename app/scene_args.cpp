@@ -28,13 +28,13 @@ void add_lighting_options(CLI::App* sub, LightingArgs& a) {
 
 Environment lighting_environment(const LightingArgs& a) {
     Environment env;
-    if (!a.env.empty())
+    if (!a.env.empty()) {
         env = load_environment(a.env);
-    else if (!a.background.empty())
-        env = constant_environment(glm::vec3(a.background[0], a.background[1], a.background[2]));
-    if (env.present() && a.env.empty() &&
-        !(a.background[0] > 0 || a.background[1] > 0 || a.background[2] > 0))
-        return Environment{};  // a black background: no light
+    } else if (!a.background.empty()) {
+        const glm::vec3 rgb(a.background[0], a.background[1], a.background[2]);
+        env = constant_environment(rgb);                                   // checks the values
+        if (!(rgb.x > 0 || rgb.y > 0 || rgb.z > 0)) return Environment{};  // black: no light
+    }
     env.rotate_deg = a.env_rotate;
     env.scale = a.env_scale;
     return env;

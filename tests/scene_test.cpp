@@ -103,6 +103,8 @@ TEST(Scene, RejectsSceneWithoutLight) {
     s.punctual_lights[0].intensity = glm::vec3(1.f);
     EXPECT_EQ(unlit_error(s), "");
     s.punctual_lights.clear();
+    s.environment = constant_environment(glm::vec3(0.f));
+    EXPECT_NE(unlit_error(s), "") << "a black environment is no light";
     s.environment = constant_environment(glm::vec3(0.5f));
     EXPECT_EQ(unlit_error(s), "");
 }

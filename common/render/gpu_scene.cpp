@@ -82,12 +82,16 @@ void pack_punctual_and_environment(const Scene& scene, const std::vector<double>
     for (const PunctualLight& l : scene.punctual_lights) {
         const float cos_inner = std::cos(l.inner_cone), cos_outer = std::cos(l.outer_cone);
         const float scale = 1.f / std::max(0.001f, cos_inner - cos_outer);
-        const float f[16] = {l.position.x,       l.position.y,  l.position.z,  0.f,
-                             l.direction.x,      l.direction.y, l.direction.z, l.range,
-                             l.intensity.x,      l.intensity.y, l.intensity.z, scale,
-                             -cos_outer * scale, 0.f,           0.f,           0.f};
-        for (int k = 0; k < 16; ++k) g.texels.push_back(word(f[k]));
-        g.texels[g.texels.size() - 13] = uint32_t(l.kind);  // type, word 3
+        gpu::GpuPunctualLight d{};
+        d.px = l.position.x, d.py = l.position.y, d.pz = l.position.z;
+        d.type = uint32_t(l.kind);
+        d.dx = l.direction.x, d.dy = l.direction.y, d.dz = l.direction.z;
+        d.range = l.range;
+        d.r = l.intensity.x, d.g = l.intensity.y, d.b = l.intensity.z;
+        d.spot_scale = scale, d.spot_offset = -cos_outer * scale;
+        const size_t at = g.texels.size();
+        g.texels.resize(at + sizeof d / 4);
+        std::memcpy(g.texels.data() + at, &d, sizeof d);
     }
     const Environment& env = scene.environment;
     if (!env.present()) return;
@@ -246,11 +250,15 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
         prims.push_back(LIGHT_ENVIRONMENT);
     }
     // Lights of zero power are never picked (and not kept).
-    for (size_t i = weights.size(); i-- > 0;)
-        if (!(weights[i] > 0))
-            weights.erase(weights.begin() + long(i)), prims.erase(prims.begin() + long(i));
+    size_t kept = 0;
+    for (size_t i = 0; i < weights.size(); ++i)
+        if (weights[i] > 0) weights[kept] = weights[i], prims[kept++] = prims[i];
+    weights.resize(kept), prims.resize(kept);
+    check_lit(scene);
     const double total = std::accumulate(weights.begin(), weights.end(), 0.0);
-    if (weights.empty() || !(total > 0) || !std::isfinite(total)) check_lit(Scene{});
+    if (weights.empty() || !(total > 0) || !std::isfinite(total))
+        throw Error("scene has no light of finite positive power (total " + std::to_string(total) +
+                    ")");
     build_alias_table(weights, g.lights);
     for (size_t i = 0; i < g.lights.size(); ++i) g.lights[i].prim = prims[i];
     // Scene constants.

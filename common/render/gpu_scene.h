@@ -20,7 +20,9 @@ struct GpuScene {
     std::vector<gpu::GpuLight> lights;                   // alias table over emitters, by power
     std::vector<gpu::GpuTriangleAttributes> attributes;  // empty, or one per triangle
     std::vector<gpu::GpuTexture> textures;
-    std::vector<uint32_t> texels;     // RGBA halves, two words per texel
+    // The texel region: texture texels (RGBA halves, two words each), then the punctual lights
+    // and the environment (shared_types.h: GpuParams.punctual_word, env_*).
+    std::vector<uint32_t> texels;
     bool vertex_normals = false;      // attributes carry the scene's vertex normals
     gpu::GpuParams params{};          // scene fields set; per-dispatch fields zero
     uint32_t stack_size = 1;          // k-d traversal stack entries (tree depth + 1)

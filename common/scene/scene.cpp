@@ -250,7 +250,9 @@ void check_lit(const Scene& scene) {
                                  [&](const Sphere& s) { return emits(s.material); }) ||
                      std::any_of(scene.punctual_lights.begin(), scene.punctual_lights.end(),
                                  [&](const PunctualLight& l) { return positive(l.intensity); }) ||
-                     (scene.environment.present() && scene.environment.scale > 0.f);
+                     (scene.environment.present() && scene.environment.scale > 0.f &&
+                      std::any_of(scene.environment.rgb.begin(), scene.environment.rgb.end(),
+                                  [](float v) { return v > 0.f; }));
     if (!lit)
         throw Error(
             "scene has no light: light it with an emissive material (glTF emissiveFactor), a "
