@@ -13,7 +13,7 @@ namespace mcpt {
 namespace {
 
 constexpr char kMagic[8] = {'M', 'C', 'P', 'T', 'C', 'K', 'P', 'T'};
-constexpr uint32_t kFormat = 1;
+constexpr uint32_t kFormat = 2;
 constexpr uint64_t kFnvBasis = 0xcbf29ce484222325ull, kFnvPrime = 0x100000001b3ull;
 
 uint64_t fnv1a(const void* data, size_t size, uint64_t h = kFnvBasis) {
@@ -122,7 +122,11 @@ void write_checkpoint(const std::string& path, const Fingerprint& fingerprint,
     w.put(uint32_t(r.width)), w.put(uint32_t(r.height));
     w.put(uint64_t(r.spp)), w.put(uint64_t(r.nonfinite_total));
     w.put(r.rays), w.put(r.seconds);
+    w.put(uint64_t(r.first)), w.put(uint32_t(r.exact.empty() ? 0 : 1));
     w.put(r.sum), w.put(r.sum_sq), w.put(r.nonfinite);
+    if (!r.exact.empty())
+        w.bytes.append(reinterpret_cast<const char*>(r.exact.data()),
+                       r.exact.size() * sizeof(ExactSum));
     w.put(fnv1a(w.bytes.data(), w.bytes.size()));
     write_atomically(path, [&](const std::string& tmp) {
         std::ofstream f(tmp, std::ios::binary);
@@ -140,8 +144,9 @@ RenderResult read_checkpoint(const std::string& path, const Fingerprint& expecte
     if (!std::filesystem::is_regular_file(path, ec)) throw fail("not a regular file");
     const uint64_t size = std::filesystem::file_size(path, ec);
     if (ec) throw fail("cannot read its size");
-    // Sums of at most 16384 x 16384 pixels (7 doubles each) and a fingerprint.
-    if (size > uint64_t(16384) * 16384 * 56 + (1u << 20)) throw fail("larger than any checkpoint");
+    // Sums of at most 16384 x 16384 pixels (7 doubles and 6 exact sums each), a fingerprint.
+    if (size > uint64_t(16384) * 16384 * (56 + 6 * sizeof(ExactSum)) + (1u << 20))
+        throw fail("larger than any checkpoint");
     std::string bytes(size, '\0');
     {
         std::ifstream f(path, std::ios::binary);
@@ -169,22 +174,28 @@ RenderResult read_checkpoint(const std::string& path, const Fingerprint& expecte
     }
     // The sums: sizes from the header, then the checksum over everything before it.
     uint32_t width = 0, height = 0;
-    uint64_t spp = 0, nonfinite_total = 0;
+    uint64_t spp = 0, nonfinite_total = 0, first = 0;
+    uint32_t exact = 0;
     RenderResult r;
     if (!in.take(&width, 4) || !in.take(&height, 4) || !in.take(&spp, 8) ||
-        !in.take(&nonfinite_total, 8) || !in.take(&r.rays, 8) || !in.take(&r.seconds, 8))
+        !in.take(&nonfinite_total, 8) || !in.take(&r.rays, 8) || !in.take(&r.seconds, 8) ||
+        !in.take(&first, 8) || !in.take(&exact, 4))
         throw fail("truncated");
+    if (exact > 1) throw fail("corrupted (sums kind " + std::to_string(exact) + ")");
     if (width == 0 || height == 0 || width > 16384 || height > 16384)
         throw fail("corrupted (image size " + std::to_string(width) + "x" + std::to_string(height) +
                    ")");
     const uint64_t n = uint64_t(width) * height;
-    if (bytes.size() - in.at != 7 * n * sizeof(double) + 8) throw fail("truncated");
-    r.width = int(width), r.height = int(height), r.spp = spp;
+    if (bytes.size() - in.at != 7 * n * sizeof(double) + exact * 6 * n * sizeof(ExactSum) + 8)
+        throw fail("truncated");
+    r.width = int(width), r.height = int(height), r.spp = spp, r.first = first;
     r.nonfinite_total = nonfinite_total;
     r.sum.resize(3 * n), r.sum_sq.resize(3 * n), r.nonfinite.resize(n);
     in.take(r.sum.data(), 3 * n * sizeof(double));
     in.take(r.sum_sq.data(), 3 * n * sizeof(double));
     in.take(r.nonfinite.data(), n * sizeof(double));
+    r.exact.resize(exact * 6 * n);
+    in.take(r.exact.data(), r.exact.size() * sizeof(ExactSum));
     uint64_t checksum = 0;
     in.take(&checksum, 8);
     if (checksum != fnv1a(bytes.data(), bytes.size() - 8))

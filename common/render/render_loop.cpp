@@ -53,6 +53,44 @@ double RenderResult::relative_error() const {
     return sum / double(e.size()) / mean_l;
 }
 
+void RenderResult::materialize() {
+    if (exact.empty()) return;
+    const size_t n = size_t(width) * size_t(height);
+    for (size_t i = 0; i < n; ++i)
+        for (int c = 0; c < 3; ++c) {
+            sum[3 * i + c] = from_exact(exact[6 * i + c]);
+            sum_sq[3 * i + c] = from_exact(exact[6 * i + 3 + c]);
+        }
+}
+
+void add_sums(RenderResult& to, const RenderResult& part) {
+    if (part.first != to.first + to.spp)
+        throw Error("sums of samples " + std::to_string(part.first) + ".. added to samples " +
+                    std::to_string(to.first) + ".." + std::to_string(to.first + to.spp) +
+                    ": not adjacent");
+    if (to.spp == 0 && to.sum.empty()) {
+        to = part;
+        return;
+    }
+    if (part.width != to.width || part.height != to.height)
+        throw Error("sums of " + std::to_string(part.width) + "x" + std::to_string(part.height) +
+                    " pixels added to " + std::to_string(to.width) + "x" +
+                    std::to_string(to.height));
+    if (part.exact.empty() != to.exact.empty())
+        throw Error("exact (reproducible) and inexact sums cannot be added");
+    bool fits = true;
+    for (size_t k = 0; k < to.exact.size(); ++k) fits = fits && add_exact(to.exact[k], part.exact[k]);
+    if (!fits) throw Error("radiance too large for reproducible sums (beyond 7.6e22 per pixel)");
+    if (to.exact.empty())
+        for (size_t k = 0; k < to.sum.size(); ++k)
+            to.sum[k] += part.sum[k], to.sum_sq[k] += part.sum_sq[k];
+    for (size_t i = 0; i < to.nonfinite.size(); ++i) to.nonfinite[i] += part.nonfinite[i];
+    to.spp += part.spp;
+    to.rays += part.rays;
+    to.nonfinite_total += part.nonfinite_total;
+    to.seconds += part.seconds;
+}
+
 RenderResult render(Backend& backend, const GpuScene& scene, const Camera& camera,
                     const RenderOptions& opt, const ProgressFn& progress) {
     if (opt.width <= 0 || opt.height <= 0 || opt.width > 16384 || opt.height > 16384) {
@@ -74,7 +112,8 @@ ProgressiveRender::ProgressiveRender(Backend& backend, const GpuScene& scene, co
     // The host accumulators, checked against the memory available before allocating (at
     // most half of it: the process and the system need the rest).
     const uint64_t need =
-        uint64_t(npix_) * (host_bytes_per_pixel() + (opt.group_spp > 0 ? 7 * sizeof(double) : 0));
+        uint64_t(npix_) * (host_bytes_per_pixel() +
+                           (opt.group_spp > 0 ? 7 * sizeof(double) + 6 * sizeof(ExactSum) : 0));
     const uint64_t available = host_memory_available();
     if (need > available / 2) {
         throw OutOfMemory("image too large for this host: " + std::to_string(opt.width) + "x" +
@@ -103,6 +142,7 @@ ProgressiveRender::ProgressiveRender(Backend& backend, const GpuScene& scene, co
     if (opt.group_spp > 0) {
         group_ = std::min(opt.group_spp, opt.flush_spp);
         settled_ = r_;
+        settled_.exact.assign(6 * size_t(npix_), 0);
     }
     // Work per dispatch (pixel-samples), adapted to the measured rate.
     work_ = std::min<double>(npix_, 4096);
@@ -114,6 +154,27 @@ void ProgressiveRender::read_device_sums() {
 }
 
 void ProgressiveRender::add_device_sums(RenderResult& to) const {
+    if (!to.exact.empty()) {
+        // Reproducible: the group's float sums, exactly (exact_sums.h).
+        bool fits = true;
+        for (size_t i = 0; i < npix_; ++i) {
+            const float* a = &device_sums_[8 * i];
+            ExactSum* e = &to.exact[6 * i];
+            for (int c = 0; c < 3; ++c) {
+                ExactSum s, q;
+                fits = fits && to_exact(a[c], s) && to_exact(a[4 + c], q) && add_exact(e[c], s) &&
+                       add_exact(e[3 + c], q);
+            }
+            to.nonfinite[i] += a[3];
+            to.nonfinite_total += uint64_t(a[3]);
+            to.rays += a[7];
+        }
+        if (!fits)
+            throw Error(
+                "radiance too large for reproducible sums (beyond 7.6e22 per pixel): render "
+                "without --reproducible or checkpoints");
+        return;
+    }
     for (size_t i = 0; i < npix_; ++i) {
         const float* a = &device_sums_[8 * i];
         for (int c = 0; c < 3; ++c) {
@@ -126,34 +187,46 @@ void ProgressiveRender::add_device_sums(RenderResult& to) const {
     }
 }
 
-void ProgressiveRender::flush() {
+void ProgressiveRender::settle() {
     if (unflushed_ == 0) return;
     read_device_sums();
-    // Reproducible, inside a group: the device keeps adding to its sums; show them on top of
-    // the sums settled at the last group end.
+    // Reproducible: only whole groups reach the (exact) settled sums.
     const bool group_end = group_ == 0 || unflushed_ >= group_;
-    if (group_ > 0 && !group_end) {
-        r_.sum = settled_.sum, r_.sum_sq = settled_.sum_sq, r_.nonfinite = settled_.nonfinite;
-        r_.rays = settled_.rays, r_.nonfinite_total = settled_.nonfinite_total;
+    if (group_ == 0) {
+        add_device_sums(r_);
+    } else if (group_end) {
+        add_device_sums(settled_);
+        settled_.spp = r_.spp;
+        stale_ = true;
     }
-    add_device_sums(group_ > 0 && group_end ? settled_ : r_);
     // Adaptive, warming up: keep the sums of the warm-up's first half (adaptive.h).
     if (opt_.adaptive && r_.spp == kAdaptiveWarmupSpp / 2) half_ = r_;
-    if (group_end) {
-        if (group_ > 0) {
-            settled_.spp = r_.spp;
-            show_settled();
-        }
-        unflushed_ = 0;
-    }
+    if (group_end) unflushed_ = 0;
     flushed_ = true;
     flushed_at_ = std::chrono::steady_clock::now();
 }
 
+void ProgressiveRender::flush() {
+    // Reproducible, inside a group: the device keeps adding to its sums; show them on top of
+    // the sums settled at the last group end.
+    const bool partial = group_ > 0 && unflushed_ > 0 && unflushed_ < group_;
+    if (partial) {
+        read_device_sums();
+        flushed_ = true;
+        flushed_at_ = std::chrono::steady_clock::now();
+    } else {
+        settle();
+    }
+    if (group_ == 0) return;
+    show_settled();
+    if (partial) add_device_sums(r_);
+}
+
 void ProgressiveRender::show_settled() {
-    const double seconds = r_.seconds;  // render time is kept by the session, not the groups
-    r_ = settled_;
-    r_.seconds = seconds;
+    // The image's doubles, from the exact sums (r_ keeps its sample count and render time).
+    if (stale_) settled_.materialize(), stale_ = false;
+    r_.sum = settled_.sum, r_.sum_sq = settled_.sum_sq, r_.nonfinite = settled_.nonfinite;
+    r_.rays = settled_.rays, r_.nonfinite_total = settled_.nonfinite_total;
 }
 
 double ProgressiveRender::seconds_since_flush() const {
@@ -162,11 +235,16 @@ double ProgressiveRender::seconds_since_flush() const {
 }
 
 void ProgressiveRender::discard_unflushed() {
-    if (group_ > 0)
-        show_settled();
-    else
-        r_.spp -= unflushed_;
+    r_.spp -= unflushed_;
     unflushed_ = 0;
+    if (group_ > 0) show_settled();
+}
+
+const RenderResult& ProgressiveRender::settled() {
+    if (group_ == 0) return r_;
+    if (stale_) settled_.materialize(), stale_ = false;
+    settled_.seconds = r_.seconds;
+    return settled_;
 }
 
 void ProgressiveRender::restore(const RenderResult& saved) {
@@ -174,9 +252,31 @@ void ProgressiveRender::restore(const RenderResult& saved) {
         throw Error("saved sums are " + std::to_string(saved.width) + "x" +
                     std::to_string(saved.height) + ", the image is " + std::to_string(r_.width) +
                     "x" + std::to_string(r_.height));
+    if (group_ > 0 && (saved.exact.size() != 6 * size_t(npix_) || saved.first % group_ != 0 ||
+                       saved.spp % group_ != 0))
+        throw Error("saved sums are not a reproducible render's (exact, whole groups)");
     r_ = saved;
-    if (group_ > 0) settled_ = saved;
+    base_ = saved.first;
+    if (group_ > 0) {
+        settled_ = saved;
+        r_.exact.clear();
+        r_.exact.shrink_to_fit();
+    }
     unflushed_ = 0;
+}
+
+void ProgressiveRender::begin_at(uint64_t first) {
+    if (group_ > 0 && first % group_ != 0)
+        throw Error("a reproducible chunk starts at a multiple of " + std::to_string(group_) +
+                    " samples, not at " + std::to_string(first));
+    RenderResult empty;
+    empty.width = r_.width, empty.height = r_.height;
+    empty.first = first;
+    empty.sum.assign(3 * size_t(npix_), 0.0);
+    empty.sum_sq.assign(3 * size_t(npix_), 0.0);
+    empty.nonfinite.assign(npix_, 0.0);
+    if (group_ > 0) empty.exact.assign(6 * size_t(npix_), 0);
+    restore(empty);
 }
 
 uint32_t ProgressiveRender::pass(uint64_t max_spp) {
@@ -206,11 +306,11 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
         spp = group_;
     }
     spp = uint32_t(std::max<uint64_t>(1, std::min<uint64_t>(spp, max_spp)));
-    const double dispatch_s = run_tiles(tile_for(spp), spp, uint32_t(r_.spp), nullptr);
+    const double dispatch_s = run_tiles(tile_for(spp), spp, uint32_t(base_ + r_.spp), nullptr);
     r_.spp += spp;
     unflushed_ += spp;
     retarget(double(spp) * npix_, dispatch_s);
-    if (unflushed_ >= (group_ > 0 ? group_ : opt_.flush_spp) || windowed_ || opt_.adaptive) flush();
+    if (unflushed_ >= (group_ > 0 ? group_ : opt_.flush_spp) || windowed_ || opt_.adaptive) settle();
     return spp;
 }
 

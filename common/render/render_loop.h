@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "common/io/host_memory.h"
+#include "common/render/exact_sums.h"
 #include "common/render/backend.h"
 
 namespace mcpt {
@@ -42,7 +43,8 @@ struct RenderOptions {
 
 struct RenderResult {
     int width = 0, height = 0;
-    uint64_t spp = 0;               // samples per pixel taken (adaptive: the mean, rounded down)
+    uint64_t spp = 0;    // samples per pixel taken (adaptive: the mean, rounded down)
+    uint64_t first = 0;  // the first sample index they hold: [first, first + spp) of every pixel
     double seconds = 0;             // wall time of the dispatch loop
     std::vector<double> sum;        // 3 per pixel: sum of finite samples
     std::vector<double> sum_sq;     // 3 per pixel: sum of squared finite samples
@@ -50,6 +52,9 @@ struct RenderResult {
     std::vector<double> samples;    // per pixel: samples taken (adaptive); empty: spp each
     double rays = 0;                // rays traced
     uint64_t nonfinite_total = 0;
+    // Reproducible: sum and sum_sq as exact fixed point (exact_sums.h), 6 per pixel; sum and
+    // sum_sq are their values as doubles (materialize()). Empty otherwise.
+    std::vector<ExactSum> exact;
 
     // Samples pixel i took, non-finite ones included.
     double pixel_samples(size_t i) const { return samples.empty() ? double(spp) : samples[i]; }
@@ -62,7 +67,15 @@ struct RenderResult {
     // Mean standard error over pixels and channels relative to the mean radiance: the error
     // the image still carries. HUGE_VAL while unknown (fewer than 2 samples, or black).
     double relative_error() const;
+    // sum and sum_sq from the exact sums.
+    void materialize();
 };
+
+// Adds `part` (samples [part.first, part.first + part.spp)) to `to`, which must end where it
+// begins (or be empty): exact sums exactly, otherwise in double. Throws mcpt::Error on a gap,
+// another size, mixed exact and inexact sums, or exact sums out of range. Exact sums' doubles
+// are brought up to date by to.materialize().
+void add_sums(RenderResult& to, const RenderResult& part);
 
 // The render loop as a resumable object: passes of a few rounds each, device sums flushed into
 // double precision every options.flush_spp samples. A round gives every pixel of a tile some
@@ -90,10 +103,13 @@ class ProgressiveRender {
     void discard_unflushed();
     // The sums as a checkpoint keeps them: everything flushed (reproducible: up to the last
     // group end, so that a resumed render adds the same groups). Flush first otherwise.
-    const RenderResult& settled() const { return opt_.group_spp > 0 ? settled_ : r_; }
+    const RenderResult& settled();
     // Continues from sums a checkpoint kept (their size must be the image's): the next sample
-    // is saved.spp.
+    // is saved.first + saved.spp.
     void restore(const RenderResult& saved);
+    // Starts empty sums at sample index `first` (a multiple of group_spp when reproducible):
+    // the samples of a chunk (coordinator.h), added elsewhere.
+    void begin_at(uint64_t first);
     // Seconds the last pass took, and the longest and the median dispatch so far.
     double last_pass_seconds() const { return last_pass_s_; }
     double longest_dispatch_seconds() const { return longest_dispatch_s_; }
@@ -118,12 +134,17 @@ class ProgressiveRender {
     // The device sums into device_sums_ (a window's are there already), then added to `to`.
     void read_device_sums();
     void add_device_sums(RenderResult& to) const;
+    // The device sums to the host's: all of them, or (reproducible) a whole group's into the
+    // exact settled sums; result()'s doubles are brought up to date by flush().
+    void settle();
     Backend& backend_;
     RenderOptions opt_;
     gpu::GpuParams p_{};
     RenderResult r_;
     RenderResult settled_;  // reproducible: the sums up to the last group end
-    void show_settled();    // result() = settled_ (its render time kept)
+    void show_settled();    // result()'s sums = settled_'s (its sample count and time kept)
+    bool stale_ = false;    // settled_'s doubles lag its exact sums
+    uint64_t base_ = 0;     // the first sample index of the sums (begin_at())
     uint32_t group_ = 0;    // reproducible: samples per group (0: not reproducible)
     uint32_t npix_ = 0, unflushed_ = 0;
     double work_ = 0, last_pass_s_ = 0, longest_dispatch_s_ = 0;

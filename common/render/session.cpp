@@ -16,6 +16,8 @@
 namespace mcpt {
 
 namespace {
+std::string join(const std::vector<std::string>& names);
+
 // Everything a checkpoint must match to continue this session's image.
 Fingerprint fingerprint(const Session& session) {
     const SessionSettings& s = session.settings();
@@ -35,8 +37,29 @@ Fingerprint fingerprint(const Session& session) {
             {"reproducible", s.reproducible ? "on" : "off"},
             {"adaptive", s.adaptive ? "on" : "off"},
             {"light_scale", scale},
-            {"device", session.device().backend + ": " + session.device().name}};
+            {"device", join(session.device_names())}};
 }
+
+std::string join(const std::vector<std::string>& names) {
+    std::string out;
+    for (const std::string& n : names) out += (out.empty() ? "" : ", ") + n;
+    return out;
+}
+
+// A device of this process as a worker of a job on several (coordinator.h).
+class SessionWorker : public Worker {
+  public:
+    explicit SessionWorker(Session& s) : s_(s) {}
+    std::string name() const override {
+        return s_.device().backend + ": " + s_.device().name;
+    }
+    RenderResult render(const Chunk& chunk, const std::atomic<bool>& stop) override {
+        return s_.render_range(chunk.first, chunk.end, &stop);
+    }
+
+  private:
+    Session& s_;
+};
 
 bool same(const SessionSettings& a, const SessionSettings& b) {
     return a.width == b.width && a.height == b.height && a.max_depth == b.max_depth &&
@@ -51,6 +74,33 @@ Session::Session(const std::string& device_spec, BackendOptions options) {
     // Specialization is a session setting: the backend compiles what commit() asks for.
     options.features = 0;
     backend_ = open_device(device_spec, options);
+}
+
+Session::Session(const std::vector<std::string>& device_specs, BackendOptions options) {
+    if (device_specs.empty()) throw Error("no device given");
+    options.features = 0;
+    backend_ = open_device(device_specs[0], options);
+    for (size_t i = 1; i < device_specs.size(); ++i)
+        helpers_.push_back(std::make_unique<Session>(device_specs[i], options));
+}
+
+void Session::add_worker(std::unique_ptr<Worker> worker) {
+    if (!worker) throw Error("no worker given");
+    remote_.push_back(std::move(worker));
+    dirty_ = true;
+}
+
+std::vector<std::string> Session::device_names() const {
+    // Distinct names, in order: what the image depends on in reproducible mode.
+    std::vector<std::string> names{device().backend + ": " + device().name};
+    auto add = [&](const std::string& n) {
+        for (const std::string& m : names)
+            if (m == n) return;
+        names.push_back(n);
+    };
+    for (const auto& h : helpers_) add(h->device().backend + ": " + h->device().name);
+    for (const auto& w : remote_) add(w->name());
+    return names;
 }
 
 Session::Session(std::unique_ptr<Backend> backend) : backend_(std::move(backend)) {
@@ -107,8 +157,93 @@ void Session::commit() {
     if (s.reproducible) ro.group_spp = kReproducibleGroupSpp;
     ro.adaptive = s.adaptive;
     progressive_ = std::make_unique<ProgressiveRender>(*backend_, prepared_, scene_.camera, ro);
+    // The other devices of this process, with the same scene and settings.
+    for (auto& h : helpers_) {
+        h->set_scene(scene_);
+        h->settings() = s;
+        h->commit();
+    }
+    total_ = RenderResult{};
+    total_.width = s.width, total_.height = s.height;
     committed_settings_ = s;
     dirty_ = false;
+}
+
+RenderResult Session::render_range(uint64_t first, uint64_t end, const std::atomic<bool>* stop) {
+    using clock = std::chrono::steady_clock;
+    if (!lost_.empty())
+        throw DeviceLost("the device stopped earlier (" + lost_ + ")");
+    if (end <= first) throw Error("an empty sample range");
+    if (dirty_ || !same(settings_, committed_settings_)) commit();
+    const auto start = clock::now();
+    ProgressiveRender& pr = *progressive_;
+    pr.begin_at(first);
+    RenderResult& r = pr.result();
+    try {
+        while (r.spp < end - first) {
+            pr.pass(end - first - r.spp);
+            if (stop && stop->load()) break;
+        }
+        pr.flush();
+    } catch (const DeviceLost& e) {
+        lost_ = e.what();
+        throw;
+    }
+    RenderResult out = pr.settled();
+    out.seconds = std::chrono::duration<double>(clock::now() - start).count();
+    return out;
+}
+
+PassStats Session::render_on_devices(double budget_s, double target_error, uint64_t max_spp) {
+    using clock = std::chrono::steady_clock;
+    const SessionSettings& s = committed_settings_;
+    if (s.adaptive)
+        throw Error("adaptive sampling runs on one device: its plan needs the whole image's noise");
+    if (s.reproducible && max_spp % kReproducibleGroupSpp != 0)
+        throw Error("a reproducible render on several devices takes a multiple of " +
+                    std::to_string(kReproducibleGroupSpp) + " samples per pixel, not " +
+                    std::to_string(max_spp));
+    const auto start = clock::now();
+    const uint64_t spp_before = total_.spp;
+    const double seconds_before = total_.seconds;
+    JobLimits lim;
+    lim.max_spp = max_spp;
+    lim.seconds = budget_s;
+    lim.target_error = target_error;
+    lim.granule = s.reproducible ? kReproducibleGroupSpp : 1;
+    lim.chunk_seconds = s.chunk_seconds;
+    // This device, the others of this process, then those elsewhere.
+    std::vector<std::unique_ptr<Worker>> local;
+    std::vector<Worker*> workers;
+    local.push_back(std::make_unique<SessionWorker>(*this));
+    for (auto& h : helpers_) local.push_back(std::make_unique<SessionWorker>(*h));
+    for (auto& w : local) workers.push_back(w.get());
+    for (auto& w : remote_) workers.push_back(w.get());
+    Coordinator job(total_, lim, workers, rates_);
+    PassStats st;
+    try {
+        job.run(&cancel_);
+    } catch (const DeviceLost& e) {
+        lost_ = e.what();
+        total_.seconds = seconds_before + std::chrono::duration<double>(clock::now() - start).count();
+        device_stats_ = job.stats();
+        throw;
+    } catch (...) {
+        total_.seconds = seconds_before + std::chrono::duration<double>(clock::now() - start).count();
+        device_stats_ = job.stats();
+        throw;
+    }
+    rates_ = job.rates();
+    device_stats_ = job.stats();
+    st.cancelled = job.cancelled();
+    st.samples = total_.spp - spp_before;
+    st.spp = total_.spp;
+    st.relative_error = total_.relative_error();
+    st.target_reached = target_error > 0 && st.relative_error <= target_error;
+    st.seconds = std::chrono::duration<double>(clock::now() - start).count();
+    total_.seconds = seconds_before + st.seconds;
+    cancel_.store(false);
+    return st;
 }
 
 PassStats Session::render(double budget_ms, double target_error, uint64_t max_spp) {
@@ -123,6 +258,7 @@ PassStats Session::render(double budget_ms, double target_error, uint64_t max_sp
     // A cancel() from now on, during the commit too, ends this render.
     cancel_.store(false);
     if (dirty_ || !same(settings_, committed_settings_)) commit();
+    if (several()) return render_on_devices(budget_ms * 1e-3, target_error, max_spp);
     const auto start = clock::now();
     auto elapsed = [&] { return std::chrono::duration<double>(clock::now() - start).count(); };
     RenderResult& r = progressive_->result();
@@ -177,6 +313,7 @@ void Session::reset() {
 }
 
 const RenderResult& Session::result() const {
+    if (several() && progressive_) return total_;
     return progressive_ ? progressive_->result() : empty_;
 }
 
@@ -210,6 +347,10 @@ void Session::save_checkpoint(const std::string& path) {
         throw Error(
             "checkpoints keep one sample count for every pixel: an adaptive render "
             "has none to keep");
+    if (several()) {
+        write_checkpoint(path, fingerprint(*this), total_);
+        return;
+    }
     if (!settings_.reproducible) progressive_->flush();
     RenderResult settled = progressive_->settled();  // with the render time of every call
     settled.seconds = result().seconds;
@@ -220,7 +361,17 @@ void Session::resume_checkpoint(const std::string& path) {
     if (!has_scene_) throw Error("no scene loaded");
     if (!lost_.empty()) throw DeviceLost("the device stopped earlier (" + lost_ + ")");
     if (dirty_ || !same(settings_, committed_settings_)) commit();
-    progressive_->restore(read_checkpoint(path, fingerprint(*this)));
+    RenderResult saved = read_checkpoint(path, fingerprint(*this));
+    if (saved.first != 0)
+        throw Error("checkpoint '" + path + "' holds samples from " + std::to_string(saved.first) +
+                    " on (a part: mcpt merge adds parts), not a render from its start");
+    if (several()) {
+        if (settings_.reproducible && saved.exact.empty())
+            throw Error("checkpoint '" + path + "' holds no exact sums");
+        total_ = std::move(saved);
+        return;
+    }
+    progressive_->restore(saved);
 }
 
 }  // namespace mcpt

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "common/render/backend.h"
+#include "common/render/coordinator.h"
 #include "common/render/gpu_scene.h"
 #include "common/render/render_loop.h"
 #include "common/scene/scene.h"
@@ -39,6 +40,8 @@ struct SessionSettings {
     bool adaptive = false;
     double dispatch_ms = 30;  // target duration of one dispatch
     float light_scale = 1.f;  // negative controls only
+    // Several devices (coordinator.h): a chunk's target duration on the device that takes it.
+    double chunk_seconds = 0.5;
 };
 
 // What one render() call did.
@@ -55,11 +58,22 @@ class Session {
   public:
     // Opens the device of `spec` ("opencl", "vulkan:1", see device_registry.h).
     explicit Session(const std::string& device_spec, BackendOptions options = {});
+    // Several devices on one image (coordinator.h): the first holds the image, every one
+    // renders chunks of its samples. One spec is the same as the constructor above.
+    Session(const std::vector<std::string>& device_specs, BackendOptions options);
     explicit Session(std::unique_ptr<Backend> backend);
     ~Session();
 
     Backend& backend() { return *backend_; }
     const DeviceInfo& device() const { return backend_->device(); }
+    // Renders chunks of this session's image too (an MPI rank, coordinator.h); the session
+    // takes it. Commits again at the next render().
+    void add_worker(std::unique_ptr<Worker> worker);
+    // The devices rendering this image: this session's first, then the others.
+    size_t device_count() const { return 1 + helpers_.size() + remote_.size(); }
+    std::vector<std::string> device_names() const;
+    // Per device, what the last render() on several devices did; empty on one device.
+    const std::vector<WorkerStats>& device_stats() const { return device_stats_; }
 
     // A validated scene (scene_load.h); replaces the previous one.
     void set_scene(Scene scene);
@@ -91,13 +105,21 @@ class Session {
     // later is not affected.
     void cancel() { cancel_.store(true); }
 
+    // Renders samples [first, end) of every pixel on this session's device alone into sums
+    // of their own, not added to the image (what a device of a job on several does,
+    // coordinator.h); returns fewer (whole groups when reproducible) once `stop` is set.
+    // `first` must be a multiple of kReproducibleGroupSpp when reproducible.
+    RenderResult render_range(uint64_t first, uint64_t end,
+                              const std::atomic<bool>* stop = nullptr);
+
     // Drops the samples taken (the next render() starts from zero).
     void reset();
 
     // The prepared scene (tree kind and why, features); valid after commit().
     const GpuScene& prepared() const { return prepared_; }
     bool committed() const { return !dirty_; }
-    // The accumulated result (sums, spp, rays, seconds of render() calls); empty before.
+    // The accumulated result (sums, spp, rays, seconds of render() calls); empty before. On
+    // several devices: the samples every device rendered, added.
     const RenderResult& result() const;
     // The render loop of the current accumulation (dispatch timings); null before render().
     const ProgressiveRender* loop() const { return progressive_.get(); }
@@ -118,7 +140,14 @@ class Session {
     void resume_checkpoint(const std::string& path);
 
   private:
+    PassStats render_on_devices(double budget_s, double target_error, uint64_t max_spp);
+    bool several() const { return !helpers_.empty() || !remote_.empty(); }
     std::unique_ptr<Backend> backend_;
+    std::vector<std::unique_ptr<Session>> helpers_;  // the other devices of this process
+    std::vector<std::unique_ptr<Worker>> remote_;    // devices elsewhere (MPI ranks)
+    RenderResult total_;                             // several devices: the image's sums
+    std::vector<double> rates_;                      // several devices: their speeds
+    std::vector<WorkerStats> device_stats_;
     Scene scene_;
     bool has_scene_ = false;
     Environment environment_;
