@@ -12,6 +12,8 @@
 #include "app/commands.h"
 #include "common/error.h"
 #include "common/io/image_io.h"
+#include "app/mpi_job.h"
+#include "common/render/parts.h"
 #include "common/render/prepare.h"
 #include "common/render/scene_features.h"
 #include "common/render/session.h"
@@ -24,7 +26,7 @@ namespace {
 struct RenderArgs {
     std::string scene = "cornell";
     std::string backend = "opencl";
-    std::string device;
+    std::vector<std::string> devices;  // several: one image on all of them
     std::string limits;
     uint64_t spp = 0;
     double seconds = 0;
@@ -44,6 +46,8 @@ struct RenderArgs {
     bool adaptive = false;
     std::string checkpoint;        // resume from / save to this file
     double checkpoint_every = 30;  // seconds between checkpoints
+    std::string part;              // "I/N": this run renders part I of N of the samples
+    double chunk_seconds = 0.5;    // several devices: a chunk's duration
     LightingArgs lighting;
 };
 
@@ -64,7 +68,14 @@ void run_render(const RenderArgs& a) {
     bo.fast_math = a.fast_math;
     bo.limits = a.limits;
     check_image_path(a.output);  // before anything renders
-    Session session(a.backend + (a.device.empty() ? "" : ":" + a.device), bo);
+    // An MPI job: rank 0 holds the image, every rank renders chunks on its own device.
+    const MpiJob& mpi = mpi_job();
+    if (mpi.size > 1 && a.devices.size() > 1)
+        throw Error("under mpirun each rank takes one device: give at most one --device");
+    if (mpi.size > 1 && !a.part.empty()) throw Error("--part is for runs without mpirun");
+    std::vector<std::string> specs = device_specs(a.backend, a.devices);
+    if (mpi.size > 1 && a.devices.empty()) specs = {rank_device(a.backend, mpi)};
+    Session session(specs, bo);
     session.set_environment(lighting_environment(a.lighting));
     Scene loaded = load_scene(a.scene);
     for (const std::string& w : loaded.warnings) std::cerr << "mcpt: warning: " << w << "\n";
@@ -78,6 +89,21 @@ void run_render(const RenderArgs& a) {
     s.sampler = a.sampler;
     s.reproducible = a.reproducible || !a.checkpoint.empty();
     s.adaptive = a.adaptive;
+    s.chunk_seconds = a.chunk_seconds;
+    if (!a.part.empty()) {
+        uint32_t index = 0, count = 0;
+        parse_part(a.part, index, count);
+        if (a.checkpoint.empty())
+            throw Error("a part is written as a checkpoint: give --checkpoint FILE (mcpt merge "
+                        "adds the parts)");
+        session.set_part(part_range(a.spp, index, count, kReproducibleGroupSpp));
+    }
+    // Ranks above 0 render what rank 0 hands out, and write nothing.
+    if (mpi.rank > 0) {
+        mpi_serve(session);
+        return;
+    }
+    for (auto& w : mpi_remote_workers()) session.add_worker(std::move(w));
     session.commit();
     for (const std::string& w : session.prepared().warnings)
         std::cerr << "mcpt: warning: " << w << "\n";
@@ -115,7 +141,7 @@ void run_render(const RenderArgs& a) {
 
     // Render in steps of a quarter second (or of the checkpoint interval, if shorter) until the
     // samples, the time or the error is there.
-    uint64_t spp = a.spp;
+    uint64_t spp = a.part.empty() ? a.spp : session.part().end - session.part().first;
     double seconds = a.seconds;
     if (spp == 0 && seconds <= 0 && a.target_error <= 0) spp = 64;
     const bool bar = !a.quiet && isatty(2);
@@ -129,8 +155,10 @@ void run_render(const RenderArgs& a) {
         last_save = std::chrono::steady_clock::now();
     };
     while (true) {
-        const double step_cap_ms =
+        double step_cap_ms =
             a.checkpoint.empty() ? 250.0 : std::clamp(a.checkpoint_every * 1e3, 1.0, 250.0);
+        // Several devices: steps of a few chunks (each step ends when every device has).
+        if (session.device_count() > 1) step_cap_ms = std::max(step_cap_ms, 4e3 * a.chunk_seconds);
         const double step_ms =
             seconds > 0 ? std::min(step_cap_ms, (seconds - elapsed) * 1e3) : step_cap_ms;
         try {
@@ -170,6 +198,14 @@ void run_render(const RenderArgs& a) {
     const double paths = double(r.spp) * pixels;
     std::printf("device: %s (kernel build %.2f s)\n", backend.description().c_str(),
                 backend.compile_seconds());
+    // Several devices: what each took of the image.
+    for (size_t d = 0; d < session.device_stats().size(); ++d) {
+        const WorkerStats& w = session.device_stats()[d];
+        std::printf("  device %zu: %s: %llu chunks, %llu spp (%.0f%%), %.2f spp/s\n", d,
+                    w.name.c_str(), (unsigned long long)w.chunks, (unsigned long long)w.samples,
+                    r.spp > 0 ? 100.0 * double(w.samples) / double(r.spp) : 0.0,
+                    w.seconds > 0 ? double(w.samples) / w.seconds : 0.0);
+    }
     if (a.verbose) {
         std::printf("%s layout: %s, submission budget %.0f ms\n", backend.device().backend.c_str(),
                     backend.layout().c_str(), s.dispatch_ms);
@@ -228,7 +264,9 @@ void add_render_command(CLI::App& app) {
     sub->add_option("scene", args->scene, "Built-in scene (cornell, furnace) or .gltf/.glb file")
         ->capture_default_str();
     sub->add_option("--backend", args->backend, "opencl or vulkan")->capture_default_str();
-    sub->add_option("--device", args->device, "Device index or name substring (mcpt devices)");
+    sub->add_option("--device", args->devices,
+                    "Device index or name substring (mcpt devices), or api:device; repeated: "
+                    "one image on several devices");
     sub->add_option("--limits", args->limits,
                     "Vulkan limits: device (as reported) or phone (Vulkan 1.1 minimums); "
                     "default $MCPT_VULKAN_LIMITS or device")
@@ -280,6 +318,14 @@ void add_render_command(CLI::App& app) {
     sub->add_option("--checkpoint-every", args->checkpoint_every,
                     "Seconds between checkpoints (and one at the end)")
         ->check(CLI::Range(0.0, 1e7))
+        ->capture_default_str();
+    sub->add_option("--part", args->part,
+                    "I/N: render part I of N of the --spp samples into --checkpoint (job "
+                    "arrays; mcpt merge adds the parts)")
+        ->needs(spp);
+    sub->add_option("--chunk-seconds", args->chunk_seconds,
+                    "Several devices: the duration of a chunk of samples handed to one")
+        ->check(CLI::Range(0.01, 3600.0))
         ->capture_default_str();
     add_lighting_options(sub, args->lighting);
     sub->add_flag("-q,--quiet", args->quiet, "No progress bar");

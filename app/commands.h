@@ -23,6 +23,11 @@ void add_compare_command(CLI::App& app);
 void add_converge_command(CLI::App& app);
 void add_bench_command(CLI::App& app);
 
+// The device specs of --backend and the --device values (an index, a name substring, or
+// api:device); none: the backend's best device.
+std::vector<std::string> device_specs(const std::string& backend,
+                                      const std::vector<std::string>& devices);
+
 // load_scene(arg) with its warnings printed to stderr.
 Scene load_scene_argument(const std::string& arg);
 

@@ -40,4 +40,15 @@ Environment lighting_environment(const LightingArgs& a) {
     return env;
 }
 
+std::vector<std::string> device_specs(const std::string& backend,
+                                      const std::vector<std::string>& devices) {
+    if (devices.empty()) return {backend};
+    std::vector<std::string> specs;
+    for (const std::string& d : devices) {
+        const bool has_api = d.rfind("opencl", 0) == 0 || d.rfind("vulkan", 0) == 0;
+        specs.push_back(has_api ? d : backend + ":" + d);
+    }
+    return specs;
+}
+
 }  // namespace mcpt

@@ -9,21 +9,17 @@
 
 namespace mcpt {
 
-BatchSet render_batches(Backend& backend, const GpuScene& scene, const Camera& camera,
-                        RenderOptions options, const BatchOptions& batch) {
-    if (batch.batches < 2) throw Error("need at least 2 batches");
+BatchSet batch_means(const std::vector<RenderResult>& renders) {
+    if (renders.size() < 2) throw Error("need at least 2 batches");
     BatchSet set;
-    set.width = options.width, set.height = options.height;
-    set.batches = batch.batches;
-    set.spp_per_batch = batch.spp_per_batch;
-    const size_t npix = size_t(options.width) * size_t(options.height);
+    set.width = renders[0].width, set.height = renders[0].height;
+    set.batches = int(renders.size());
+    set.spp_per_batch = renders[0].spp;
+    const size_t npix = size_t(set.width) * size_t(set.height);
     std::vector<double> sum(npix, 0.0), sum_sq(npix, 0.0);
-    backend.load(scene, options.width, options.height);
-    options.spp = batch.spp_per_batch;
-    for (int b = 0; b < batch.batches; ++b) {
-        // One batch: an independent render with its own seed.
-        options.seed = batch.seed_base + uint32_t(b);
-        const RenderResult r = render_loaded(backend, scene, camera, options);
+    for (const RenderResult& r : renders) {
+        if (r.width != set.width || r.height != set.height)
+            throw Error("batches of different image sizes");
         const std::vector<float> img = r.mean_image();
         for (size_t i = 0; i < npix; ++i) {
             const double m = (double(img[3 * i]) + img[3 * i + 1] + img[3 * i + 2]) / 3.0;
@@ -34,13 +30,27 @@ BatchSet render_batches(Backend& backend, const GpuScene& scene, const Camera& c
         set.rays += r.rays;
     }
     // Mean and unbiased variance of the batch means.
-    const double k = batch.batches;
+    const double k = set.batches;
     set.mean.resize(npix), set.var.resize(npix);
     for (size_t i = 0; i < npix; ++i) {
         set.mean[i] = sum[i] / k;
         set.var[i] = std::max(0.0, (sum_sq[i] - k * set.mean[i] * set.mean[i]) / (k - 1));
     }
     return set;
+}
+
+BatchSet render_batches(Backend& backend, const GpuScene& scene, const Camera& camera,
+                        RenderOptions options, const BatchOptions& batch) {
+    if (batch.batches < 2) throw Error("need at least 2 batches");
+    backend.load(scene, options.width, options.height);
+    options.spp = batch.spp_per_batch;
+    // One batch: an independent render with its own seed.
+    std::vector<RenderResult> renders;
+    for (int b = 0; b < batch.batches; ++b) {
+        options.seed = batch.seed_base + uint32_t(b);
+        renders.push_back(render_loaded(backend, scene, camera, options));
+    }
+    return batch_means(renders);
 }
 
 std::string Agreement::verdict() const {

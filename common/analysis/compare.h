@@ -25,6 +25,9 @@ struct BatchOptions {
     uint32_t seed_base = 1;  // batch b uses seed seed_base + b
 };
 
+// Batch means from independent renders of one size (two at least).
+BatchSet batch_means(const std::vector<RenderResult>& renders);
+
 // Loads the scene once, then renders the batches with independent seeds.
 BatchSet render_batches(Backend& backend, const GpuScene& scene, const Camera& camera,
                         RenderOptions options, const BatchOptions& batch);

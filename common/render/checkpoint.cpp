@@ -136,7 +136,9 @@ void write_checkpoint(const std::string& path, const Fingerprint& fingerprint,
     });
 }
 
-RenderResult read_checkpoint(const std::string& path, const Fingerprint& expected) {
+namespace {
+RenderResult read_checkpoint_file(const std::string& path, const Fingerprint* expected,
+                                  Fingerprint* written) {
     const auto fail = [&](const std::string& why) {
         return Error("checkpoint '" + path + "' refused: " + why);
     };
@@ -164,9 +166,10 @@ RenderResult read_checkpoint(const std::string& path, const Fingerprint& expecte
                    std::to_string(kFormat));
     const Fingerprint saved = decode(bytes.substr(in.at, text_size));
     in.at += text_size;
+    if (written) *written = saved;
     // What it was written for, key by key (the version first).
-    for (size_t i = 0; i < expected.size(); ++i) {
-        const auto& [key, now] = expected[i];
+    for (size_t i = 0; expected && i < expected->size(); ++i) {
+        const auto& [key, now] = (*expected)[i];
         std::string was = "(missing)";
         for (const auto& [k, v] : saved)
             if (k == key) was = v;
@@ -201,6 +204,16 @@ RenderResult read_checkpoint(const std::string& path, const Fingerprint& expecte
     if (checksum != fnv1a(bytes.data(), bytes.size() - 8))
         throw fail("corrupted (checksum mismatch)");
     return r;
+}
+
+}  // namespace
+
+RenderResult read_checkpoint(const std::string& path, const Fingerprint& expected) {
+    return read_checkpoint_file(path, &expected, nullptr);
+}
+
+RenderResult read_checkpoint(const std::string& path, Fingerprint& written) {
+    return read_checkpoint_file(path, nullptr, &written);
 }
 
 }  // namespace mcpt

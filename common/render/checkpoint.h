@@ -27,5 +27,7 @@ void write_checkpoint(const std::string& path, const Fingerprint& fingerprint,
 // mcpt::Error naming the path and the first difference: "written by mcpt 0.1.0, this is
 // 0.2.0", "for another scene", "width 256 (now 512)", or "truncated" / "corrupted".
 RenderResult read_checkpoint(const std::string& path, const Fingerprint& expected);
+// Reads a checkpoint whatever it was written for; `written` receives its fingerprint.
+RenderResult read_checkpoint(const std::string& path, Fingerprint& written);
 
 }  // namespace mcpt

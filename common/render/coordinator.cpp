@@ -27,7 +27,7 @@ double Coordinator::elapsed() const {
 
 std::optional<Chunk> Coordinator::next(size_t w) {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (stop_.load() || (lim_.max_spp > 0 && next_first_ >= lim_.max_spp)) return std::nullopt;
+    if (stop_.load() || (lim_.end > 0 && next_first_ >= lim_.end)) return std::nullopt;
     const double g = lim_.granule, rate = stats_[w].rate, now = elapsed();
     // A chunk of about chunk_seconds on this worker; a worker not measured yet takes a small
     // one. With a time limit: none that would end after it (except the job's first), and
@@ -39,14 +39,13 @@ std::optional<Chunk> Coordinator::next(size_t w) {
         if (rate > 0) size = std::min(size, rate * left);
     }
     // With a sample count: the rest shared among the workers, so they finish together.
-    if (lim_.max_spp > 0) {
-        const double left = double(lim_.max_spp - next_first_);
+    if (lim_.end > 0) {
+        const double left = double(lim_.end - next_first_);
         size = std::min(size, std::max(g, std::ceil(left / double(workers_.size()) / g) * g));
         size = std::min(size, left);
     }
     const uint64_t n = std::max<uint64_t>(lim_.granule, uint64_t(size / g) * lim_.granule);
-    const uint64_t end = lim_.max_spp > 0 ? std::min(lim_.max_spp, next_first_ + n)
-                                          : next_first_ + n;
+    const uint64_t end = lim_.end > 0 ? std::min(lim_.end, next_first_ + n) : next_first_ + n;
     const Chunk chunk{next_first_, end};
     next_first_ = end;
     handed_any_ = true;

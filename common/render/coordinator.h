@@ -37,7 +37,7 @@ class Worker {
 };
 
 struct JobLimits {
-    uint64_t max_spp = 0;        // samples per pixel in the image at the end; 0: no cap
+    uint64_t end = 0;            // the sample index the job ends at; 0: no end
     double seconds = 0;          // hand out no chunk that would end after this; 0: no limit
     double target_error = 0;     // stop at this relative error (RenderResult); 0: none
     uint32_t granule = 1;        // chunks start and end at multiples of this (group_spp)

@@ -37,7 +37,12 @@ Fingerprint fingerprint(const Session& session) {
             {"reproducible", s.reproducible ? "on" : "off"},
             {"adaptive", s.adaptive ? "on" : "off"},
             {"light_scale", scale},
-            {"device", join(session.device_names())}};
+            {"device", join(session.device_names())},
+            {"samples", session.part().job_spp == 0
+                            ? std::string("all")
+                            : std::to_string(session.part().first) + "-" +
+                                  std::to_string(session.part().end) + " of " +
+                                  std::to_string(session.part().job_spp)}};
 }
 
 std::string join(const std::vector<std::string>& names) {
@@ -165,6 +170,9 @@ void Session::commit() {
     }
     total_ = RenderResult{};
     total_.width = s.width, total_.height = s.height;
+    total_.first = part_.first;
+    device_stats_.clear();
+    if (part_.first > 0) progressive_->begin_at(part_.first);
     committed_settings_ = s;
     dirty_ = false;
 }
@@ -194,12 +202,22 @@ RenderResult Session::render_range(uint64_t first, uint64_t end, const std::atom
     return out;
 }
 
+void Session::add_stats(const std::vector<WorkerStats>& job) {
+    if (device_stats_.size() != job.size()) device_stats_.assign(job.size(), WorkerStats{});
+    for (size_t w = 0; w < job.size(); ++w) {
+        WorkerStats& d = device_stats_[w];
+        d.name = job[w].name;
+        d.chunks += job[w].chunks, d.samples += job[w].samples, d.seconds += job[w].seconds;
+        d.rate = job[w].rate;
+    }
+}
+
 PassStats Session::render_on_devices(double budget_s, double target_error, uint64_t max_spp) {
     using clock = std::chrono::steady_clock;
     const SessionSettings& s = committed_settings_;
     if (s.adaptive)
         throw Error("adaptive sampling runs on one device: its plan needs the whole image's noise");
-    if (s.reproducible && max_spp % kReproducibleGroupSpp != 0)
+    if (s.reproducible && (max_spp % kReproducibleGroupSpp != 0 || part_.first % kReproducibleGroupSpp != 0))
         throw Error("a reproducible render on several devices takes a multiple of " +
                     std::to_string(kReproducibleGroupSpp) + " samples per pixel, not " +
                     std::to_string(max_spp));
@@ -207,7 +225,7 @@ PassStats Session::render_on_devices(double budget_s, double target_error, uint6
     const uint64_t spp_before = total_.spp;
     const double seconds_before = total_.seconds;
     JobLimits lim;
-    lim.max_spp = max_spp;
+    lim.end = max_spp > 0 ? total_.first + max_spp : 0;
     lim.seconds = budget_s;
     lim.target_error = target_error;
     lim.granule = s.reproducible ? kReproducibleGroupSpp : 1;
@@ -226,15 +244,15 @@ PassStats Session::render_on_devices(double budget_s, double target_error, uint6
     } catch (const DeviceLost& e) {
         lost_ = e.what();
         total_.seconds = seconds_before + std::chrono::duration<double>(clock::now() - start).count();
-        device_stats_ = job.stats();
+        add_stats(job.stats());
         throw;
     } catch (...) {
         total_.seconds = seconds_before + std::chrono::duration<double>(clock::now() - start).count();
-        device_stats_ = job.stats();
+        add_stats(job.stats());
         throw;
     }
     rates_ = job.rates();
-    device_stats_ = job.stats();
+    add_stats(job.stats());
     st.cancelled = job.cancelled();
     st.samples = total_.spp - spp_before;
     st.spp = total_.spp;
@@ -308,6 +326,13 @@ PassStats Session::render(double budget_ms, double target_error, uint64_t max_sp
     return st;
 }
 
+void Session::set_part(const SamplePart& part) {
+    if (part.job_spp > 0 && !(part.first < part.end && part.end <= part.job_spp))
+        throw Error("a part's samples must lie within the job's");
+    part_ = part;
+    dirty_ = true;
+}
+
 void Session::reset() {
     dirty_ = true;
 }
@@ -362,9 +387,9 @@ void Session::resume_checkpoint(const std::string& path) {
     if (!lost_.empty()) throw DeviceLost("the device stopped earlier (" + lost_ + ")");
     if (dirty_ || !same(settings_, committed_settings_)) commit();
     RenderResult saved = read_checkpoint(path, fingerprint(*this));
-    if (saved.first != 0)
+    if (saved.first != part_.first)
         throw Error("checkpoint '" + path + "' holds samples from " + std::to_string(saved.first) +
-                    " on (a part: mcpt merge adds parts), not a render from its start");
+                    " on, this render starts at " + std::to_string(part_.first));
     if (several()) {
         if (settings_.reproducible && saved.exact.empty())
             throw Error("checkpoint '" + path + "' holds no exact sums");

@@ -44,6 +44,13 @@ struct SessionSettings {
     double chunk_seconds = 0.5;
 };
 
+// A part of a job split over runs that share nothing (job arrays): samples [first, end) of
+// job_spp. Its checkpoint says so; mcpt merge adds the parts (parts.h).
+struct SamplePart {
+    uint64_t first = 0, end = 0;
+    uint64_t job_spp = 0;  // 0: not a part, the whole render
+};
+
 // What one render() call did.
 struct PassStats {
     uint64_t samples = 0;         // samples per pixel this call added
@@ -72,7 +79,7 @@ class Session {
     // The devices rendering this image: this session's first, then the others.
     size_t device_count() const { return 1 + helpers_.size() + remote_.size(); }
     std::vector<std::string> device_names() const;
-    // Per device, what the last render() on several devices did; empty on one device.
+    // Per device, what it rendered since the accumulation began; empty on one device.
     const std::vector<WorkerStats>& device_stats() const { return device_stats_; }
 
     // A validated scene (scene_load.h); replaces the previous one.
@@ -114,6 +121,10 @@ class Session {
 
     // Drops the samples taken (the next render() starts from zero).
     void reset();
+    // Renders only `part` from now on (takes effect, and restarts accumulation, at the next
+    // render()): its sums begin at part.first, render()'s max_spp counts from there.
+    void set_part(const SamplePart& part);
+    const SamplePart& part() const { return part_; }
 
     // The prepared scene (tree kind and why, features); valid after commit().
     const GpuScene& prepared() const { return prepared_; }
@@ -141,6 +152,7 @@ class Session {
 
   private:
     PassStats render_on_devices(double budget_s, double target_error, uint64_t max_spp);
+    void add_stats(const std::vector<WorkerStats>& job);
     bool several() const { return !helpers_.empty() || !remote_.empty(); }
     std::unique_ptr<Backend> backend_;
     std::vector<std::unique_ptr<Session>> helpers_;  // the other devices of this process
@@ -148,6 +160,7 @@ class Session {
     RenderResult total_;                             // several devices: the image's sums
     std::vector<double> rates_;                      // several devices: their speeds
     std::vector<WorkerStats> device_stats_;
+    SamplePart part_;
     Scene scene_;
     bool has_scene_ = false;
     Environment environment_;

@@ -1,0 +1,38 @@
+// mcpt under mpirun: rank 0 holds the image and coordinates (coordinator.h); every rank, rank
+// 0 included, renders chunks of samples on its own device. Without MPI in the build, or when
+// not started by mpirun, a job of one rank.
+#pragma once
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/render/coordinator.h"
+#include "common/render/session.h"
+
+namespace mcpt {
+
+struct MpiJob {
+    int rank = 0, size = 1;
+    int local_rank = 0;  // the rank among those on this host (picks its GPU)
+};
+
+// Starts MPI when mpirun started this process (its environment says so); the job, also
+// without. Call once, first thing; mpi_finish() at exit.
+const MpiJob& mpi_start(int& argc, char**& argv);
+const MpiJob& mpi_job();
+void mpi_finish();
+// Ends every rank of the job with `code` (a rank failed).
+[[noreturn]] void mpi_abort(int code);
+
+// The device a rank takes when --device names none: the backend's GPU at its local rank
+// (modulo the GPUs there), else its first device.
+std::string rank_device(const std::string& backend, const MpiJob& job);
+
+// Rank 0: a worker for each other rank (blocks until each said which device it has).
+std::vector<std::unique_ptr<Worker>> mpi_remote_workers();
+
+// Ranks above 0: renders the chunks rank 0 hands out on `session` until it says stop; a
+// failure goes to rank 0 with its message.
+void mpi_serve(Session& session);
+
+}  // namespace mcpt

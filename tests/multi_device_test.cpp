@@ -1,0 +1,202 @@
+// One image on several devices (common/render/coordinator.h): chunks of sample ranges cover
+// the job once, in order, shared by speed; in reproducible mode N devices of one kind give one
+// device's image bit for bit; PoCL and lavapipe together agree with one device statistically
+// and seed for seed; a worker that counts a chunk twice is caught by both tests.
+#include "common/render/coordinator.h"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <thread>
+
+#include "common/analysis/compare.h"
+#include "common/error.h"
+#include "common/render/session.h"
+#include "common/scene/builtin_scenes.h"
+
+namespace mcpt {
+namespace {
+
+// A device that renders nothing: sums of one sample value, at a set speed.
+class FakeWorker : public Worker {
+  public:
+    FakeWorker(std::string name, double spp_per_second, int fail_at = -1)
+        : name_(std::move(name)), rate_(spp_per_second), fail_at_(fail_at) {}
+    std::string name() const override { return name_; }
+    RenderResult render(const Chunk& c, const std::atomic<bool>&) override {
+        if (chunks_++ == fail_at_) throw DeviceLost("lost (planted)");
+        std::this_thread::sleep_for(std::chrono::duration<double>(double(c.end - c.first) / rate_));
+        RenderResult r;
+        r.width = 2, r.height = 1, r.first = c.first, r.spp = c.end - c.first;
+        r.sum.assign(6, double(r.spp)), r.sum_sq.assign(6, double(r.spp));
+        r.nonfinite.assign(2, 0.0);
+        return r;
+    }
+
+  private:
+    std::string name_;
+    double rate_;
+    int fail_at_, chunks_ = 0;
+};
+
+TEST(Coordinator, ChunksCoverTheJobOnceSharedBySpeed) {
+    FakeWorker fast("fast", 4000), slow("slow", 1000);
+    RenderResult total;
+    JobLimits lim;
+    lim.end = 2000;
+    lim.granule = 16;
+    lim.chunk_seconds = 0.02;
+    Coordinator job(total, lim, {&fast, &slow});
+    job.run();
+    // Every sample once, in one prefix; each value counted once.
+    EXPECT_EQ(total.first, 0u);
+    EXPECT_EQ(total.spp, 2000u);
+    EXPECT_EQ(total.sum[0], 2000.0);
+    // The fast device took about 4/5 (its chunks sized to its speed).
+    const double fast_share = double(job.stats()[0].samples) / 2000.0;
+    EXPECT_GT(fast_share, 0.6);
+    EXPECT_LT(fast_share, 0.95);
+    EXPECT_EQ(job.stats()[0].samples + job.stats()[1].samples, 2000u);
+}
+
+TEST(Coordinator, AFailedDeviceEndsTheJobNamedKeepingAPrefix) {
+    FakeWorker good("good", 2000), bad("bad", 2000, 2);
+    RenderResult total;
+    JobLimits lim;
+    lim.end = 100000;
+    lim.granule = 16;
+    lim.chunk_seconds = 0.01;
+    Coordinator job(total, lim, {&good, &bad});
+    try {
+        job.run();
+        FAIL() << "a lost device must end the job";
+    } catch (const DeviceLost& e) {
+        EXPECT_NE(std::string(e.what()).find("device 1 (bad)"), std::string::npos) << e.what();
+    }
+    // Whatever was kept is a whole prefix, each sample once.
+    EXPECT_LT(total.spp, 100000u);
+    EXPECT_EQ(total.sum[0], double(total.spp));
+}
+
+TEST(Coordinator, TimeLimitEndsTheJobNearIt) {
+    FakeWorker a("a", 1000), b("b", 500);
+    RenderResult total;
+    JobLimits lim;
+    lim.seconds = 0.3;
+    lim.chunk_seconds = 0.05;
+    const auto t0 = std::chrono::steady_clock::now();
+    Coordinator job(total, lim, {&a, &b});
+    job.run();
+    const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    EXPECT_LT(t, 0.6);
+    EXPECT_GT(total.spp, 100u);
+    EXPECT_EQ(total.sum[0], double(total.spp));
+}
+
+Scene small_cornell() { return make_builtin_scene("cornell"); }
+
+void setup(Session& s, uint32_t seed, bool reproducible) {
+    s.set_scene(small_cornell());
+    s.settings().width = 32, s.settings().height = 32;
+    s.settings().seed = seed;
+    s.settings().reproducible = reproducible;
+    s.settings().chunk_seconds = 0.01;  // many chunks
+}
+
+bool bitwise_equal(const std::vector<double>& a, const std::vector<double>& b) {
+    return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * 8) == 0;
+}
+
+TEST(SeveralDevices, ReproducibleIsOneDevicesImageBitForBit) {
+    for (const std::string api : {"opencl", "vulkan"}) {
+        Session one(api);
+        setup(one, 7, true);
+        one.render(1e9, 0, 96);
+        Session three(std::vector<std::string>{api, api, api}, BackendOptions{});
+        setup(three, 7, true);
+        three.render(1e9, 0, 96);
+        EXPECT_EQ(three.spp(), 96u);
+        EXPECT_TRUE(bitwise_equal(one.result().sum, three.result().sum)) << api;
+        EXPECT_TRUE(bitwise_equal(one.result().sum_sq, three.result().sum_sq)) << api;
+        uint64_t chunks = 0;
+        for (const WorkerStats& w : three.device_stats()) chunks += w.chunks;
+        EXPECT_GE(chunks, 3u) << "the job was not split";
+        // Negative control: another seed on one device differs (the check can fail).
+        Session other(api);
+        setup(other, 8, true);
+        other.render(1e9, 0, 96);
+        EXPECT_FALSE(bitwise_equal(one.result().sum, other.result().sum));
+    }
+}
+
+// A device that adds one of its chunks twice: a defect the tests below must catch.
+class DoubleCounting : public Worker {
+  public:
+    explicit DoubleCounting(Session& s) : s_(s) {}
+    std::string name() const override { return "double-counting " + s_.device().name; }
+    RenderResult render(const Chunk& c, const std::atomic<bool>& stop) override {
+        RenderResult r = s_.render_range(c.first, c.end, &stop);
+        if (chunks_++ == 0)
+            for (size_t k = 0; k < r.sum.size(); ++k) r.sum[k] *= 2, r.sum_sq[k] *= 4;
+        return r;
+    }
+
+  private:
+    Session& s_;
+    int chunks_ = 0;
+};
+
+// PoCL and lavapipe together (plus, for the control, a planted double-counting lavapipe)
+// against PoCL alone: `batches` renders with independent seeds, 16 spp each.
+RenderResult render_mixed(uint32_t seed, bool planted, Session* helper) {
+    Session s(std::vector<std::string>{"opencl", "vulkan"}, BackendOptions{});
+    setup(s, seed, false);
+    s.settings().chunk_seconds = 0.002;
+    if (planted) {
+        setup(*helper, seed, false);
+        s.add_worker(std::make_unique<DoubleCounting>(*helper));
+    }
+    s.render(1e9, 0, 16);
+    EXPECT_GT(s.device_stats().at(1).chunks, 0u) << "lavapipe rendered nothing";
+    return s.result();
+}
+
+TEST(SeveralDevices, PoclAndLavapipeTogetherAgreeWithOneDevice) {
+    Session helper("vulkan");
+    std::vector<RenderResult> single, mixed, planted;
+    for (uint32_t b = 0; b < 16; ++b) {
+        Session one("opencl");
+        setup(one, 100 + b, false);
+        one.render(1e9, 0, 16);
+        single.push_back(one.result());
+        mixed.push_back(render_mixed(500 + b, false, nullptr));
+        planted.push_back(render_mixed(500 + b, true, &helper));
+    }
+    const Agreement honest = test_agreement(batch_means(single), batch_means(mixed), 0.01);
+    const Agreement biased = test_agreement(batch_means(single), batch_means(planted), 0.01);
+    std::printf("honest: %s\nplanted: %s\n", honest.verdict().c_str(), biased.verdict().c_str());
+    EXPECT_TRUE(honest.agree);
+    EXPECT_FALSE(biased.agree) << "a double-counted chunk went unnoticed";
+    // Seed for seed: the same samples on other devices differ only by rounding.
+    Session one("opencl");
+    setup(one, 500, false);
+    one.render(1e9, 0, 16);
+    const SameSeedDiff same = same_seed_diff(one.result(), mixed[0]);
+    const SameSeedDiff twice = same_seed_diff(one.result(), planted[0]);
+    std::printf("same seed: %.3f%% diverged; planted: %.3f%%\n", 100 * same.fraction_diverged(),
+                100 * twice.fraction_diverged());
+    EXPECT_TRUE(same.agree());
+    EXPECT_FALSE(twice.agree());
+}
+
+TEST(SeveralDevices, RefusesWhatOneDeviceMust) {
+    Session s(std::vector<std::string>{"opencl", "opencl"}, BackendOptions{});
+    setup(s, 1, true);
+    EXPECT_THROW(s.render(1e9, 0, 40), Error);  // not whole groups of 16
+    setup(s, 1, false);
+    s.settings().adaptive = true;
+    EXPECT_THROW(s.render(1e9, 0, 32), Error);
+}
+
+}  // namespace
+}  // namespace mcpt
