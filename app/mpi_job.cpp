@@ -108,6 +108,7 @@ class RankWorker : public Worker {
     std::string name() const override {
         return device_ + " (rank " + std::to_string(rank_) + ")";
     }
+    std::string device_name() const override { return device_; }
     RenderResult render(const Chunk& chunk, const std::atomic<bool>&) override {
         {
             std::lock_guard<std::mutex> lock(g_mpi);

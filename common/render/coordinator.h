@@ -30,6 +30,8 @@ class Worker {
     virtual ~Worker() = default;
     // "opencl: NVIDIA H100 (rank 2)", for messages and statistics.
     virtual std::string name() const = 0;
+    // The device alone, "opencl: NVIDIA H100": what a reproducible image depends on.
+    virtual std::string device_name() const { return name(); }
     // Renders samples [chunk.first, chunk.end) of every pixel into sums of their own
     // (RenderResult::first = chunk.first). Once `stop` is set it may return fewer (whole
     // groups when reproducible). Throws mcpt::Error (mcpt::DeviceLost) when it fails.

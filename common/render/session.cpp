@@ -104,7 +104,7 @@ std::vector<std::string> Session::device_names() const {
         names.push_back(n);
     };
     for (const auto& h : helpers_) add(h->device().backend + ": " + h->device().name);
-    for (const auto& w : remote_) add(w->name());
+    for (const auto& w : remote_) add(w->device_name());
     return names;
 }
 

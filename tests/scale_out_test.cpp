@@ -1,0 +1,185 @@
+// Beyond one device through the command line: several devices in one process, MPI ranks
+// (mpirun, Open MPI) and parts merged afterwards (render --part I/N, mcpt merge) all write the
+// file one reproducible render writes, byte for byte; merge refuses parts that do not make one
+// job; a rank killed with SIGKILL or whose device is lost ends the job naming it, and the last
+// checkpoint resumes with another number of ranks to the same file.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+
+#include "test_util.h"
+
+namespace mcpt {
+namespace {
+
+namespace fs = std::filesystem;
+using test::run_mcpt;
+
+fs::path temp(const std::string& name) {
+    const fs::path dir = fs::path(::testing::TempDir()) / "mcpt_scale_out_test";
+    fs::create_directories(dir);
+    return dir / name;
+}
+
+// About a second of samples on PoCL; chunks of 0.05 s, so every device takes several.
+std::string job(int spp = 512, int seed = 3, const std::string& devices = "") {
+    return "render cornell " + (devices.empty() ? test::device_args("opencl") : devices) +
+           " --width 64 --height 48 -q --chunk-seconds 0.05 --spp " + std::to_string(spp) +
+           " --seed " + std::to_string(seed);
+}
+
+// The file one reproducible render on one device writes.
+std::string one_device(int spp = 512) {
+    const fs::path out = temp("one_" + std::to_string(spp) + ".exr");
+    const test::CliRun r = run_mcpt(job(spp) + " --reproducible -o " + out.string());
+    EXPECT_EQ(r.status, 0) << r.output;
+    return test::read_file(out.string());
+}
+
+TEST(ScaleOut, SeveralDevicesInOneProcessWriteOneDevicesFile) {
+    const std::string one = one_device();
+    ASSERT_FALSE(one.empty());
+    const fs::path out = temp("three.exr");
+    const std::string dev = test::device_args("opencl");
+    const std::string d = dev.substr(dev.find("--device"));
+    const test::CliRun r =
+        run_mcpt(job() + " " + d + " " + d + " --reproducible -o " + out.string());
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("device 2:"), std::string::npos) << r.output;
+    EXPECT_TRUE(test::read_file(out.string()) == one) << r.output;
+    // PoCL and lavapipe together: both take chunks (the images agree statistically:
+    // SeveralDevices.PoclAndLavapipeTogetherAgreeWithOneDevice).
+    const test::CliRun mixed =
+        run_mcpt(job(512, 3, "--device opencl:" + d.substr(d.find(' ') + 1) + " --device vulkan") +
+                 " -o " + temp("mixed.exr").string());
+    ASSERT_EQ(mixed.status, 0) << mixed.output;
+    EXPECT_NE(mixed.output.find("device 1: vulkan"), std::string::npos) << mixed.output;
+}
+
+TEST(ScaleOut, MergedPartsAreOneRenderBitForBit) {
+    const std::string one = one_device();
+    std::string parts;
+    for (int i = 1; i <= 4; ++i) {
+        const fs::path p = temp("part" + std::to_string(i) + ".ckpt");
+        fs::remove(p);
+        const test::CliRun r = run_mcpt(job() + " --part " + std::to_string(i) +
+                                        "/4 --checkpoint " + p.string() + " -o " +
+                                        temp("part.png").string());
+        ASSERT_EQ(r.status, 0) << r.output;
+        parts += " " + p.string();
+    }
+    const fs::path out = temp("merged.exr");
+    const test::CliRun m = run_mcpt("merge" + parts + " -o " + out.string());
+    ASSERT_EQ(m.status, 0) << m.output;
+    EXPECT_TRUE(test::read_file(out.string()) == one) << m.output;
+}
+
+TEST(ScaleOut, MergeRefusesWhatIsNotOneJob) {
+    auto part = [](const std::string& name, const std::string& which, int seed) {
+        const fs::path p = temp(name);
+        fs::remove(p);
+        const test::CliRun r = run_mcpt(job(128, seed) + " --part " + which + " --checkpoint " +
+                                        p.string() + " -o " + temp("p.png").string());
+        EXPECT_EQ(r.status, 0) << r.output;
+        return p.string();
+    };
+    const std::string a = part("a.ckpt", "1/2", 3), b = part("b.ckpt", "2/2", 3);
+    const std::string other_seed = part("c.ckpt", "2/2", 4);
+    const std::string out = " -o " + temp("m.exr").string();
+    struct Case {
+        std::string args, says;
+    };
+    const fs::path whole = temp("whole.ckpt");
+    fs::remove(whole);
+    ASSERT_EQ(run_mcpt(job(128) + " --checkpoint " + whole.string() + " -o " +
+                       temp("w.png").string())
+                  .status,
+              0);
+    for (const Case& c : {Case{a, "miss 64 of 128 samples"}, Case{a + " " + a, "overlaps"},
+                          Case{a + " " + other_seed, "another job"},
+                          Case{a + " " + whole.string(), "not a part"}}) {
+        const test::CliRun r = run_mcpt("merge " + c.args + out);
+        EXPECT_EQ(r.status, 1) << c.args << "\n" << r.output;
+        EXPECT_NE(r.output.find(c.says), std::string::npos) << c.args << "\n" << r.output;
+    }
+    // Allowed to miss samples: it says how many, and merges the rest.
+    const test::CliRun r = run_mcpt("merge --allow-missing " + a + out);
+    EXPECT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("64 of 128 samples per pixel missing"), std::string::npos) << r.output;
+    // Negative control: the two parts of one job merge.
+    EXPECT_EQ(run_mcpt("merge " + a + " " + b + out).status, 0);
+}
+
+#if MCPT_WITH_MPI
+// mpirun with `ranks` ranks of mcpt running `args` (as root in CI: Open MPI must be told).
+test::CliRun mpirun(int ranks, const std::string& args, const std::string& extra = "") {
+    return test::run_command(
+        "env OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1 mpirun --oversubscribe " +
+        extra + " -np " + std::to_string(ranks) + " " + MCPT_BINARY + " " + args);
+}
+#endif
+
+TEST(ScaleOut, MpiRanksWriteOneRanksFile) {
+#if !MCPT_WITH_MPI
+    GTEST_SKIP() << "built without MPI (libopenmpi-dev)";
+#else
+    const std::string one = one_device();
+    for (const int ranks : {1, 3}) {
+        const fs::path out = temp("mpi" + std::to_string(ranks) + ".exr");
+        const test::CliRun r = mpirun(ranks, job() + " --reproducible -o " + out.string());
+        ASSERT_EQ(r.status, 0) << r.output;
+        if (ranks == 3) {
+            EXPECT_NE(r.output.find("(rank 2)"), std::string::npos) << r.output;
+        }
+        EXPECT_TRUE(test::read_file(out.string()) == one) << ranks << " ranks\n" << r.output;
+    }
+#endif
+}
+
+TEST(ScaleOut, MpiRankKilledIsNamedAndTheCheckpointResumesOnOtherRanks) {
+#if !MCPT_WITH_MPI
+    GTEST_SKIP() << "built without MPI (libopenmpi-dev)";
+#else
+    const std::string one = one_device(1024);
+    const fs::path ckpt = temp("mpi.ckpt"), out = temp("mpi_killed.exr");
+    fs::remove(ckpt), fs::remove(out);
+    const std::string args = job(1024) + " --checkpoint " + ckpt.string() +
+                             " --checkpoint-every 0.05 -o " + out.string();
+    // Rank 2 dies (SIGKILL) when handed its 8th chunk.
+    const test::CliRun killed =
+        mpirun(3, args, "-x MCPT_MPI_KILL_RANK=2 -x MCPT_MPI_KILL_AT_CHUNK=8");
+    EXPECT_NE(killed.status, 0) << killed.output;
+    EXPECT_NE(killed.output.find("rank 2"), std::string::npos) << killed.output;
+    ASSERT_TRUE(fs::exists(ckpt)) << "no checkpoint before the kill\n" << killed.output;
+    EXPECT_FALSE(fs::exists(out)) << "an image was written by a killed job";
+    // Resumed on 2 ranks: the file of one uninterrupted render.
+    const test::CliRun resumed = mpirun(2, args);
+    ASSERT_EQ(resumed.status, 0) << resumed.output;
+    EXPECT_NE(resumed.output.find("resumed from"), std::string::npos) << resumed.output;
+    EXPECT_TRUE(test::read_file(out.string()) == one) << resumed.output;
+#endif
+}
+
+TEST(ScaleOut, MpiRankWhoseDeviceIsLostIsNamedAndTheSamplesKept) {
+#if !MCPT_WITH_MPI
+    GTEST_SKIP() << "built without MPI (libopenmpi-dev)";
+#else
+    const fs::path out = temp("mpi_lost.exr");
+    fs::remove(out);
+    // Rank 1 alone loses its device at its 20th dispatch (MPMD: its own environment).
+    const std::string args = job(100000) + " -o " + out.string();
+    const test::CliRun r = test::run_command(
+        "env OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun --oversubscribe "
+        "-np 1 " + std::string(MCPT_BINARY) + " " + args + " : -np 1 -x MCPT_LOSE_DEVICE_AFTER=20 " +
+        MCPT_BINARY + " " + args);
+    EXPECT_NE(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("device 1 ("), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("(rank 1)"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("rendered before the failure"), std::string::npos) << r.output;
+    EXPECT_TRUE(fs::exists(out)) << r.output;
+#endif
+}
+
+}  // namespace
+}  // namespace mcpt
