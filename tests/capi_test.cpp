@@ -381,6 +381,42 @@ TEST(CApi, CheckpointResumesBitForBit) {
 // Two sessions on one device, in two threads at once (each with its own scene, seed and
 // size), give the images each gives alone, bit for bit (reproducible mode); the threads share
 // nothing but the engine and the driver. Also run under ThreadSanitizer (scripts/test-tsan).
+// One image on two devices (the same device twice, in threads of the engine's): the image of
+// one device bit for bit in reproducible mode; bad arguments are refused.
+TEST(CApi, SeveralDevicesOneImage) {
+    for (const std::string& api : mcpt::test::test_apis()) {
+        auto render = [&](size_t count, std::vector<float>& out) {
+            const std::string spec = spec_of(api);
+            const char* specs[2] = {spec.c_str(), spec.c_str()};
+            mcpt_session s = nullptr;
+            ASSERT_EQ(mcpt_session_create_devices(specs, count, &s), MCPT_OK)
+                << mcpt_last_error(nullptr);
+            ASSERT_EQ(mcpt_session_load_builtin(s, "cornell"), MCPT_OK);
+            ASSERT_EQ(mcpt_session_set_size(s, 24, 20), MCPT_OK);
+            ASSERT_EQ(mcpt_session_set_seed(s, 5), MCPT_OK);
+            ASSERT_EQ(mcpt_session_set_reproducible(s, 1), MCPT_OK);
+            mcpt_render_stats st{};
+            while (st.spp < 64) ASSERT_EQ(mcpt_session_render(s, 50, 0, 64, &st), MCPT_OK) << mcpt_last_error(s);
+            out.resize(size_t(4) * 24 * 20);
+            ASSERT_EQ(mcpt_session_read_rgba32f(s, out.data(), out.size()), MCPT_OK);
+            EXPECT_EQ(mcpt_session_release(s), MCPT_OK);
+        };
+        std::vector<float> one, two;
+        render(1, one);
+        render(2, two);
+        EXPECT_FALSE(one.empty());
+        EXPECT_TRUE(one == two) << api;
+    }
+    mcpt_session s = nullptr;
+    const char* none[1] = {"opencl"};
+    EXPECT_EQ(mcpt_session_create_devices(none, 0, &s), MCPT_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(mcpt_session_create_devices(nullptr, 2, &s), MCPT_ERROR_INVALID_ARGUMENT);
+    const char* bad[2] = {"opencl", "vulkan:no such device"};
+    EXPECT_EQ(mcpt_session_create_devices(bad, 2, &s), MCPT_ERROR_DEVICE);
+    EXPECT_NE(std::string(mcpt_last_error(nullptr)).find("no such device"), std::string::npos);
+    EXPECT_EQ(s, nullptr);
+}
+
 TEST(CApi, TwoSessionsInTwoThreads) {
     for (const std::string& api : mcpt::test::test_apis()) {
         struct Job {

@@ -250,6 +250,24 @@ mcpt_status mcpt_devices(mcpt_device_info* devices, size_t capacity, size_t* cou
     return st == MCPT_OK ? st : thread_fail(st, message);
 }
 
+mcpt_status mcpt_session_create_devices(const char* const* devices, size_t count,
+                                        mcpt_session* out) {
+    std::string message;
+    const mcpt_status st = guarded(MCPT_ERROR_DEVICE, message, [&] {
+        require(out != nullptr, "out is NULL");
+        *out = nullptr;
+        require(devices != nullptr || count == 0, "devices is NULL");
+        require(count >= 1 && count <= 64, "count must be 1 to 64");
+        std::vector<std::string> specs;
+        for (size_t i = 0; i < count; ++i) specs.push_back(devices[i] ? devices[i] : "");
+        auto box = std::make_shared<SessionBox>();
+        box->session = std::make_unique<Session>(specs, mcpt::BackendOptions{});
+        *out = handles().add(std::move(box));
+        return MCPT_OK;
+    });
+    return st == MCPT_OK ? st : thread_fail(st, message);
+}
+
 mcpt_status mcpt_session_create(const char* device, mcpt_session* out) {
     std::string message;
     const mcpt_status st = guarded(MCPT_ERROR_DEVICE, message, [&] {

@@ -107,6 +107,14 @@ MCPT_API mcpt_status mcpt_devices(mcpt_device_info* devices, size_t capacity, si
  * On failure *out is NULL and mcpt_last_error(NULL) says why. Any thread. */
 MCPT_API mcpt_status mcpt_session_create(const char* device, mcpt_session* out);
 
+/* Opens a session on `count` devices at once (specs as above; the same device may appear more
+ * than once): one image, its samples split into chunks handed to whichever device asks next,
+ * sized to each device's speed. With reproducible rendering (a multiple of 16 samples per
+ * pixel) the image is one device's, bit for bit, when the devices are of one kind. A device
+ * that fails ends the render with its name in the message, keeping every sample before. */
+MCPT_API mcpt_status mcpt_session_create_devices(const char* const* devices, size_t count,
+                                                 mcpt_session* out);
+
 /* Cancels a render in progress, waits for it, and frees everything. Releasing a released
  * handle returns MCPT_ERROR_INVALID_HANDLE. Any thread. */
 MCPT_API mcpt_status mcpt_session_release(mcpt_session session);
