@@ -54,8 +54,10 @@ namespace {
 enum Tag : int {
     kHello = 1,   // rank -> 0: its device's name
     kChunk = 2,   // 0 -> rank: first, end (end 0: stop)
-    kResult = 3,  // rank -> 0: a chunk's sums (header, then arrays)
-    kError = 4,   // rank -> 0: why it failed (first byte 1: its device was lost)
+    kDone = 3,    // rank -> 0: the chunk is rendered
+    kRound = 4,   // 0 -> rank: send the round's sums
+    kResult = 5,  // rank -> 0: the round's sums (header, then arrays)
+    kError = 6,   // rank -> 0: why it failed (first byte 1: its device was lost)
 };
 
 // MPI calls from several threads of rank 0 (MPI_THREAD_SERIALIZED): one at a time.
@@ -109,7 +111,7 @@ class RankWorker : public Worker {
         return device_ + " (rank " + std::to_string(rank_) + ")";
     }
     std::string device_name() const override { return device_; }
-    RenderResult render(const Chunk& chunk, const std::atomic<bool>&) override {
+    void render(const Chunk& chunk) override {
         {
             std::lock_guard<std::mutex> lock(g_mpi);
             const uint64_t range[2] = {chunk.first, chunk.end};
@@ -128,8 +130,14 @@ class RankWorker : public Worker {
             if (lost) throw DeviceLost(why);
             throw Error(why);
         }
+        MPI_Recv(nullptr, 0, MPI_BYTE, rank_, kDone, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    }
+    void add_round_to(RenderResult& total) override {
+        std::lock_guard<std::mutex> lock(g_mpi);
+        MPI_Send(nullptr, 0, MPI_BYTE, rank_, kRound, MPI_COMM_WORLD);
         ResultHeader h{};
         MPI_Recv(&h, sizeof h, MPI_BYTE, rank_, kResult, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        if (h.spp == 0) return;
         RenderResult r;
         r.width = int(h.width), r.height = int(h.height);
         r.first = h.first, r.spp = h.spp, r.nonfinite_total = h.nonfinite_total;
@@ -139,13 +147,12 @@ class RankWorker : public Worker {
         r.exact.resize(h.exact ? 6 * n : 0);
         if (h.exact) {
             recv_bytes(r.exact.data(), r.exact.size() * sizeof(ExactSum), rank_, kResult);
-            r.materialize();
         } else {
             recv_bytes(r.sum.data(), r.sum.size() * sizeof(double), rank_, kResult);
             recv_bytes(r.sum_sq.data(), r.sum_sq.size() * sizeof(double), rank_, kResult);
         }
         recv_bytes(r.nonfinite.data(), r.nonfinite.size() * sizeof(double), rank_, kResult);
-        return r;
+        accumulate_sums(total, r);
     }
 
   private:
@@ -226,14 +233,34 @@ void mpi_serve(Session& session) {
     const char* kill_rank = std::getenv("MCPT_MPI_KILL_RANK");
     const char* kill_at = std::getenv("MCPT_MPI_KILL_AT_CHUNK");
     const bool doomed = kill_rank && kill_at && std::atoi(kill_rank) == g_job.rank;
-    for (int chunks = 1;; ++chunks) {
+    for (int chunks = 1;;) {
+        MPI_Status st;
+        MPI_Probe(0, MPI_ANY_TAG, MPI_COMM_WORLD, &st);
+        if (st.MPI_TAG == kRound) {
+            // The round's sums to rank 0.
+            MPI_Recv(nullptr, 0, MPI_BYTE, 0, kRound, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            RenderResult r;
+            session.add_round_to(r);
+            const ResultHeader h{r.first,          r.spp,           r.nonfinite_total,
+                                 r.exact.empty() ? 0u : 1u, uint64_t(r.width), uint64_t(r.height),
+                                 r.rays,           r.seconds};
+            MPI_Send(&h, sizeof h, MPI_BYTE, 0, kResult, MPI_COMM_WORLD);
+            if (r.spp == 0) continue;
+            if (!r.exact.empty()) {
+                send_bytes(r.exact.data(), r.exact.size() * sizeof(ExactSum), 0, kResult);
+            } else {
+                send_bytes(r.sum.data(), r.sum.size() * sizeof(double), 0, kResult);
+                send_bytes(r.sum_sq.data(), r.sum_sq.size() * sizeof(double), 0, kResult);
+            }
+            send_bytes(r.nonfinite.data(), r.nonfinite.size() * sizeof(double), 0, kResult);
+            continue;
+        }
         uint64_t range[2];
         MPI_Recv(range, 2, MPI_UINT64_T, 0, kChunk, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
         if (range[1] == 0) return;
-        if (doomed && chunks >= std::atoi(kill_at)) std::raise(SIGKILL);
-        RenderResult r;
+        if (doomed && chunks++ >= std::atoi(kill_at) - 1) std::raise(SIGKILL);
         try {
-            r = session.render_range(range[0], range[1]);
+            session.render_chunk(range[0], range[1]);
         } catch (const DeviceLost& e) {
             send_error(e, true);
             return;
@@ -241,17 +268,7 @@ void mpi_serve(Session& session) {
             send_error(e, false);
             return;
         }
-        const ResultHeader h{r.first,          r.spp,           r.nonfinite_total,
-                             r.exact.empty() ? 0u : 1u, uint64_t(r.width), uint64_t(r.height),
-                             r.rays,           r.seconds};
-        MPI_Send(&h, sizeof h, MPI_BYTE, 0, kResult, MPI_COMM_WORLD);
-        if (!r.exact.empty()) {
-            send_bytes(r.exact.data(), r.exact.size() * sizeof(ExactSum), 0, kResult);
-        } else {
-            send_bytes(r.sum.data(), r.sum.size() * sizeof(double), 0, kResult);
-            send_bytes(r.sum_sq.data(), r.sum_sq.size() * sizeof(double), 0, kResult);
-        }
-        send_bytes(r.nonfinite.data(), r.nonfinite.size() * sizeof(double), 0, kResult);
+        MPI_Send(nullptr, 0, MPI_BYTE, 0, kDone, MPI_COMM_WORLD);
     }
 }
 

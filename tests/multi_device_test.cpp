@@ -23,20 +23,26 @@ class FakeWorker : public Worker {
     FakeWorker(std::string name, double spp_per_second, int fail_at = -1)
         : name_(std::move(name)), rate_(spp_per_second), fail_at_(fail_at) {}
     std::string name() const override { return name_; }
-    RenderResult render(const Chunk& c, const std::atomic<bool>&) override {
+    void render(const Chunk& c) override {
         if (chunks_++ == fail_at_) throw DeviceLost("lost (planted)");
         std::this_thread::sleep_for(std::chrono::duration<double>(double(c.end - c.first) / rate_));
+        spp_ += c.end - c.first;
+    }
+    void add_round_to(RenderResult& total) override {
+        if (spp_ == 0) return;
         RenderResult r;
-        r.width = 2, r.height = 1, r.first = c.first, r.spp = c.end - c.first;
-        r.sum.assign(6, double(r.spp)), r.sum_sq.assign(6, double(r.spp));
+        r.width = 2, r.height = 1, r.spp = spp_;
+        r.sum.assign(6, double(spp_)), r.sum_sq.assign(6, double(spp_));
         r.nonfinite.assign(2, 0.0);
-        return r;
+        accumulate_sums(total, r);
+        spp_ = 0;
     }
 
   private:
     std::string name_;
     double rate_;
     int fail_at_, chunks_ = 0;
+    uint64_t spp_ = 0;
 };
 
 TEST(Coordinator, ChunksCoverTheJobOnceSharedBySpeed) {
@@ -60,10 +66,16 @@ TEST(Coordinator, ChunksCoverTheJobOnceSharedBySpeed) {
 }
 
 TEST(Coordinator, AFailedDeviceEndsTheJobNamedKeepingAPrefix) {
-    FakeWorker good("good", 2000), bad("bad", 2000, 2);
+    FakeWorker good("good", 2000), bad("bad", 2000, 8);
     RenderResult total;
     JobLimits lim;
     lim.end = 100000;
+    // A first round ends well.
+    lim.seconds = 0.05;
+    Coordinator(total, lim, {&good, &bad}).run();
+    const uint64_t first_round = total.spp;
+    EXPECT_GT(first_round, 0u);
+    lim.seconds = 0;
     lim.granule = 16;
     lim.chunk_seconds = 0.01;
     Coordinator job(total, lim, {&good, &bad});
@@ -73,9 +85,32 @@ TEST(Coordinator, AFailedDeviceEndsTheJobNamedKeepingAPrefix) {
     } catch (const DeviceLost& e) {
         EXPECT_NE(std::string(e.what()).find("device 1 (bad)"), std::string::npos) << e.what();
     }
-    // Whatever was kept is a whole prefix, each sample once.
-    EXPECT_LT(total.spp, 100000u);
+    // The failed round adds nothing: the image keeps the rounds before, each sample once.
+    EXPECT_EQ(total.spp, first_round);
     EXPECT_EQ(total.sum[0], double(total.spp));
+}
+
+// A device that returns more samples than it was handed (a chunk counted twice) is refused.
+TEST(Coordinator, SamplesNotHandedOutAreRefused) {
+    class Greedy : public FakeWorker {
+      public:
+        using FakeWorker::FakeWorker;
+        void add_round_to(RenderResult& total) override {
+            FakeWorker::add_round_to(total);
+            total.spp += 16;  // one more chunk than it rendered
+        }
+    } greedy("greedy", 4000);
+    FakeWorker honest("honest", 4000);
+    RenderResult total;
+    JobLimits lim;
+    lim.end = 256;
+    lim.granule = 16;
+    EXPECT_THROW(Coordinator(total, lim, {&honest, &greedy}).run(), Error);
+    // Negative control: honest devices alone pass.
+    FakeWorker other("other", 4000);
+    RenderResult fine;
+    Coordinator(fine, lim, {&honest, &other}).run();
+    EXPECT_EQ(fine.spp, 256u);
 }
 
 TEST(Coordinator, TimeLimitEndsTheJobNearIt) {
@@ -129,21 +164,26 @@ TEST(SeveralDevices, ReproducibleIsOneDevicesImageBitForBit) {
     }
 }
 
-// A device that adds one of its chunks twice: a defect the tests below must catch.
+// A device whose round's sums are added twice (their samples counted once): a defect the
+// tests below must catch.
 class DoubleCounting : public Worker {
   public:
     explicit DoubleCounting(Session& s) : s_(s) {}
     std::string name() const override { return "double-counting " + s_.device().name; }
-    RenderResult render(const Chunk& c, const std::atomic<bool>& stop) override {
-        RenderResult r = s_.render_range(c.first, c.end, &stop);
-        if (chunks_++ == 0)
-            for (size_t k = 0; k < r.sum.size(); ++k) r.sum[k] *= 2, r.sum_sq[k] *= 4;
-        return r;
+    void render(const Chunk& c) override { s_.render_chunk(c.first, c.end); }
+    void add_round_to(RenderResult& total) override {
+        RenderResult mine;
+        s_.add_round_to(mine);
+        if (mine.spp == 0) return;
+        RenderResult twice = mine;
+        twice.spp = 0, twice.rays = 0, twice.nonfinite_total = 0;
+        std::fill(twice.nonfinite.begin(), twice.nonfinite.end(), 0.0);
+        accumulate_sums(total, mine);
+        accumulate_sums(total, twice);
     }
 
   private:
     Session& s_;
-    int chunks_ = 0;
 };
 
 // PoCL and lavapipe together (plus, for the control, a planted double-counting lavapipe)

@@ -27,10 +27,10 @@ double Coordinator::elapsed() const {
 
 std::optional<Chunk> Coordinator::next(size_t w) {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (stop_.load() || (lim_.end > 0 && next_first_ >= lim_.end)) return std::nullopt;
+    if (stop_ || (lim_.end > 0 && next_first_ >= lim_.end)) return std::nullopt;
     const double g = lim_.granule, rate = stats_[w].rate, now = elapsed();
     // A chunk of about chunk_seconds on this worker; a worker not measured yet takes a small
-    // one. With a time limit: none that would end after it (except the job's first), and
+    // one. With a time limit: none that would end after it (except the round's first), and
     // none longer than the time left.
     double size = rate > 0 ? rate * lim_.chunk_seconds : std::ceil(8 / g) * g;
     if (lim_.seconds > 0 && handed_any_) {
@@ -49,56 +49,25 @@ std::optional<Chunk> Coordinator::next(size_t w) {
     const Chunk chunk{next_first_, end};
     next_first_ = end;
     handed_any_ = true;
-    ++running_;
     return chunk;
 }
 
-void Coordinator::done(size_t w, const Chunk& chunk, RenderResult sums, double seconds) {
+void Coordinator::done(size_t w, const Chunk& chunk, double seconds) {
     std::lock_guard<std::mutex> lock(mutex_);
-    --running_;
     WorkerStats& s = stats_[w];
     ++s.chunks;
-    s.samples += sums.spp;
+    s.samples += chunk.end - chunk.first;
     s.seconds += seconds;
-    if (sums.spp > 0 && seconds > 0) s.rate = double(sums.spp) / seconds;
-    // A chunk cut short leaves a gap: the chunks after it cannot be added.
-    if (sums.first != chunk.first || sums.first + sums.spp < chunk.end) stop_.store(true);
-    if (sums.spp > 0 && sums.first == chunk.first) pending_.emplace(chunk.first, std::move(sums));
-    reduce();
-    if (lim_.target_error > 0 && total_.spp >= 2) {
-        total_.materialize();
-        if (total_.relative_error() <= lim_.target_error) {
-            target_reached_ = true;
-            stop_.store(true);
-        }
-    }
-    changed_.notify_all();
-}
-
-void Coordinator::reduce() {
-    const auto t0 = std::chrono::steady_clock::now();
-    while (!pending_.empty() && pending_.begin()->first == total_.first + total_.spp) {
-        add_sums(total_, pending_.begin()->second);
-        pending_.erase(pending_.begin());
-    }
-    reduce_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (seconds > 0) s.rate = double(chunk.end - chunk.first) / seconds;
 }
 
 void Coordinator::failed(size_t w, const std::string& why, bool device_lost) {
     std::lock_guard<std::mutex> lock(mutex_);
-    --running_;
     if (failure_.empty()) {
         failure_ = "device " + std::to_string(w) + " (" + workers_[w]->name() + "): " + why;
         failure_lost_ = device_lost;
     }
-    stop_.store(true);
-    changed_.notify_all();
-}
-
-void Coordinator::cancel() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    cancelled_ = true;
-    stop_.store(true);
+    stop_ = true;
     changed_.notify_all();
 }
 
@@ -116,38 +85,47 @@ void Coordinator::run(const std::atomic<bool>* cancel) {
             while (const std::optional<Chunk> chunk = next(w)) {
                 const auto t0 = std::chrono::steady_clock::now();
                 try {
-                    RenderResult sums = workers_[w]->render(*chunk, stop_);
-                    const double t =
-                        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0)
-                            .count();
-                    done(w, *chunk, std::move(sums), t);
+                    workers_[w]->render(*chunk);
                 } catch (const DeviceLost& e) {
                     failed(w, e.what(), true);
+                    break;
                 } catch (const std::exception& e) {
                     failed(w, e.what(), false);
+                    break;
                 }
+                done(w, *chunk,
+                     std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
             }
             std::lock_guard<std::mutex> lock(mutex_);
             ++finished;
             changed_.notify_all();
         });
     }
-    // Wait for every worker, passing a cancel on.
+    // Wait for every worker, passing a cancel on (no new chunks; running ones finish).
     {
         std::unique_lock<std::mutex> lock(mutex_);
         while (finished < threads.size()) {
             changed_.wait_for(lock, std::chrono::milliseconds(20));
-            if (cancel && cancel->load() && !stop_.load()) cancelled_ = true, stop_.store(true);
+            if (cancel && cancel->load() && !stop_) cancelled_ = stop_ = true;
         }
     }
     for (std::thread& t : threads) t.join();
-    // Chunks after a gap (a failure, a stop) are dropped: the image is a whole prefix.
-    pending_.clear();
-    total_.materialize();
     if (!failure_.empty()) {
         if (failure_lost_) throw DeviceLost(failure_);
         throw Error(failure_);
     }
+    // Every chunk handed out is done: the devices' sums together hold [start, next_first_).
+    const auto t0 = std::chrono::steady_clock::now();
+    const uint64_t expected = next_first_ - (total_.first + total_.spp);
+    RenderResult round;
+    round.first = total_.first + total_.spp;
+    for (Worker* w : workers_) w->add_round_to(round);
+    if (round.spp != expected)
+        throw Error("the devices returned " + std::to_string(round.spp) + " samples per pixel, " +
+                    std::to_string(expected) + " were handed out");
+    if (round.spp > 0) add_sums(total_, round);
+    total_.materialize();
+    reduce_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 }  // namespace mcpt

@@ -1,16 +1,16 @@
 // One image on several devices: the samples of every pixel are split into chunks of sample
 // indices [first, end), handed out to whichever device asks next and sized to its measured
-// speed, so devices of different speed finish together. Each chunk comes back as sums of its
-// own and is added in sample order; the image is always a whole prefix [0, spp) of samples.
-// In reproducible mode the sums are exact (exact_sums.h): the image of N devices of one kind
-// is the image of one, bit for bit, whatever N and the timing.
+// speed, so devices of different speed finish together. A device adds its chunks to sums of
+// its own; at the end of a round, when every chunk handed out is done, the devices' sums are
+// added to the image, which so always holds a whole prefix [0, spp) of samples. Host work and
+// transfers are once per device and round, not per chunk. In reproducible mode the sums are
+// exact (exact_sums.h): the image of N devices of one kind is the image of one, bit for bit,
+// whatever N and the timing.
 #pragma once
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
-#include <map>
-#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -32,16 +32,17 @@ class Worker {
     virtual std::string name() const = 0;
     // The device alone, "opencl: NVIDIA H100": what a reproducible image depends on.
     virtual std::string device_name() const { return name(); }
-    // Renders samples [chunk.first, chunk.end) of every pixel into sums of their own
-    // (RenderResult::first = chunk.first). Once `stop` is set it may return fewer (whole
-    // groups when reproducible). Throws mcpt::Error (mcpt::DeviceLost) when it fails.
-    virtual RenderResult render(const Chunk& chunk, const std::atomic<bool>& stop) = 0;
+    // Renders samples [chunk.first, chunk.end) of every pixel into the round's sums. Throws
+    // mcpt::Error (mcpt::DeviceLost) when it fails.
+    virtual void render(const Chunk& chunk) = 0;
+    // Adds the round's sums (every chunk since the last call; samples counted, not placed) to
+    // `total`, and starts a new round.
+    virtual void add_round_to(RenderResult& total) = 0;
 };
 
 struct JobLimits {
     uint64_t end = 0;            // the sample index the job ends at; 0: no end
     double seconds = 0;          // hand out no chunk that would end after this; 0: no limit
-    double target_error = 0;     // stop at this relative error (RenderResult); 0: none
     uint32_t granule = 1;        // chunks start and end at multiples of this (group_spp)
     double chunk_seconds = 0.5;  // a chunk's duration on the device that takes it
 };
@@ -54,37 +55,35 @@ struct WorkerStats {
     double rate = 0;       // samples per pixel per second in its last chunk; 0: unknown
 };
 
+// One round of a job: chunks handed out until the limits, then the sums collected.
 class Coordinator {
   public:
-    // Adds to `total`, which holds samples [0, total.spp) already, or nothing. `rates` are
-    // the workers' speeds from an earlier job (samples per pixel per second), if known.
+    // Adds to `total`, which holds samples [total.first, total.first + total.spp) already (or
+    // nothing). `rates` are the workers' speeds from an earlier round, if known.
     Coordinator(RenderResult& total, const JobLimits& limits, const std::vector<Worker*>& workers,
                 const std::vector<double>& rates = {});
 
-    // The next chunk for worker w, or none: the job is done, stopped or failed. Thread-safe.
+    // The next chunk for worker w, or none: the round is done, stopped or failed. Thread-safe.
     std::optional<Chunk> next(size_t w);
-    // Worker w's sums of `chunk` (fewer samples if stopped), rendered in `seconds`.
-    void done(size_t w, const Chunk& chunk, RenderResult sums, double seconds);
-    // Worker w failed: the job stops; its chunk, and every later one, is not added.
+    // Worker w rendered `chunk` in `seconds`.
+    void done(size_t w, const Chunk& chunk, double seconds);
+    // Worker w failed: no more chunks; the round adds nothing.
     void failed(size_t w, const std::string& why, bool device_lost);
-    // Stops handing out chunks; running ones end early (`stop`).
-    void cancel();
 
-    // Runs every worker in a thread of its own until no chunk is left, then returns. Throws
-    // mcpt::Error (DeviceLost if the worker's device was lost) naming the failed worker; the
-    // total keeps every sample before the failed chunk. `cancel`, if given, is polled.
+    // Runs every worker in a thread of its own until no chunk is left, then adds their sums to
+    // the total. Throws mcpt::Error (DeviceLost if a worker's device was lost) naming the failed
+    // worker; the total is then as before the round. A set `cancel` ends the round early (the
+    // chunks running finish).
     void run(const std::atomic<bool>* cancel = nullptr);
 
-    bool target_reached() const { return target_reached_; }
     bool cancelled() const { return cancelled_; }
     const std::vector<WorkerStats>& stats() const { return stats_; }
     std::vector<double> rates() const;
-    // Seconds spent adding chunks' sums (under the lock, in the threads of the workers).
+    // Seconds spent adding the devices' sums to the total (and receiving them).
     double reduce_seconds() const { return reduce_s_; }
 
   private:
     double elapsed() const;
-    void reduce();  // adds the pending chunks that continue the total, in order
     RenderResult& total_;
     JobLimits lim_;
     std::vector<Worker*> workers_;
@@ -92,11 +91,9 @@ class Coordinator {
     std::chrono::steady_clock::time_point start_;
     std::mutex mutex_;
     std::condition_variable changed_;
-    std::atomic<bool> stop_{false};
-    uint64_t next_first_ = 0;                    // the first sample not handed out yet
-    std::map<uint64_t, RenderResult> pending_;  // chunks done, waiting for an earlier one
-    size_t running_ = 0;                         // workers with a chunk
-    bool handed_any_ = false, target_reached_ = false, cancelled_ = false;
+    bool stop_ = false;
+    uint64_t next_first_ = 0;  // the first sample not handed out yet
+    bool handed_any_ = false, cancelled_ = false;
     std::string failure_;
     bool failure_lost_ = false;
     double reduce_s_ = 0;

@@ -63,13 +63,11 @@ void RenderResult::materialize() {
         }
 }
 
-void add_sums(RenderResult& to, const RenderResult& part) {
-    if (part.first != to.first + to.spp)
-        throw Error("sums of samples " + std::to_string(part.first) + ".. added to samples " +
-                    std::to_string(to.first) + ".." + std::to_string(to.first + to.spp) +
-                    ": not adjacent");
-    if (to.spp == 0 && to.sum.empty()) {
+void accumulate_sums(RenderResult& to, const RenderResult& part) {
+    if (to.sum.empty()) {
+        const uint64_t first = to.first;
         to = part;
+        to.first = first;
         return;
     }
     if (part.width != to.width || part.height != to.height)
@@ -89,6 +87,14 @@ void add_sums(RenderResult& to, const RenderResult& part) {
     to.rays += part.rays;
     to.nonfinite_total += part.nonfinite_total;
     to.seconds += part.seconds;
+}
+
+void add_sums(RenderResult& to, const RenderResult& part) {
+    if (part.first != to.first + to.spp)
+        throw Error("sums of samples " + std::to_string(part.first) + ".. added to samples " +
+                    std::to_string(to.first) + ".." + std::to_string(to.first + to.spp) +
+                    ": not adjacent");
+    accumulate_sums(to, part);
 }
 
 RenderResult render(Backend& backend, const GpuScene& scene, const Camera& camera,
@@ -269,14 +275,27 @@ void ProgressiveRender::begin_at(uint64_t first) {
     if (group_ > 0 && first % group_ != 0)
         throw Error("a reproducible chunk starts at a multiple of " + std::to_string(group_) +
                     " samples, not at " + std::to_string(first));
-    RenderResult empty;
-    empty.width = r_.width, empty.height = r_.height;
-    empty.first = first;
-    empty.sum.assign(3 * size_t(npix_), 0.0);
-    empty.sum_sq.assign(3 * size_t(npix_), 0.0);
-    empty.nonfinite.assign(npix_, 0.0);
-    if (group_ > 0) empty.exact.assign(6 * size_t(npix_), 0);
-    restore(empty);
+    // Zeros in place (the arrays are image-sized and reused chunk after chunk).
+    const auto zero = [&](RenderResult& r) {
+        std::fill(r.sum.begin(), r.sum.end(), 0.0);
+        std::fill(r.sum_sq.begin(), r.sum_sq.end(), 0.0);
+        std::fill(r.nonfinite.begin(), r.nonfinite.end(), 0.0);
+        std::fill(r.exact.begin(), r.exact.end(), ExactSum(0));
+        r.samples.clear();
+        r.spp = 0, r.first = first, r.rays = 0, r.nonfinite_total = 0, r.seconds = 0;
+    };
+    zero(r_);
+    if (group_ > 0) zero(settled_), stale_ = false;
+    base_ = first;
+    unflushed_ = 0;
+}
+
+void ProgressiveRender::continue_at(uint64_t first) {
+    if (group_ > 0 && (first % group_ != 0 || unflushed_ != 0))
+        throw Error("a reproducible chunk starts at a multiple of " + std::to_string(group_) +
+                    " samples, after whole groups");
+    // The next sample is `first`; the sums keep counting (unsigned arithmetic wraps back).
+    base_ = first - r_.spp;
 }
 
 uint32_t ProgressiveRender::pass(uint64_t max_spp) {

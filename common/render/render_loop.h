@@ -76,6 +76,9 @@ struct RenderResult {
 // another size, mixed exact and inexact sums, or exact sums out of range. Exact sums' doubles
 // are brought up to date by to.materialize().
 void add_sums(RenderResult& to, const RenderResult& part);
+// Adds `part`'s sums and counts to `to` wherever its samples lie (to.first kept); an empty `to`
+// takes part's. Throws mcpt::Error as add_sums() does, but for the placement.
+void accumulate_sums(RenderResult& to, const RenderResult& part);
 
 // The render loop as a resumable object: passes of a few rounds each, device sums flushed into
 // double precision every options.flush_spp samples. A round gives every pixel of a tile some
@@ -110,6 +113,11 @@ class ProgressiveRender {
     // Starts empty sums at sample index `first` (a multiple of group_spp when reproducible):
     // the samples of a chunk (coordinator.h), added elsewhere.
     void begin_at(uint64_t first);
+    // Continues the sums with samples from index `first` on (another chunk; after whole groups
+    // when reproducible): they then hold samples of several ranges, counted in spp.
+    void continue_at(uint64_t first);
+    // settled() without bringing exact sums' doubles up to date.
+    const RenderResult& settled_sums() const { return group_ > 0 ? settled_ : r_; }
     // Seconds the last pass took, and the longest and the median dispatch so far.
     double last_pass_seconds() const { return last_pass_s_; }
     double longest_dispatch_seconds() const { return longest_dispatch_s_; }

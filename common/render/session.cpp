@@ -2,6 +2,7 @@
 
 #include <mcpt/mcpt.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -58,9 +59,8 @@ class SessionWorker : public Worker {
     std::string name() const override {
         return s_.device().backend + ": " + s_.device().name;
     }
-    RenderResult render(const Chunk& chunk, const std::atomic<bool>& stop) override {
-        return s_.render_range(chunk.first, chunk.end, &stop);
-    }
+    void render(const Chunk& chunk) override { s_.render_chunk(chunk.first, chunk.end); }
+    void add_round_to(RenderResult& total) override { s_.add_round_to(total); }
 
   private:
     Session& s_;
@@ -172,34 +172,37 @@ void Session::commit() {
     total_.width = s.width, total_.height = s.height;
     total_.first = part_.first;
     device_stats_.clear();
+    round_open_ = false;
     if (part_.first > 0) progressive_->begin_at(part_.first);
     committed_settings_ = s;
     dirty_ = false;
 }
 
-RenderResult Session::render_range(uint64_t first, uint64_t end, const std::atomic<bool>* stop) {
-    using clock = std::chrono::steady_clock;
-    if (!lost_.empty())
-        throw DeviceLost("the device stopped earlier (" + lost_ + ")");
+void Session::render_chunk(uint64_t first, uint64_t end) {
+    if (!lost_.empty()) throw DeviceLost("the device stopped earlier (" + lost_ + ")");
     if (end <= first) throw Error("an empty sample range");
     if (dirty_ || !same(settings_, committed_settings_)) commit();
-    const auto start = clock::now();
     ProgressiveRender& pr = *progressive_;
-    pr.begin_at(first);
+    if (round_open_)
+        pr.continue_at(first);
+    else
+        pr.begin_at(first);
+    round_open_ = true;
     RenderResult& r = pr.result();
+    const uint64_t before = r.spp, n = end - first;
     try {
-        while (r.spp < end - first) {
-            pr.pass(end - first - r.spp);
-            if (stop && stop->load()) break;
-        }
-        pr.flush();
+        while (r.spp - before < n) pr.pass(n - (r.spp - before));
     } catch (const DeviceLost& e) {
         lost_ = e.what();
         throw;
     }
-    RenderResult out = pr.settled();
-    out.seconds = std::chrono::duration<double>(clock::now() - start).count();
-    return out;
+}
+
+void Session::add_round_to(RenderResult& total) {
+    if (!round_open_) return;
+    progressive_->flush();
+    accumulate_sums(total, progressive_->settled_sums());
+    round_open_ = false;
 }
 
 void Session::add_stats(const std::vector<WorkerStats>& job) {
@@ -217,19 +220,15 @@ PassStats Session::render_on_devices(double budget_s, double target_error, uint6
     const SessionSettings& s = committed_settings_;
     if (s.adaptive)
         throw Error("adaptive sampling runs on one device: its plan needs the whole image's noise");
-    if (s.reproducible && (max_spp % kReproducibleGroupSpp != 0 || part_.first % kReproducibleGroupSpp != 0))
+    if (s.reproducible &&
+        (max_spp % kReproducibleGroupSpp != 0 || part_.first % kReproducibleGroupSpp != 0))
         throw Error("a reproducible render on several devices takes a multiple of " +
                     std::to_string(kReproducibleGroupSpp) + " samples per pixel, not " +
                     std::to_string(max_spp));
     const auto start = clock::now();
+    auto elapsed = [&] { return std::chrono::duration<double>(clock::now() - start).count(); };
     const uint64_t spp_before = total_.spp;
     const double seconds_before = total_.seconds;
-    JobLimits lim;
-    lim.end = max_spp > 0 ? total_.first + max_spp : 0;
-    lim.seconds = budget_s;
-    lim.target_error = target_error;
-    lim.granule = s.reproducible ? kReproducibleGroupSpp : 1;
-    lim.chunk_seconds = s.chunk_seconds;
     // This device, the others of this process, then those elsewhere.
     std::vector<std::unique_ptr<Worker>> local;
     std::vector<Worker*> workers;
@@ -237,28 +236,46 @@ PassStats Session::render_on_devices(double budget_s, double target_error, uint6
     for (auto& h : helpers_) local.push_back(std::make_unique<SessionWorker>(*h));
     for (auto& w : local) workers.push_back(w.get());
     for (auto& w : remote_) workers.push_back(w.get());
-    Coordinator job(total_, lim, workers, rates_);
+    // Rounds of a few chunks each: the image, the error and a cancel are looked at between.
+    const double round_s = std::max(1.0, 4 * s.chunk_seconds);
     PassStats st;
-    try {
-        job.run(&cancel_);
-    } catch (const DeviceLost& e) {
-        lost_ = e.what();
-        total_.seconds = seconds_before + std::chrono::duration<double>(clock::now() - start).count();
-        add_stats(job.stats());
-        throw;
-    } catch (...) {
-        total_.seconds = seconds_before + std::chrono::duration<double>(clock::now() - start).count();
-        add_stats(job.stats());
-        throw;
+    while (true) {
+        JobLimits lim;
+        lim.end = max_spp > 0 ? total_.first + max_spp : 0;
+        lim.seconds = std::clamp(budget_s - elapsed(), 1e-9, round_s);
+        lim.granule = s.reproducible ? kReproducibleGroupSpp : 1;
+        lim.chunk_seconds = s.chunk_seconds;
+        Coordinator round(total_, lim, workers, rates_);
+        try {
+            round.run(&cancel_);
+        } catch (const DeviceLost& e) {
+            lost_ = e.what();
+            total_.seconds = seconds_before + elapsed();
+            add_stats(round.stats());
+            throw;
+        } catch (...) {
+            // The round adds nothing: its samples are dropped on every device.
+            round_open_ = false;
+            for (auto& h : helpers_) h->round_open_ = false;
+            total_.seconds = seconds_before + elapsed();
+            add_stats(round.stats());
+            throw;
+        }
+        rates_ = round.rates();
+        add_stats(round.stats());
+        if (round.cancelled()) {
+            st.cancelled = true;
+            break;
+        }
+        if (max_spp > 0 && total_.spp >= max_spp) break;
+        if (target_error > 0 && total_.spp >= 2 && total_.relative_error() <= target_error) break;
+        if (elapsed() >= budget_s) break;
     }
-    rates_ = job.rates();
-    add_stats(job.stats());
-    st.cancelled = job.cancelled();
     st.samples = total_.spp - spp_before;
     st.spp = total_.spp;
     st.relative_error = total_.relative_error();
     st.target_reached = target_error > 0 && st.relative_error <= target_error;
-    st.seconds = std::chrono::duration<double>(clock::now() - start).count();
+    st.seconds = elapsed();
     total_.seconds = seconds_before + st.seconds;
     cancel_.store(false);
     return st;

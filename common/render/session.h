@@ -112,12 +112,13 @@ class Session {
     // later is not affected.
     void cancel() { cancel_.store(true); }
 
-    // Renders samples [first, end) of every pixel on this session's device alone into sums
-    // of their own, not added to the image (what a device of a job on several does,
-    // coordinator.h); returns fewer (whole groups when reproducible) once `stop` is set.
-    // `first` must be a multiple of kReproducibleGroupSpp when reproducible.
-    RenderResult render_range(uint64_t first, uint64_t end,
-                              const std::atomic<bool>* stop = nullptr);
+    // A device of a job on several (coordinator.h): renders samples [first, end) of every
+    // pixel on this session's device alone, into the round's sums (not the image). `first`
+    // must be a multiple of kReproducibleGroupSpp when reproducible.
+    void render_chunk(uint64_t first, uint64_t end);
+    // Adds the round's sums to `total` (coordinator.h, Worker::add_round_to) and starts a new
+    // round.
+    void add_round_to(RenderResult& total);
 
     // Drops the samples taken (the next render() starts from zero).
     void reset();
@@ -152,6 +153,7 @@ class Session {
 
   private:
     PassStats render_on_devices(double budget_s, double target_error, uint64_t max_spp);
+    bool round_open_ = false;  // render_chunk() added samples since add_round_to()
     void add_stats(const std::vector<WorkerStats>& job);
     bool several() const { return !helpers_.empty() || !remote_.empty(); }
     std::unique_ptr<Backend> backend_;
