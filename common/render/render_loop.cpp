@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <thread>
 
 #include "common/error.h"
 #include "common/render/adaptive.h"
@@ -45,12 +46,27 @@ double RenderResult::mean_radiance() const {
 }
 
 double RenderResult::relative_error() const {
-    const std::vector<float> e = std_error_image();
-    double sum = 0;
-    for (float v : e) sum += v;
-    const double mean_l = mean_radiance();
-    if (spp < 2 || !(mean_l > 0) || e.empty()) return HUGE_VAL;
-    return sum / double(e.size()) / mean_l;
+    // One pass, nothing allocated (sessions ask after every render() call): the mean standard
+    // error and the mean radiance over pixels and channels, as std_error_image() and
+    // mean_image() give them.
+    const size_t n = size_t(width) * size_t(height);
+    if (spp < 2 || n == 0) return HUGE_VAL;
+    double err = 0, radiance = 0;
+    for (size_t i = 0; i < n; ++i) {
+        const double count = pixel_samples(i) - nonfinite[i];
+        if (count <= 0) continue;
+        for (int c = 0; c < 3; ++c) {
+            const double mean = sum[3 * i + c] / count;
+            radiance += float(mean);
+            if (count < 2) continue;
+            const double var =
+                std::max(0.0, (sum_sq[3 * i + c] / count - mean * mean)) * count / (count - 1);
+            err += float(std::sqrt(var / count));
+        }
+    }
+    const double mean_l = radiance / double(3 * n);
+    if (!(mean_l > 0)) return HUGE_VAL;
+    return err / double(3 * n) / mean_l;
 }
 
 void RenderResult::materialize() {
@@ -76,13 +92,27 @@ void accumulate_sums(RenderResult& to, const RenderResult& part) {
                     std::to_string(to.height));
     if (part.exact.empty() != to.exact.empty())
         throw Error("exact (reproducible) and inexact sums cannot be added");
-    bool fits = true;
-    for (size_t k = 0; k < to.exact.size(); ++k) fits = fits && add_exact(to.exact[k], part.exact[k]);
-    if (!fits) throw Error("radiance too large for reproducible sums (beyond 7.6e22 per pixel)");
-    if (to.exact.empty())
-        for (size_t k = 0; k < to.sum.size(); ++k)
-            to.sum[k] += part.sum[k], to.sum_sq[k] += part.sum_sq[k];
-    for (size_t i = 0; i < to.nonfinite.size(); ++i) to.nonfinite[i] += part.nonfinite[i];
+    // Pixel ranges in threads of their own: an image of 16M pixels is a gigabyte of sums.
+    const size_t npix = to.nonfinite.size();
+    const size_t parts = std::clamp<size_t>(npix >> 18, 1, std::max(1u, std::thread::hardware_concurrency()));
+    std::vector<char> fits(parts, 1);
+    const auto add_range = [&](size_t part_index) {
+        const size_t begin = npix * part_index / parts, end = npix * (part_index + 1) / parts;
+        if (!to.exact.empty()) {
+            for (size_t k = 6 * begin; k < 6 * end; ++k)
+                if (!add_exact(to.exact[k], part.exact[k])) fits[part_index] = 0;
+        } else {
+            for (size_t k = 3 * begin; k < 3 * end; ++k)
+                to.sum[k] += part.sum[k], to.sum_sq[k] += part.sum_sq[k];
+        }
+        for (size_t i = begin; i < end; ++i) to.nonfinite[i] += part.nonfinite[i];
+    };
+    std::vector<std::thread> threads;
+    for (size_t t = 1; t < parts; ++t) threads.emplace_back(add_range, t);
+    add_range(0);
+    for (std::thread& t : threads) t.join();
+    for (char f : fits)
+        if (!f) throw Error("radiance too large for reproducible sums (beyond 7.6e22 per pixel)");
     to.spp += part.spp;
     to.rays += part.rays;
     to.nonfinite_total += part.nonfinite_total;

@@ -79,6 +79,9 @@ class Session {
     // The devices rendering this image: this session's first, then the others.
     size_t device_count() const { return 1 + helpers_.size() + remote_.size(); }
     std::vector<std::string> device_names() const;
+    // Several devices: how long a round of chunks lasts (coordinator.h; render() calls shorter
+    // than this end rounds early, leaving devices idle while the sums are collected).
+    double round_seconds() const;
     // Per device, what it rendered since the accumulation began; empty on one device.
     const std::vector<WorkerStats>& device_stats() const { return device_stats_; }
 
@@ -154,6 +157,7 @@ class Session {
   private:
     PassStats render_on_devices(double budget_s, double target_error, uint64_t max_spp);
     bool round_open_ = false;  // render_chunk() added samples since add_round_to()
+    double reduce_seconds_ = 0;  // collecting the last round's sums
     void add_stats(const std::vector<WorkerStats>& job);
     bool several() const { return !helpers_.empty() || !remote_.empty(); }
     std::unique_ptr<Backend> backend_;
