@@ -158,9 +158,9 @@ void run_render(const RenderArgs& a) {
         // (Without a progress bar a step may be longer: each ends with a read-back.)
         double step_cap_ms = a.checkpoint.empty() ? (bar ? 250.0 : 1000.0)
                                                   : std::clamp(a.checkpoint_every * 1e3, 1.0, 250.0);
-        // Several devices: steps of a few chunks (each step ends when every device has).
-        if (session.device_count() > 1)
-            step_cap_ms = std::max(step_cap_ms, 1e3 * session.round_seconds());
+        // Steps long enough that their ends (a read-back; on several devices, collecting the
+        // sums) cost little.
+        step_cap_ms = std::max(step_cap_ms, 1e3 * session.step_seconds());
         const double step_ms =
             seconds > 0 ? std::min(step_cap_ms, (seconds - elapsed) * 1e3) : step_cap_ms;
         try {

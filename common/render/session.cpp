@@ -224,6 +224,10 @@ double Session::round_seconds() const {
     return std::max({1.0, 4 * committed_settings_.chunk_seconds, 25 * reduce_seconds_});
 }
 
+double Session::step_seconds() const {
+    return several() ? round_seconds() : 25 * collect_s_;
+}
+
 void Session::add_stats(const std::vector<WorkerStats>& job) {
     if (device_stats_.size() != job.size()) device_stats_.assign(job.size(), WorkerStats{});
     for (size_t w = 0; w < job.size(); ++w) {
@@ -325,17 +329,18 @@ PassStats Session::render(double budget_ms, double target_error, uint64_t max_sp
         while (true) {
             if (max_spp > 0 && r.spp >= max_spp) break;
             progressive_->pass(max_spp > 0 ? max_spp - r.spp : UINT64_MAX);
-            // Samples to the host after the first pass, then at least once a second (a lost
-            // device loses no more), and after every pass when the error is checked.
+            // Samples to the host at least once a second (a lost device loses no more), and
+            // the error looked at every 0.1 s with a target; both at most every ten times
+            // what they cost (a read-back and a pass over the image: large images).
             const double t = elapsed();
-            // (The error is looked at every 0.1 s at most: it costs a pass over the image.)
-            const bool check = target_error > 0 && t - checked_at >= 0.1;
-            if (check || progressive_->seconds_since_flush() > 1.0) {
+            const bool check = target_error > 0 && t - checked_at >= std::max(0.1, 10 * collect_s_);
+            if (check || progressive_->seconds_since_flush() > std::max(1.0, 10 * collect_s_)) {
+                const double c0 = elapsed();
                 progressive_->flush();
-                if (check) {
-                    checked_at = t;
-                    if (r.spp >= 2 && r.relative_error() <= target_error) break;
-                }
+                const bool reached = check && r.spp >= 2 && r.relative_error() <= target_error;
+                collect_s_ = elapsed() - c0;
+                if (check) checked_at = t;
+                if (reached) break;
             }
             // Cancelled: after at least one pass, as the budget.
             if (cancel_.load()) {
@@ -345,7 +350,10 @@ PassStats Session::render(double budget_ms, double target_error, uint64_t max_sp
             // Stop when the next pass would overrun the budget.
             if (t + progressive_->last_pass_seconds() > budget_s) break;
         }
+        const double c0 = elapsed();
         progressive_->flush();
+        st.relative_error = r.relative_error();
+        collect_s_ = elapsed() - c0;
     } catch (const DeviceLost& e) {
         // The device's sums are gone: keep what was read back, render no more.
         progressive_->discard_unflushed();
@@ -361,7 +369,6 @@ PassStats Session::render(double budget_ms, double target_error, uint64_t max_sp
     }
     st.samples = r.spp - spp_before;
     st.spp = r.spp;
-    st.relative_error = r.relative_error();
     st.target_reached = target_error > 0 && st.relative_error <= target_error;
     st.seconds = elapsed();  // the whole call, error estimate included
     r.seconds += st.seconds;

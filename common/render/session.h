@@ -79,9 +79,11 @@ class Session {
     // The devices rendering this image: this session's first, then the others.
     size_t device_count() const { return 1 + helpers_.size() + remote_.size(); }
     std::vector<std::string> device_names() const;
-    // Several devices: how long a round of chunks lasts (coordinator.h; render() calls shorter
-    // than this end rounds early, leaving devices idle while the sums are collected).
-    double round_seconds() const;
+    // The shortest render() budget that keeps the work of its end (reading the sums back,
+    // the error estimate; on several devices collecting a round's sums, coordinator.h) at
+    // 4% or less: as measured on the last call. Callers that render in steps (a progress bar)
+    // step by at least this.
+    double step_seconds() const;
     // Per device, what it rendered since the accumulation began; empty on one device.
     const std::vector<WorkerStats>& device_stats() const { return device_stats_; }
 
@@ -106,7 +108,8 @@ class Session {
     // Renders passes for about budget_ms (at least one pass; a pass is never split), stopping
     // early at max_spp samples per pixel in the image (0: no cap), when the relative error
     // reaches target_error (0: none), or on cancel(). The image is current afterwards.
-    // Samples reach the host at least once a second; if the device fails meanwhile, render()
+    // Samples reach the host at least once a second (for an image whose read-back takes
+    // longer than 0.1 s: every ten read-backs' time); if the device fails meanwhile, render()
     // throws (mcpt::DeviceLost when it stopped) and the image keeps every sample read back
     // before: it can still be read and written. After DeviceLost the session renders no more.
     PassStats render(double budget_ms, double target_error = 0, uint64_t max_spp = 0);
@@ -158,6 +161,8 @@ class Session {
     PassStats render_on_devices(double budget_s, double target_error, uint64_t max_spp);
     bool round_open_ = false;  // render_chunk() added samples since add_round_to()
     double reduce_seconds_ = 0;  // collecting the last round's sums
+    double collect_s_ = 0;       // one device: the last read-back and error estimate
+    double round_seconds() const;
     void add_stats(const std::vector<WorkerStats>& job);
     bool several() const { return !helpers_.empty() || !remote_.empty(); }
     std::unique_ptr<Backend> backend_;
