@@ -201,6 +201,10 @@ void run_render(const RenderArgs& a) {
     std::printf("device: %s (kernel build %.2f s)\n", backend.description().c_str(),
                 backend.compile_seconds());
     // Several devices: what each took of the image.
+    if (session.device_count() > 1)
+        std::printf("%zu devices, %llu rounds; collecting their sums took %.3f s\n",
+                    session.device_count(), (unsigned long long)session.rounds(),
+                    session.collect_seconds());
     for (size_t d = 0; d < session.device_stats().size(); ++d) {
         const WorkerStats& w = session.device_stats()[d];
         std::printf("  device %zu: %s: %llu chunks, %llu spp (%.0f%%), %.2f spp/s\n", d,

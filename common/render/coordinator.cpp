@@ -114,18 +114,19 @@ void Coordinator::run(const std::atomic<bool>* cancel) {
         if (failure_lost_) throw DeviceLost(failure_);
         throw Error(failure_);
     }
-    // Every chunk handed out is done: the devices' sums together hold [start, next_first_).
+    // Every chunk handed out is done: the devices' sums together hold [start, next_first_),
+    // added straight to the total (exact sums in any order give the same bits).
     const auto t0 = std::chrono::steady_clock::now();
-    const uint64_t expected = next_first_ - (total_.first + total_.spp);
-    RenderResult round;
-    round.first = total_.first + total_.spp;
-    for (Worker* w : workers_) w->add_round_to(round);
-    if (round.spp != expected)
-        throw Error("the devices returned " + std::to_string(round.spp) + " samples per pixel, " +
-                    std::to_string(expected) + " were handed out");
-    if (round.spp > 0) add_sums(total_, round);
-    total_.materialize();
+    const uint64_t before = total_.spp, expected = next_first_ - (total_.first + total_.spp);
+    for (Worker* w : workers_) w->add_round_to(total_);
+    if (total_.spp - before != expected) {
+        const uint64_t got = total_.spp - before;
+        total_ = RenderResult{};  // a device counted wrong: none of the sums can be trusted
+        throw Error("the devices returned " + std::to_string(got) + " samples per pixel, " +
+                    std::to_string(expected) + " were handed out: the image is dropped");
+    }
     reduce_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    total_.materialize();
 }
 
 }  // namespace mcpt

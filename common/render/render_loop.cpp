@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <atomic>
 #include <thread>
 
 #include "common/error.h"
@@ -69,14 +70,30 @@ double RenderResult::relative_error() const {
     return err / double(3 * n) / mean_l;
 }
 
+namespace {
+// Runs fn(begin, end) over pixel ranges in threads of their own: a 4096x4096 image's sums are
+// a gigabyte, added and converted at the memory's speed, not one core's.
+template <typename Fn>
+void for_pixel_ranges(size_t npix, const Fn& fn) {
+    const size_t parts =
+        std::clamp<size_t>(npix >> 18, 1, std::max(1u, std::thread::hardware_concurrency()));
+    std::vector<std::thread> threads;
+    for (size_t t = 1; t < parts; ++t)
+        threads.emplace_back(fn, npix * t / parts, npix * (t + 1) / parts);
+    fn(size_t(0), npix / parts);
+    for (std::thread& t : threads) t.join();
+}
+}  // namespace
+
 void RenderResult::materialize() {
     if (exact.empty()) return;
-    const size_t n = size_t(width) * size_t(height);
-    for (size_t i = 0; i < n; ++i)
-        for (int c = 0; c < 3; ++c) {
-            sum[3 * i + c] = from_exact(exact[6 * i + c]);
-            sum_sq[3 * i + c] = from_exact(exact[6 * i + 3 + c]);
-        }
+    for_pixel_ranges(size_t(width) * size_t(height), [this](size_t begin, size_t end) {
+        for (size_t i = begin; i < end; ++i)
+            for (int c = 0; c < 3; ++c) {
+                sum[3 * i + c] = from_exact(exact[6 * i + c]);
+                sum_sq[3 * i + c] = from_exact(exact[6 * i + 3 + c]);
+            }
+    });
 }
 
 void accumulate_sums(RenderResult& to, const RenderResult& part) {
@@ -92,27 +109,19 @@ void accumulate_sums(RenderResult& to, const RenderResult& part) {
                     std::to_string(to.height));
     if (part.exact.empty() != to.exact.empty())
         throw Error("exact (reproducible) and inexact sums cannot be added");
-    // Pixel ranges in threads of their own: an image of 16M pixels is a gigabyte of sums.
-    const size_t npix = to.nonfinite.size();
-    const size_t parts = std::clamp<size_t>(npix >> 18, 1, std::max(1u, std::thread::hardware_concurrency()));
-    std::vector<char> fits(parts, 1);
-    const auto add_range = [&](size_t part_index) {
-        const size_t begin = npix * part_index / parts, end = npix * (part_index + 1) / parts;
+    // Pixel ranges in threads of their own.
+    std::atomic<bool> fits{true};
+    for_pixel_ranges(to.nonfinite.size(), [&](size_t begin, size_t end) {
         if (!to.exact.empty()) {
             for (size_t k = 6 * begin; k < 6 * end; ++k)
-                if (!add_exact(to.exact[k], part.exact[k])) fits[part_index] = 0;
+                if (!add_exact(to.exact[k], part.exact[k])) fits.store(false);
         } else {
             for (size_t k = 3 * begin; k < 3 * end; ++k)
                 to.sum[k] += part.sum[k], to.sum_sq[k] += part.sum_sq[k];
         }
         for (size_t i = begin; i < end; ++i) to.nonfinite[i] += part.nonfinite[i];
-    };
-    std::vector<std::thread> threads;
-    for (size_t t = 1; t < parts; ++t) threads.emplace_back(add_range, t);
-    add_range(0);
-    for (std::thread& t : threads) t.join();
-    for (char f : fits)
-        if (!f) throw Error("radiance too large for reproducible sums (beyond 7.6e22 per pixel)");
+    });
+    if (!fits.load()) throw Error("radiance too large for reproducible sums (beyond 7.6e22 per pixel)");
     to.spp += part.spp;
     to.rays += part.rays;
     to.nonfinite_total += part.nonfinite_total;
@@ -172,7 +181,8 @@ ProgressiveRender::ProgressiveRender(Backend& backend, const GpuScene& scene, co
     slots_ = layout.slots;
     windowed_ = layout.window;
     p_.accum_window = windowed_ ? 1u : 0u;
-    if (windowed_) device_sums_.resize(size_t(npix_) * 8);
+    // The device's float sums as read back (allocated, and touched, now: not in a render).
+    device_sums_.resize(size_t(npix_) * 8);
     if (opt.adaptive && opt.group_spp > 0)
         throw Error("adaptive sampling is not reproducible: its sample counts follow the noise");
     if (opt.group_spp > 0) {
@@ -307,10 +317,13 @@ void ProgressiveRender::begin_at(uint64_t first) {
                     " samples, not at " + std::to_string(first));
     // Zeros in place (the arrays are image-sized and reused chunk after chunk).
     const auto zero = [&](RenderResult& r) {
-        std::fill(r.sum.begin(), r.sum.end(), 0.0);
-        std::fill(r.sum_sq.begin(), r.sum_sq.end(), 0.0);
-        std::fill(r.nonfinite.begin(), r.nonfinite.end(), 0.0);
-        std::fill(r.exact.begin(), r.exact.end(), ExactSum(0));
+        for_pixel_ranges(npix_, [&r](size_t begin, size_t end) {
+            std::fill(r.sum.begin() + 3 * begin, r.sum.begin() + 3 * end, 0.0);
+            std::fill(r.sum_sq.begin() + 3 * begin, r.sum_sq.begin() + 3 * end, 0.0);
+            std::fill(r.nonfinite.begin() + begin, r.nonfinite.begin() + end, 0.0);
+            if (!r.exact.empty())
+                std::fill(r.exact.begin() + 6 * begin, r.exact.begin() + 6 * end, ExactSum(0));
+        });
         r.samples.clear();
         r.spp = 0, r.first = first, r.rays = 0, r.nonfinite_total = 0, r.seconds = 0;
     };

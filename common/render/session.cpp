@@ -185,8 +185,16 @@ void Session::commit() {
                         ": " + helpers_[i]->device().name + "): " + errors[i]);
     total_ = RenderResult{};
     total_.width = s.width, total_.height = s.height;
+    if (several()) {
+        // The image's sums, allocated (and touched) now, not in the first round.
+        const size_t n = size_t(s.width) * size_t(s.height);
+        total_.sum.assign(3 * n, 0.0), total_.sum_sq.assign(3 * n, 0.0);
+        total_.nonfinite.assign(n, 0.0);
+        if (s.reproducible) total_.exact.assign(6 * n, 0);
+    }
     total_.first = part_.first;
     device_stats_.clear();
+    rounds_ = 0, collect_total_s_ = 0;
     round_open_ = false;
     if (part_.first > 0) progressive_->begin_at(part_.first);
     committed_settings_ = s;
@@ -265,6 +273,18 @@ PassStats Session::render_on_devices(double budget_s, double target_error, uint6
         JobLimits lim;
         lim.end = max_spp > 0 ? total_.first + max_spp : 0;
         lim.seconds = std::clamp(budget_s - elapsed(), 1e-9, round_seconds());
+        // With a target error: a first round of a second, then rounds that end where the
+        // error, falling as 1 / sqrt(samples), is expected to reach it.
+        if (target_error > 0 && total_.spp < 2) lim.seconds = std::min(lim.seconds, 1.0);
+        if (target_error > 0 && total_.spp >= 2) {
+            const double ratio = std::min(total_.relative_error() / target_error, 1e3);
+            const uint64_t g = s.reproducible ? kReproducibleGroupSpp : 1;
+            const uint64_t needed = std::max<uint64_t>(
+                uint64_t(std::ceil(double(total_.spp) * ratio * ratio * 1.02 / g)) * g,
+                total_.spp + g);
+            const uint64_t end = total_.first + needed;
+            lim.end = lim.end > 0 ? std::min(lim.end, end) : end;
+        }
         lim.granule = s.reproducible ? kReproducibleGroupSpp : 1;
         lim.chunk_seconds = s.chunk_seconds;
         Coordinator round(total_, lim, workers, rates_);
@@ -287,6 +307,8 @@ PassStats Session::render_on_devices(double budget_s, double target_error, uint6
         add_stats(round.stats());
         // Collecting the sums stops every device: rounds last 25 times longer (4% at most).
         reduce_seconds_ = round.reduce_seconds();
+        collect_total_s_ += reduce_seconds_;
+        ++rounds_;
         if (round.cancelled()) {
             st.cancelled = true;
             break;

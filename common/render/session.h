@@ -84,6 +84,10 @@ class Session {
     // 4% or less: as measured on the last call. Callers that render in steps (a progress bar)
     // step by at least this.
     double step_seconds() const;
+    // Several devices: rounds since the accumulation began, and the seconds spent collecting
+    // their sums (every device waits meanwhile).
+    uint64_t rounds() const { return rounds_; }
+    double collect_seconds() const { return collect_total_s_; }
     // Per device, what it rendered since the accumulation began; empty on one device.
     const std::vector<WorkerStats>& device_stats() const { return device_stats_; }
 
@@ -162,6 +166,8 @@ class Session {
     bool round_open_ = false;  // render_chunk() added samples since add_round_to()
     double reduce_seconds_ = 0;  // collecting the last round's sums
     double collect_s_ = 0;       // one device: the last read-back and error estimate
+    uint64_t rounds_ = 0;
+    double collect_total_s_ = 0;
     double round_seconds() const;
     void add_stats(const std::vector<WorkerStats>& job);
     bool several() const { return !helpers_.empty() || !remote_.empty(); }
