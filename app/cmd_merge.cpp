@@ -27,9 +27,10 @@ void run_merge(const MergeArgs& a) {
                     (unsigned long long)m.missing_spp, (unsigned long long)m.job_spp,
                     (unsigned long long)m.sums.spp);
     if (m.devices.size() > 1) {
-        std::printf("parts rendered on %zu devices (a reproducible image is bit for bit one "
-                    "device's only when they are of one kind):\n",
-                    m.devices.size());
+        std::printf(
+            "parts rendered on %zu devices (a reproducible image is bit for bit one "
+            "device's only when they are of one kind):\n",
+            m.devices.size());
         for (const std::string& d : m.devices) std::printf("  %s\n", d.c_str());
     }
     const RenderResult& r = m.sums;

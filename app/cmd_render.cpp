@@ -10,9 +10,9 @@
 #include <memory>
 
 #include "app/commands.h"
+#include "app/mpi_job.h"
 #include "common/error.h"
 #include "common/io/image_io.h"
-#include "app/mpi_job.h"
 #include "common/render/parts.h"
 #include "common/render/prepare.h"
 #include "common/render/scene_features.h"
@@ -94,8 +94,9 @@ void run_render(const RenderArgs& a) {
         uint32_t index = 0, count = 0;
         parse_part(a.part, index, count);
         if (a.checkpoint.empty())
-            throw Error("a part is written as a checkpoint: give --checkpoint FILE (mcpt merge "
-                        "adds the parts)");
+            throw Error(
+                "a part is written as a checkpoint: give --checkpoint FILE (mcpt merge "
+                "adds the parts)");
         session.set_part(part_range(a.spp, index, count, kReproducibleGroupSpp));
     }
     // Ranks above 0 render what rank 0 hands out, and write nothing.
@@ -156,8 +157,9 @@ void run_render(const RenderArgs& a) {
     };
     while (true) {
         // (Without a progress bar a step may be longer: each ends with a read-back.)
-        double step_cap_ms = a.checkpoint.empty() ? (bar ? 250.0 : 1000.0)
-                                                  : std::clamp(a.checkpoint_every * 1e3, 1.0, 250.0);
+        double step_cap_ms = a.checkpoint.empty()
+                                 ? (bar ? 250.0 : 1000.0)
+                                 : std::clamp(a.checkpoint_every * 1e3, 1.0, 250.0);
         // Steps long enough that their ends (a read-back; on several devices, collecting the
         // sums) cost little.
         step_cap_ms = std::max(step_cap_ms, 1e3 * session.step_seconds());

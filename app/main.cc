@@ -44,7 +44,9 @@ int main(int argc, char** argv) {
         return finish(1);
     } catch (const std::exception& e) {
         const int rank = mcpt::mpi_job().rank;
-        std::cerr << "mcpt: error: " << (mcpt::mpi_job().size > 1 ? "rank " + std::to_string(rank) + ": " : "") << e.what() << "\n";
+        std::cerr << "mcpt: error: "
+                  << (mcpt::mpi_job().size > 1 ? "rank " + std::to_string(rank) + ": " : "")
+                  << e.what() << "\n";
         return finish(1);
     }
     return finish(0);

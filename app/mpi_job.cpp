@@ -17,10 +17,11 @@ namespace mcpt {
 
 namespace {
 MpiJob g_job;
-bool g_started = false;
 }  // namespace
 
-const MpiJob& mpi_job() { return g_job; }
+const MpiJob& mpi_job() {
+    return g_job;
+}
 
 std::string rank_device(const std::string& backend, const MpiJob& job) {
     if (job.size <= 1) return backend;
@@ -34,16 +35,22 @@ std::string rank_device(const std::string& backend, const MpiJob& job) {
 #ifndef MCPT_WITH_MPI
 
 const MpiJob& mpi_start(int&, char**&) {
-    if (std::getenv("OMPI_COMM_WORLD_SIZE") || std::getenv("PMI_SIZE"))
-        if (std::atoi(std::getenv("OMPI_COMM_WORLD_SIZE") ? std::getenv("OMPI_COMM_WORLD_SIZE")
-                                                          : std::getenv("PMI_SIZE")) > 1)
-            throw Error("started by mpirun, but this mcpt was built without MPI "
-                        "(install libopenmpi-dev and build again)");
+    // Under mpirun, N copies of a build without MPI would each render the whole image.
+    const char* size = std::getenv("OMPI_COMM_WORLD_SIZE");
+    if (!size) size = std::getenv("PMI_SIZE");
+    if (size && std::atoi(size) > 1)
+        throw Error(
+            "started by mpirun, but this mcpt was built without MPI "
+            "(install libopenmpi-dev and build again)");
     return g_job;
 }
 void mpi_finish() {}
-void mpi_abort(int code) { std::exit(code); }
-std::vector<std::unique_ptr<Worker>> mpi_remote_workers() { return {}; }
+void mpi_abort(int code) {
+    std::exit(code);
+}
+std::vector<std::unique_ptr<Worker>> mpi_remote_workers() {
+    return {};
+}
 void mpi_serve(Session&) {}
 
 #else
@@ -59,6 +66,8 @@ enum Tag : int {
     kResult = 5,  // rank -> 0: the round's sums (header, then arrays)
     kError = 6,   // rank -> 0: why it failed (first byte 1: its device was lost)
 };
+
+bool g_started = false;  // MPI_Init done
 
 // MPI calls from several threads of rank 0 (MPI_THREAD_SERIALIZED): one at a time.
 std::mutex g_mpi;
@@ -107,9 +116,7 @@ class RankWorker : public Worker {
         const uint64_t stop[2] = {0, 0};
         MPI_Send(stop, 2, MPI_UINT64_T, rank_, kChunk, MPI_COMM_WORLD);
     }
-    std::string name() const override {
-        return device_ + " (rank " + std::to_string(rank_) + ")";
-    }
+    std::string name() const override { return device_ + " (rank " + std::to_string(rank_) + ")"; }
     std::string device_name() const override { return device_; }
     void render(const Chunk& chunk) override {
         {
@@ -241,9 +248,14 @@ void mpi_serve(Session& session) {
             MPI_Recv(nullptr, 0, MPI_BYTE, 0, kRound, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
             RenderResult r;
             session.add_round_to(r);
-            const ResultHeader h{r.first,          r.spp,           r.nonfinite_total,
-                                 r.exact.empty() ? 0u : 1u, uint64_t(r.width), uint64_t(r.height),
-                                 r.rays,           r.seconds};
+            const ResultHeader h{r.first,
+                                 r.spp,
+                                 r.nonfinite_total,
+                                 r.exact.empty() ? 0u : 1u,
+                                 uint64_t(r.width),
+                                 uint64_t(r.height),
+                                 r.rays,
+                                 r.seconds};
             MPI_Send(&h, sizeof h, MPI_BYTE, 0, kResult, MPI_COMM_WORLD);
             if (r.spp == 0) continue;
             if (!r.exact.empty()) {

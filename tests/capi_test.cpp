@@ -396,7 +396,8 @@ TEST(CApi, SeveralDevicesOneImage) {
             ASSERT_EQ(mcpt_session_set_seed(s, 5), MCPT_OK);
             ASSERT_EQ(mcpt_session_set_reproducible(s, 1), MCPT_OK);
             mcpt_render_stats st{};
-            while (st.spp < 64) ASSERT_EQ(mcpt_session_render(s, 50, 0, 64, &st), MCPT_OK) << mcpt_last_error(s);
+            while (st.spp < 64)
+                ASSERT_EQ(mcpt_session_render(s, 50, 0, 64, &st), MCPT_OK) << mcpt_last_error(s);
             out.resize(size_t(4) * 24 * 20);
             ASSERT_EQ(mcpt_session_read_rgba32f(s, out.data(), out.size()), MCPT_OK);
             EXPECT_EQ(mcpt_session_release(s), MCPT_OK);

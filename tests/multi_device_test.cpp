@@ -2,8 +2,6 @@
 // the job once, in order, shared by speed; in reproducible mode N devices of one kind give one
 // device's image bit for bit; PoCL and lavapipe together agree with one device statistically
 // and seed for seed; a worker that counts a chunk twice is caught by both tests.
-#include "common/render/coordinator.h"
-
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -11,6 +9,7 @@
 
 #include "common/analysis/compare.h"
 #include "common/error.h"
+#include "common/render/coordinator.h"
 #include "common/render/session.h"
 #include "common/scene/builtin_scenes.h"
 
@@ -128,7 +127,9 @@ TEST(Coordinator, TimeLimitEndsTheJobNearIt) {
     EXPECT_EQ(total.sum[0], double(total.spp));
 }
 
-Scene small_cornell() { return make_builtin_scene("cornell"); }
+Scene small_cornell() {
+    return make_builtin_scene("cornell");
+}
 
 void setup(Session& s, uint32_t seed, bool reproducible) {
     s.set_scene(small_cornell());

@@ -63,9 +63,9 @@ TEST(ScaleOut, MergedPartsAreOneRenderBitForBit) {
     for (int i = 1; i <= 4; ++i) {
         const fs::path p = temp("part" + std::to_string(i) + ".ckpt");
         fs::remove(p);
-        const test::CliRun r = run_mcpt(job() + " --part " + std::to_string(i) +
-                                        "/4 --checkpoint " + p.string() + " -o " +
-                                        temp("part.png").string());
+        const test::CliRun r =
+            run_mcpt(job() + " --part " + std::to_string(i) + "/4 --checkpoint " + p.string() +
+                     " -o " + temp("part.png").string());
         ASSERT_EQ(r.status, 0) << r.output;
         parts += " " + p.string();
     }
@@ -92,10 +92,10 @@ TEST(ScaleOut, MergeRefusesWhatIsNotOneJob) {
     };
     const fs::path whole = temp("whole.ckpt");
     fs::remove(whole);
-    ASSERT_EQ(run_mcpt(job(128) + " --checkpoint " + whole.string() + " -o " +
-                       temp("w.png").string())
-                  .status,
-              0);
+    ASSERT_EQ(
+        run_mcpt(job(128) + " --checkpoint " + whole.string() + " -o " + temp("w.png").string())
+            .status,
+        0);
     for (const Case& c : {Case{a, "miss 64 of 128 samples"}, Case{a + " " + a, "overlaps"},
                           Case{a + " " + other_seed, "another job"},
                           Case{a + " " + whole.string(), "not a part"}}) {
@@ -115,7 +115,8 @@ TEST(ScaleOut, MergeRefusesWhatIsNotOneJob) {
 // mpirun with `ranks` ranks of mcpt running `args` (as root in CI: Open MPI must be told).
 test::CliRun mpirun(int ranks, const std::string& args, const std::string& extra = "") {
     return test::run_command(
-        "env OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1 mpirun --oversubscribe " +
+        "env OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 "
+        "OMPI_MCA_rmaps_base_oversubscribe=1 mpirun --oversubscribe " +
         extra + " -np " + std::to_string(ranks) + " " + MCPT_BINARY + " " + args);
 }
 #endif
@@ -173,7 +174,8 @@ TEST(ScaleOut, MpiRankWhoseDeviceIsLostIsNamedAndTheSamplesKept) {
     const std::string args = job(100000) + " -o " + out.string();
     const test::CliRun r = test::run_command(
         "env OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun --oversubscribe "
-        "-np 1 " + std::string(MCPT_BINARY) + " " + args + " : -np 1 -x MCPT_LOSE_DEVICE_AFTER=120 " +
+        "-np 1 " +
+        std::string(MCPT_BINARY) + " " + args + " : -np 1 -x MCPT_LOSE_DEVICE_AFTER=120 " +
         MCPT_BINARY + " " + args);
     EXPECT_NE(r.status, 0) << r.output;
     EXPECT_NE(r.output.find("device 1 ("), std::string::npos) << r.output;

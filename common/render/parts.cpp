@@ -72,8 +72,7 @@ MergeResult merge_parts(const std::vector<std::string>& paths, bool allow_missin
                 if (key == "device" || key == "samples") continue;
                 if (value_of(a.f, key) != value)
                     throw Error("'" + path + "' belongs to another job than '" + a.path +
-                                "': " + key + " " + value + " (there: " + value_of(a.f, key) +
-                                ")");
+                                "': " + key + " " + value + " (there: " + value_of(a.f, key) + ")");
             }
             if (job != m.job_spp)
                 throw Error("'" + path + "' is a part of a job of " + std::to_string(job) +
@@ -103,11 +102,10 @@ MergeResult merge_parts(const std::vector<std::string>& paths, bool allow_missin
                         std::to_string(parts[i - 1].end));
         if (p.first > covered) gap(covered, p.first);
         const uint64_t done = p.sums.first + p.sums.spp;
-        m.report += "  " + p.path + ": samples " + std::to_string(p.first) + "-" +
-                    std::to_string(done) +
-                    (done < p.end ? " of " + std::to_string(p.first) + "-" + std::to_string(p.end)
-                                  : "") +
-                    "\n";
+        m.report +=
+            "  " + p.path + ": samples " + std::to_string(p.first) + "-" + std::to_string(done) +
+            (done < p.end ? " of " + std::to_string(p.first) + "-" + std::to_string(p.end) : "") +
+            "\n";
         if (done < p.end) gap(done, p.end);
         covered = p.end;
         // Added as if adjacent: the sums do not depend on where a sample range sits.

@@ -21,11 +21,11 @@ SamplePart part_range(uint64_t job_spp, uint32_t index, uint32_t count, uint32_t
 void parse_part(const std::string& text, uint32_t& index, uint32_t& count);
 
 struct MergeResult {
-    RenderResult sums;            // every part's samples, added
-    uint64_t job_spp = 0;         // the samples the job asked for
-    uint64_t missing_spp = 0;     // samples per pixel no part holds
+    RenderResult sums;                 // every part's samples, added
+    uint64_t job_spp = 0;              // the samples the job asked for
+    uint64_t missing_spp = 0;          // samples per pixel no part holds
     std::vector<std::string> devices;  // the devices the parts were rendered on
-    std::string report;           // one line per part, then the gaps
+    std::string report;                // one line per part, then the gaps
 };
 
 // Reads the part checkpoints, checks they belong to one job (the same fingerprint but for

@@ -1,9 +1,9 @@
 #include "common/render/render_loop.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
-#include <atomic>
 #include <thread>
 
 #include "common/error.h"
@@ -121,7 +121,8 @@ void accumulate_sums(RenderResult& to, const RenderResult& part) {
         }
         for (size_t i = begin; i < end; ++i) to.nonfinite[i] += part.nonfinite[i];
     });
-    if (!fits.load()) throw Error("radiance too large for reproducible sums (beyond 7.6e22 per pixel)");
+    if (!fits.load())
+        throw Error("radiance too large for reproducible sums (beyond 7.6e22 per pixel)");
     to.spp += part.spp;
     to.rays += part.rays;
     to.nonfinite_total += part.nonfinite_total;
@@ -372,7 +373,8 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
     r_.spp += spp;
     unflushed_ += spp;
     retarget(double(spp) * npix_, dispatch_s);
-    if (unflushed_ >= (group_ > 0 ? group_ : opt_.flush_spp) || windowed_ || opt_.adaptive) settle();
+    if (unflushed_ >= (group_ > 0 ? group_ : opt_.flush_spp) || windowed_ || opt_.adaptive)
+        settle();
     return spp;
 }
 

@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "common/io/host_memory.h"
-#include "common/render/exact_sums.h"
 #include "common/render/backend.h"
+#include "common/render/exact_sums.h"
 
 namespace mcpt {
 
@@ -45,7 +45,7 @@ struct RenderResult {
     int width = 0, height = 0;
     uint64_t spp = 0;    // samples per pixel taken (adaptive: the mean, rounded down)
     uint64_t first = 0;  // the first sample index they hold: [first, first + spp) of every pixel
-    double seconds = 0;             // wall time of the dispatch loop
+    double seconds = 0;  // wall time of the dispatch loop
     std::vector<double> sum;        // 3 per pixel: sum of finite samples
     std::vector<double> sum_sq;     // 3 per pixel: sum of squared finite samples
     std::vector<double> nonfinite;  // per pixel: non-finite samples (counted, not added)

@@ -27,24 +27,24 @@ Fingerprint fingerprint(const Session& session) {
     std::snprintf(hash, sizeof hash, "%016llx", (unsigned long long)scene_hash(session.scene()));
     char scale[32];
     std::snprintf(scale, sizeof scale, "%.9g", double(s.light_scale));
-    return {{"mcpt", MCPT_VERSION_STRING},
-            {"scene", session.scene().name + " " + hash},
-            {"width", std::to_string(s.width)},
-            {"height", std::to_string(s.height)},
-            {"max_depth", std::to_string(session.max_depth())},
-            {"seed", std::to_string(s.seed)},
-            {"tree", s.tree + " " + std::to_string(s.tree_depth)},
-            {"specialize", s.specialize ? "on" : "off"},
-            {"sampler", s.sampler},
-            {"reproducible", s.reproducible ? "on" : "off"},
-            {"adaptive", s.adaptive ? "on" : "off"},
-            {"light_scale", scale},
-            {"device", join(session.device_names())},
-            {"samples", session.part().job_spp == 0
-                            ? std::string("all")
-                            : std::to_string(session.part().first) + "-" +
-                                  std::to_string(session.part().end) + " of " +
-                                  std::to_string(session.part().job_spp)}};
+    return {
+        {"mcpt", MCPT_VERSION_STRING},
+        {"scene", session.scene().name + " " + hash},
+        {"width", std::to_string(s.width)},
+        {"height", std::to_string(s.height)},
+        {"max_depth", std::to_string(session.max_depth())},
+        {"seed", std::to_string(s.seed)},
+        {"tree", s.tree + " " + std::to_string(s.tree_depth)},
+        {"specialize", s.specialize ? "on" : "off"},
+        {"sampler", s.sampler},
+        {"reproducible", s.reproducible ? "on" : "off"},
+        {"adaptive", s.adaptive ? "on" : "off"},
+        {"light_scale", scale},
+        {"device", join(session.device_names())},
+        {"samples", session.part().job_spp == 0 ? std::string("all")
+                                                : std::to_string(session.part().first) + "-" +
+                                                      std::to_string(session.part().end) + " of " +
+                                                      std::to_string(session.part().job_spp)}};
 }
 
 std::string join(const std::vector<std::string>& names) {
@@ -57,9 +57,7 @@ std::string join(const std::vector<std::string>& names) {
 class SessionWorker : public Worker {
   public:
     explicit SessionWorker(Session& s) : s_(s) {}
-    std::string name() const override {
-        return s_.device().backend + ": " + s_.device().name;
-    }
+    std::string name() const override { return s_.device().backend + ": " + s_.device().name; }
     void render(const Chunk& chunk) override { s_.render_chunk(chunk.first, chunk.end); }
     void add_round_to(RenderResult& total) override { s_.add_round_to(total); }
 

@@ -163,7 +163,7 @@ class Session {
 
   private:
     PassStats render_on_devices(double budget_s, double target_error, uint64_t max_spp);
-    bool round_open_ = false;  // render_chunk() added samples since add_round_to()
+    bool round_open_ = false;    // render_chunk() added samples since add_round_to()
     double reduce_seconds_ = 0;  // collecting the last round's sums
     double collect_s_ = 0;       // one device: the last read-back and error estimate
     uint64_t rounds_ = 0;
