@@ -2,6 +2,7 @@
 // the images agree, statistically (independent seeds) and with the same seed.
 // Exit status: 0 agree, 2 differ, 1 error.
 #include <cstdio>
+#include <thread>
 
 #include "app/commands.h"
 #include "common/analysis/compare.h"
@@ -28,6 +29,7 @@ struct CompareArgs {
     std::string output;
     float b_light_scale = 1.f;
     std::string b_defines;
+    bool parallel = false;  // A and B at once, each in a thread of its own
 };
 
 struct Side {
@@ -51,7 +53,7 @@ void run_compare(const CompareArgs& args) {
 
     Side sides[2];
     const std::string specs[2] = {args.a, args.b};
-    for (int s = 0; s < 2; ++s) {
+    const auto run_side = [&](int s) {
         // Independent seeds per side, then one same-seed render.
         BackendOptions opt;
         RenderOptions side_ro = ro;
@@ -61,13 +63,35 @@ void run_compare(const CompareArgs& args) {
         const GpuScene g = prepare_scene(scene, sides[s].backend->device(), tree_options(args.tree),
                                          args.width, args.height);
         sides[s].tree = tree_kind_name(g.tree_kind);
-        bo.seed_base = 1000u + 100000u * uint32_t(s);
+        BatchOptions side_bo = bo;
+        side_bo.seed_base = 1000u + 100000u * uint32_t(s);
         const double device_before = sides[s].backend->device_seconds();
-        sides[s].batches = render_batches(*sides[s].backend, g, scene.camera, side_ro, bo);
+        sides[s].batches = render_batches(*sides[s].backend, g, scene.camera, side_ro, side_bo);
         sides[s].device_seconds = sides[s].backend->device_seconds() - device_before;
         side_ro.spp = args.same_seed_spp;
         side_ro.seed = 7;
         sides[s].same_seed = render_loaded(*sides[s].backend, g, scene.camera, side_ro);
+    };
+    if (args.parallel) {
+        // A and B on their devices at once; a failure of either is reported after both end.
+        std::string failure[2];
+        std::thread b([&] {
+            try {
+                run_side(1);
+            } catch (const std::exception& e) {
+                failure[1] = e.what();
+            }
+        });
+        try {
+            run_side(0);
+        } catch (const std::exception& e) {
+            failure[0] = e.what();
+        }
+        b.join();
+        for (int s = 0; s < 2; ++s)
+            if (!failure[s].empty()) throw Error(std::string(s ? "B: " : "A: ") + failure[s]);
+    } else {
+        run_side(0), run_side(1);
     }
 
     // Speed, side by side.
@@ -106,6 +130,9 @@ void run_compare(const CompareArgs& args) {
     }
     row("device time/sample (ns)", device_ns[0], device_ns[1], "");
     row("host overhead (%)", overhead[0], overhead[1], "");
+    if (args.parallel)
+        std::printf("(A and B rendered at once: on devices that share a machine, their speeds "
+                    "are not each one's alone)\n");
     std::printf("speed ratio B/A: %.3f", rate[1] / rate[0]);
     if (device_ns[0] > 0 && device_ns[1] > 0)
         std::printf(" (device time alone: %.3f)", device_ns[0] / device_ns[1]);
@@ -182,6 +209,8 @@ void add_compare_command(CLI::App& app) {
         ->check(CLI::Range(1e-12, 0.5))
         ->capture_default_str();
     sub->add_option("-o,--output", a->output, "Write p-value / z / difference image (.exr)");
+    sub->add_flag("--parallel", a->parallel,
+                  "Render A and B at once, each on its device (two GPUs: half the time)");
     sub->add_option("--b-light-scale", a->b_light_scale,
                     "Scale B's emitters (negative control: 1.02 must be detected)");
     sub->add_option("--b-defines", a->b_defines,

@@ -111,6 +111,19 @@ TEST(ScaleOut, MergeRefusesWhatIsNotOneJob) {
     EXPECT_EQ(run_mcpt("merge " + a + " " + b + out).status, 0);
 }
 
+// compare --parallel: A and B at once, each on its device; the verdict as one after the other
+// (a 20% brighter light in B must still be told apart).
+TEST(ScaleOut, CompareRendersAAndBAtOnce) {
+    const std::string dev = test::device_args("opencl");
+    const std::string args = "compare cornell --a opencl:" + dev.substr(dev.rfind(' ') + 1) +
+                             " --b vulkan --width 24 --height 24 --batches 12 --spp 4 --parallel";
+    const test::CliRun r = run_mcpt(args);
+    EXPECT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("rendered at once"), std::string::npos) << r.output;
+    const test::CliRun biased = run_mcpt(args + " --b-light-scale 1.2");
+    EXPECT_EQ(biased.status, 2) << biased.output;
+}
+
 #if MCPT_WITH_MPI
 // mpirun with `ranks` ranks of mcpt running `args` (as root in CI: Open MPI must be told).
 test::CliRun mpirun(int ranks, const std::string& args, const std::string& extra = "") {
