@@ -234,18 +234,21 @@ void mpi_serve(Session& session) {
         send_error(e, false);
         return;
     }
-    const std::string device = session.device().backend + ": " + session.device().name;
+    const std::string device = session.device().label();
     MPI_Send(device.data(), int(device.size()), MPI_BYTE, 0, kHello, MPI_COMM_WORLD);
-    // Fault injection for tests: this rank dies (SIGKILL) when it is handed chunk N.
+    // Fault injection for tests: this rank dies (SIGKILL) when handed its first chunk after
+    // N rounds (each collected, and checkpointed, by rank 0), whatever the machine's speed.
     const char* kill_rank = std::getenv("MCPT_MPI_KILL_RANK");
-    const char* kill_at = std::getenv("MCPT_MPI_KILL_AT_CHUNK");
-    const bool doomed = kill_rank && kill_at && std::atoi(kill_rank) == g_job.rank;
-    for (int chunks = 1;;) {
+    const char* kill_after = std::getenv("MCPT_MPI_KILL_AFTER_ROUNDS");
+    const int doomed_after =
+        kill_rank && kill_after && std::atoi(kill_rank) == g_job.rank ? std::atoi(kill_after) : -1;
+    for (int rounds = 0;;) {
         MPI_Status st;
         MPI_Probe(0, MPI_ANY_TAG, MPI_COMM_WORLD, &st);
         if (st.MPI_TAG == kRound) {
             // The round's sums to rank 0.
             MPI_Recv(nullptr, 0, MPI_BYTE, 0, kRound, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            ++rounds;
             RenderResult r;
             session.add_round_to(r);
             const ResultHeader h{r.first,
@@ -270,7 +273,7 @@ void mpi_serve(Session& session) {
         uint64_t range[2];
         MPI_Recv(range, 2, MPI_UINT64_T, 0, kChunk, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
         if (range[1] == 0) return;
-        if (doomed && chunks++ >= std::atoi(kill_at) - 1) std::raise(SIGKILL);
+        if (doomed_after >= 0 && rounds >= doomed_after) std::raise(SIGKILL);
         try {
             session.render_chunk(range[0], range[1]);
         } catch (const DeviceLost& e) {

@@ -160,10 +160,10 @@ TEST(ScaleOut, MpiRankKilledIsNamedAndTheCheckpointResumesOnOtherRanks) {
     fs::remove(ckpt), fs::remove(out);
     const std::string args = job(4096) + " --checkpoint " + ckpt.string() +
                              " --checkpoint-every 0.05 -o " + out.string();
-    // Rank 2 dies (SIGKILL) when handed its 40th chunk (of 0.05 s: after rounds of 1 s, each
-    // followed by a checkpoint).
+    // Rank 2 dies (SIGKILL) when handed its first chunk after the first round (which rank 0
+    // has collected and checkpointed by then).
     const test::CliRun killed =
-        mpirun(3, args, "-x MCPT_MPI_KILL_RANK=2 -x MCPT_MPI_KILL_AT_CHUNK=40");
+        mpirun(3, args, "-x MCPT_MPI_KILL_RANK=2 -x MCPT_MPI_KILL_AFTER_ROUNDS=1");
     EXPECT_NE(killed.status, 0) << killed.output;
     EXPECT_NE(killed.output.find("rank 2"), std::string::npos) << killed.output;
     ASSERT_TRUE(fs::exists(ckpt)) << "no checkpoint before the kill\n" << killed.output;

@@ -28,6 +28,8 @@ struct DeviceInfo {
     std::string type;      // "gpu" | "cpu" | "other"
     std::vector<std::pair<std::string, std::string>> limits;  // name, value (for display)
     MemoryLimits memory;
+    // "opencl: NVIDIA H100": the device in messages and checkpoints.
+    std::string label() const { return backend + ": " + name; }
 };
 
 struct BackendOptions {

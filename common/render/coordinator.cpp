@@ -35,7 +35,10 @@ std::optional<Chunk> Coordinator::next(size_t w) {
     double size = rate > 0 ? rate * lim_.chunk_seconds : std::ceil(8 / g) * g;
     if (lim_.seconds > 0 && handed_any_) {
         const double left = lim_.seconds - now;
-        if (left <= 0 || (rate > 0 && g / rate > left)) return std::nullopt;
+        if (left <= 0 || (rate > 0 && g / rate > left)) {
+            out_of_time_ = true;
+            return std::nullopt;
+        }
         if (rate > 0) size = std::min(size, rate * left);
     }
     // With a sample count: the rest shared among the workers, so they finish together.

@@ -77,6 +77,8 @@ class Coordinator {
     void run(const std::atomic<bool>* cancel = nullptr);
 
     bool cancelled() const { return cancelled_; }
+    // The round ended at its time limit (not at its end sample).
+    bool out_of_time() const { return out_of_time_; }
     const std::vector<WorkerStats>& stats() const { return stats_; }
     std::vector<double> rates() const;
     // Seconds spent adding the devices' sums to the total (and receiving them).
@@ -93,7 +95,7 @@ class Coordinator {
     std::condition_variable changed_;
     bool stop_ = false;
     uint64_t next_first_ = 0;  // the first sample not handed out yet
-    bool handed_any_ = false, cancelled_ = false;
+    bool handed_any_ = false, cancelled_ = false, out_of_time_ = false;
     std::string failure_;
     bool failure_lost_ = false;
     double reduce_s_ = 0;

@@ -52,7 +52,7 @@ GpuScene prepare_scene(const Scene& scene, const DeviceInfo& device, TreeOptions
                 std::to_string(fitted.environment.height) + " (mean radiance kept)");
         }
     }
-    check_device_limits(g, width, height, device, device.backend + ": " + device.name);
+    check_device_limits(g, width, height, device, device.label());
     return g;
 }
 

@@ -12,30 +12,36 @@
 
 namespace mcpt {
 
+namespace {
+// Pixel i's mean and standard error of the mean in channel c (0 where unknown: no samples, or
+// fewer than two): what the image, the error image and the relative error are made of.
+struct ChannelStats {
+    float mean = 0, std_error = 0;
+};
+ChannelStats channel_stats(const RenderResult& r, size_t i, int c) {
+    const double count = r.pixel_samples(i) - r.nonfinite[i];
+    if (count <= 0) return {};
+    const double mean = r.sum[3 * i + c] / count;
+    if (count < 2) return {float(mean), 0.f};
+    const double var =
+        std::max(0.0, (r.sum_sq[3 * i + c] / count - mean * mean)) * count / (count - 1);
+    return {float(mean), float(std::sqrt(var / count))};
+}
+}  // namespace
+
 std::vector<float> RenderResult::mean_image() const {
     const size_t n = size_t(width) * size_t(height);
-    std::vector<float> img(3 * n, 0.f);
-    for (size_t i = 0; i < n; ++i) {
-        const double count = pixel_samples(i) - nonfinite[i];
-        for (int c = 0; c < 3; ++c)
-            img[3 * i + c] = count > 0 ? float(sum[3 * i + c] / count) : 0.f;
-    }
+    std::vector<float> img(3 * n);
+    for (size_t i = 0; i < n; ++i)
+        for (int c = 0; c < 3; ++c) img[3 * i + c] = channel_stats(*this, i, c).mean;
     return img;
 }
 
 std::vector<float> RenderResult::std_error_image() const {
     const size_t n = size_t(width) * size_t(height);
-    std::vector<float> err(3 * n, 0.f);
-    for (size_t i = 0; i < n; ++i) {
-        const double count = pixel_samples(i) - nonfinite[i];
-        if (count < 2) continue;
-        for (int c = 0; c < 3; ++c) {
-            const double mean = sum[3 * i + c] / count;
-            const double var =
-                std::max(0.0, (sum_sq[3 * i + c] / count - mean * mean)) * count / (count - 1);
-            err[3 * i + c] = float(std::sqrt(var / count));
-        }
-    }
+    std::vector<float> err(3 * n);
+    for (size_t i = 0; i < n; ++i)
+        for (int c = 0; c < 3; ++c) err[3 * i + c] = channel_stats(*this, i, c).std_error;
     return err;
 }
 
@@ -47,27 +53,17 @@ double RenderResult::mean_radiance() const {
 }
 
 double RenderResult::relative_error() const {
-    // One pass, nothing allocated (sessions ask after every render() call): the mean standard
-    // error and the mean radiance over pixels and channels, as std_error_image() and
-    // mean_image() give them.
+    // One pass, nothing allocated (sessions ask after every render() call).
     const size_t n = size_t(width) * size_t(height);
     if (spp < 2 || n == 0) return HUGE_VAL;
     double err = 0, radiance = 0;
-    for (size_t i = 0; i < n; ++i) {
-        const double count = pixel_samples(i) - nonfinite[i];
-        if (count <= 0) continue;
+    for (size_t i = 0; i < n; ++i)
         for (int c = 0; c < 3; ++c) {
-            const double mean = sum[3 * i + c] / count;
-            radiance += float(mean);
-            if (count < 2) continue;
-            const double var =
-                std::max(0.0, (sum_sq[3 * i + c] / count - mean * mean)) * count / (count - 1);
-            err += float(std::sqrt(var / count));
+            const ChannelStats st = channel_stats(*this, i, c);
+            radiance += st.mean, err += st.std_error;
         }
-    }
-    const double mean_l = radiance / double(3 * n);
-    if (!(mean_l > 0)) return HUGE_VAL;
-    return err / double(3 * n) / mean_l;
+    if (!(radiance > 0)) return HUGE_VAL;
+    return err / radiance;
 }
 
 namespace {
@@ -201,37 +197,29 @@ void ProgressiveRender::read_device_sums() {
 }
 
 void ProgressiveRender::add_device_sums(RenderResult& to) const {
-    if (!to.exact.empty()) {
-        // Reproducible: the group's float sums, exactly (exact_sums.h).
-        bool fits = true;
-        for (size_t i = 0; i < npix_; ++i) {
-            const float* a = &device_sums_[8 * i];
-            ExactSum* e = &to.exact[6 * i];
-            for (int c = 0; c < 3; ++c) {
-                ExactSum s, q;
-                fits = fits && to_exact(a[c], s) && to_exact(a[4 + c], q) && add_exact(e[c], s) &&
-                       add_exact(e[3 + c], q);
-            }
-            to.nonfinite[i] += a[3];
-            to.nonfinite_total += uint64_t(a[3]);
-            to.rays += a[7];
-        }
-        if (!fits)
-            throw Error(
-                "radiance too large for reproducible sums (beyond 7.6e22 per pixel): render "
-                "without --reproducible or checkpoints");
-        return;
-    }
+    // Reproducible: the group's float sums are added exactly (exact_sums.h).
+    const bool exact = !to.exact.empty();
+    bool fits = true;
     for (size_t i = 0; i < npix_; ++i) {
         const float* a = &device_sums_[8 * i];
         for (int c = 0; c < 3; ++c) {
-            to.sum[3 * i + c] += a[c];
-            to.sum_sq[3 * i + c] += a[4 + c];
+            if (exact) {
+                ExactSum s, q;
+                fits = fits && to_exact(a[c], s) && to_exact(a[4 + c], q) &&
+                       add_exact(to.exact[6 * i + c], s) && add_exact(to.exact[6 * i + 3 + c], q);
+            } else {
+                to.sum[3 * i + c] += a[c];
+                to.sum_sq[3 * i + c] += a[4 + c];
+            }
         }
         to.nonfinite[i] += a[3];
         to.nonfinite_total += uint64_t(a[3]);
         to.rays += a[7];
     }
+    if (!fits)
+        throw Error(
+            "radiance too large for reproducible sums (beyond 7.6e22 per pixel): render "
+            "without --reproducible or checkpoints");
 }
 
 void ProgressiveRender::settle() {

@@ -18,7 +18,11 @@
 namespace mcpt {
 
 namespace {
-std::string join(const std::vector<std::string>& names);
+std::string join(const std::vector<std::string>& names) {
+    std::string out;
+    for (const std::string& n : names) out += (out.empty() ? "" : ", ") + n;
+    return out;
+}
 
 // Everything a checkpoint must match to continue this session's image.
 Fingerprint fingerprint(const Session& session) {
@@ -47,17 +51,11 @@ Fingerprint fingerprint(const Session& session) {
                                                       std::to_string(session.part().job_spp)}};
 }
 
-std::string join(const std::vector<std::string>& names) {
-    std::string out;
-    for (const std::string& n : names) out += (out.empty() ? "" : ", ") + n;
-    return out;
-}
-
 // A device of this process as a worker of a job on several (coordinator.h).
 class SessionWorker : public Worker {
   public:
     explicit SessionWorker(Session& s) : s_(s) {}
-    std::string name() const override { return s_.device().backend + ": " + s_.device().name; }
+    std::string name() const override { return s_.device().label(); }
     void render(const Chunk& chunk) override { s_.render_chunk(chunk.first, chunk.end); }
     void add_round_to(RenderResult& total) override { s_.add_round_to(total); }
 
@@ -96,13 +94,13 @@ void Session::add_worker(std::unique_ptr<Worker> worker) {
 
 std::vector<std::string> Session::device_names() const {
     // Distinct names, in order: what the image depends on in reproducible mode.
-    std::vector<std::string> names{device().backend + ": " + device().name};
+    std::vector<std::string> names{device().label()};
     auto add = [&](const std::string& n) {
         for (const std::string& m : names)
             if (m == n) return;
         names.push_back(n);
     };
-    for (const auto& h : helpers_) add(h->device().backend + ": " + h->device().name);
+    for (const auto& h : helpers_) add(h->device().label());
     for (const auto& w : remote_) add(w->device_name());
     return names;
 }
@@ -179,8 +177,8 @@ void Session::commit() {
     for (std::thread& t : threads) t.join();
     for (size_t i = 0; i < errors.size(); ++i)
         if (!errors[i].empty())
-            throw Error("device " + std::to_string(i + 1) + " (" + helpers_[i]->device().backend +
-                        ": " + helpers_[i]->device().name + "): " + errors[i]);
+            throw Error("device " + std::to_string(i + 1) + " (" + helpers_[i]->device().label() +
+                        "): " + errors[i]);
     total_ = RenderResult{};
     total_.width = s.width, total_.height = s.height;
     if (several()) {
@@ -313,7 +311,8 @@ PassStats Session::render_on_devices(double budget_s, double target_error, uint6
         }
         if (max_spp > 0 && total_.spp >= max_spp) break;
         if (target_error > 0 && total_.spp >= 2 && total_.relative_error() <= target_error) break;
-        if (elapsed() >= budget_s) break;
+        // The budget is spent, or too little of it is left for a chunk.
+        if (elapsed() >= budget_s || (round.out_of_time() && lim.seconds < round_seconds())) break;
     }
     st.samples = total_.spp - spp_before;
     st.spp = total_.spp;
