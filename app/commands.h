@@ -23,6 +23,7 @@ void add_compare_command(CLI::App& app);
 void add_converge_command(CLI::App& app);
 void add_bench_command(CLI::App& app);
 void add_merge_command(CLI::App& app);
+void add_view_command(CLI::App& app);
 
 // The device specs of --backend and the --device values (an index, a name substring, or
 // api:device); none: the backend's best device.

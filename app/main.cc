@@ -28,6 +28,7 @@ int main(int argc, char** argv) {
     mcpt::add_converge_command(app);
     mcpt::add_bench_command(app);
     mcpt::add_merge_command(app);
+    mcpt::add_view_command(app);
     try {
         mcpt::mpi_start(argc, argv);
         app.parse(argc, argv);

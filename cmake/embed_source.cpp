@@ -1,6 +1,6 @@
 // Build-time tool: inlines the project's own #include "..." lines of a device source
 // (recursively, each file once) and writes it as a C++ string constant.
-// Usage: embed_source INPUT OUTPUT SYMBOL
+// Usage: embed_source [--raw] INPUT OUTPUT SYMBOL (--raw: the file as it is, e.g. a web page)
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -37,19 +37,33 @@ static bool inline_file(const fs::path& path, std::set<fs::path>& seen, std::ost
 }
 
 int main(int argc, char** argv) {
+    const bool raw = argc == 5 && std::string(argv[1]) == "--raw";
+    if (raw) ++argv, --argc;
     if (argc != 4) {
-        std::cerr << "usage: embed_source INPUT OUTPUT SYMBOL\n";
+        std::cerr << "usage: embed_source [--raw] INPUT OUTPUT SYMBOL\n";
         return 2;
     }
     std::set<fs::path> seen;
     std::ostringstream text;
-    if (!inline_file(argv[1], seen, text)) return 1;
+    if (raw) {
+        std::ifstream in(argv[1], std::ios::binary);
+        if (!in) {
+            std::cerr << "embed_source: cannot open " << argv[1] << "\n";
+            return 1;
+        }
+        text << in.rdbuf();
+    } else if (!inline_file(argv[1], seen, text)) {
+        return 1;
+    }
     const std::string s = text.str();
     std::ofstream out(argv[2]);
     out << "// Generated from " << fs::path(argv[1]).filename().string() << "; do not edit.\n";
     out << "#pragma once\nstatic const char " << argv[3] << "[] = {\n";
     for (size_t i = 0; i < s.size(); ++i) {
-        out << static_cast<int>(static_cast<unsigned char>(s[i])) << ",";
+        // Bytes above 127 (UTF-8 in a web page) cast: char is signed on some targets.
+        const int byte = static_cast<unsigned char>(s[i]);
+        if (byte > 127) out << "(char)";
+        out << byte << ",";
         if (i % 24 == 23) out << "\n";
     }
     out << "0};\n";

@@ -123,22 +123,37 @@ Agreement test_agreement(const BatchSet& a, const BatchSet& b, double alpha) {
 }
 
 SameSeedDiff same_seed_diff(const RenderResult& a, const RenderResult& b, double tolerance) {
+    return difference_maps(a, b, tolerance).same_seed;
+}
+
+DifferenceMaps difference_maps(const RenderResult& a, const RenderResult& b, double tolerance) {
     if (a.width != b.width || a.height != b.height) throw Error("images differ in size");
-    SameSeedDiff d;
+    DifferenceMaps m;
+    m.width = a.width, m.height = a.height;
+    SameSeedDiff& d = m.same_seed;
     d.tolerance = tolerance;
     const std::vector<float> ia = a.mean_image(), ib = b.mean_image();
+    const std::vector<float> ea = a.std_error_image(), eb = b.std_error_image();
     d.pixels = ia.size() / 3;
+    m.z.resize(d.pixels), m.relative.resize(d.pixels);
     for (size_t i = 0; i < d.pixels; ++i) {
-        bool diverged = false;
+        // Same seed: the largest relative difference of a channel.
+        double relative = 0, ma = 0, mb = 0, sa = 0, sb = 0;
         for (int c = 0; c < 3; ++c) {
             const double x = ia[3 * i + c], y = ib[3 * i + c];
             const double diff = std::abs(x - y);
             d.max_abs_diff = std::max(d.max_abs_diff, diff);
-            diverged |= diff > tolerance * std::max({std::abs(x), std::abs(y), 1e-3});
+            relative = std::max(relative, diff / std::max({std::abs(x), std::abs(y), 1e-3}));
+            ma += x / 3, mb += y / 3, sa += ea[3 * i + c] / 3, sb += eb[3 * i + c] / 3;
         }
-        d.diverged += diverged;
+        m.relative[i] = float(relative);
+        d.diverged += relative > tolerance;
+        // The standardized difference of the channel means.
+        const double rounding = kFloatRoundingTolerance * std::max(std::abs(ma), std::abs(mb));
+        const double sigma = std::sqrt(sa * sa + sb * sb + rounding * rounding);
+        m.z[i] = sigma > 0 ? float((mb - ma) / sigma) : 0.f;
     }
-    return d;
+    return m;
 }
 
 }  // namespace mcpt

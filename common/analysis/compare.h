@@ -84,4 +84,20 @@ struct SameSeedDiff {
 // Per-pixel comparison of two renders made with the same seed and sample count.
 SameSeedDiff same_seed_diff(const RenderResult& a, const RenderResult& b, double tolerance = 1e-3);
 
+// Per-pixel maps of two renders of one size (the viewer, compare and converge reports).
+struct DifferenceMaps {
+    int width = 0, height = 0;
+    // (B - A) / sqrt(seA^2 + seB^2 + rounding^2) of the channel means, each side's standard
+    // error from its sample variance (the mean of its channels' errors: an upper bound), the
+    // rounding kFloatRoundingTolerance of the larger mean. Of renders with the same seed (A and
+    // B share their samples) a conservative score: unbiased sides stay near 0, a bias shows
+    // wherever it exceeds the noise, first where there is none (lights seen directly).
+    std::vector<float> z;
+    // max over channels of |B - A| / max(|A|, |B|, 1e-3): what same_seed_diff() counts.
+    std::vector<float> relative;
+    SameSeedDiff same_seed;  // relative > tolerance, counted
+};
+DifferenceMaps difference_maps(const RenderResult& a, const RenderResult& b,
+                               double tolerance = 1e-3);
+
 }  // namespace mcpt

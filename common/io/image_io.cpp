@@ -38,7 +38,9 @@ std::string take_exr_error(const char* err) {
     return msg;
 }
 
-void write_exr(const std::string& path, int width, int height, const std::vector<float>& rgb) {
+// To `path`, or (path empty) into `memory`.
+void write_exr(const std::string& path, int width, int height, const std::vector<float>& rgb,
+               std::vector<unsigned char>* memory = nullptr) {
     // Split into planes in the customary alphabetical channel order B, G, R
     const size_t n = size_t(width) * size_t(height);
     std::vector<float> planes[3];
@@ -78,12 +80,20 @@ void write_exr(const std::string& path, int width, int height, const std::vector
     header.compression_type = TINYEXR_COMPRESSIONTYPE_ZIP;
 
     const char* err = nullptr;
+    if (memory) {
+        unsigned char* bytes = nullptr;
+        const size_t size = SaveEXRImageToMemory(&image, &header, &bytes, &err);
+        if (size == 0 || !bytes) throw Error("cannot encode EXR: " + take_exr_error(err));
+        memory->assign(bytes, bytes + size);
+        std::free(bytes);
+        return;
+    }
     if (SaveEXRImageToFile(&image, &header, path.c_str(), &err) != TINYEXR_SUCCESS)
         throw Error("cannot write image " + path + ": " + take_exr_error(err));
 }
 
-void write_png(const std::string& path, int width, int height, const std::vector<float>& rgb) {
-    // Map every pixel to 8-bit sRGB; non-finite pixels become magenta
+// Every pixel as 8-bit sRGB; non-finite pixels become magenta.
+std::vector<uint8_t> srgb8_pixels(int width, int height, const std::vector<float>& rgb) {
     const size_t n = size_t(width) * size_t(height);
     std::vector<uint8_t> bytes(3 * n);
     for (size_t i = 0; i < n; ++i) {
@@ -96,8 +106,20 @@ void write_png(const std::string& path, int width, int height, const std::vector
         }
         for (int c = 0; c < 3; ++c) bytes[3 * i + c] = linear_to_srgb8(p[c]);
     }
+    return bytes;
+}
+
+void write_png(const std::string& path, int width, int height, const std::vector<float>& rgb) {
+    const std::vector<uint8_t> bytes = srgb8_pixels(width, height, rgb);
     if (!stbi_write_png(path.c_str(), width, height, 3, bytes.data(), 3 * width))
         throw Error("cannot write image " + path);
+}
+
+void check_rgb_size(const std::string& what, int width, int height, size_t floats) {
+    if (width <= 0 || height <= 0 || floats != 3 * size_t(width) * size_t(height))
+        throw Error("cannot write image " + what + ": " + std::to_string(floats) +
+                    " values do not make a " + std::to_string(width) + "x" +
+                    std::to_string(height) + " RGB image");
 }
 
 }  // namespace
@@ -109,6 +131,29 @@ uint8_t linear_to_srgb8(float linear) {
     const double v = linear;
     const double s = v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
     return uint8_t(std::clamp(std::lround(s * 255.0), 0L, 255L));
+}
+
+std::vector<unsigned char> encode_png8(int width, int height, const std::vector<uint8_t>& rgb8) {
+    check_rgb_size("(PNG)", width, height, rgb8.size());
+    std::vector<unsigned char> out;
+    const auto append = [](void* context, void* data, int size) {
+        auto* bytes = static_cast<std::vector<unsigned char>*>(context);
+        bytes->insert(bytes->end(), static_cast<unsigned char*>(data),
+                      static_cast<unsigned char*>(data) + size);
+    };
+    if (!stbi_write_png_to_func(append, &out, width, height, 3, rgb8.data(), 3 * width))
+        throw Error("cannot encode PNG");
+    return out;
+}
+
+std::vector<unsigned char> encode_image(const std::string& format, int width, int height,
+                                        const std::vector<float>& rgb) {
+    check_rgb_size("(" + format + ")", width, height, rgb.size());
+    if (format == "png") return encode_png8(width, height, srgb8_pixels(width, height, rgb));
+    if (format != "exr") throw Error("unsupported image format \"" + format + "\", use exr or png");
+    std::vector<unsigned char> out;
+    write_exr("", width, height, rgb, &out);
+    return out;
 }
 
 void check_image_path(const std::string& path) {
@@ -130,10 +175,7 @@ void write_image(const std::string& path, int width, int height, const std::vect
     const std::string ext = extension_of(path);
     if (ext != ".exr" && ext != ".png")
         throw Error("unsupported image format \"" + ext + "\" for " + path + ", use .exr or .png");
-    if (width <= 0 || height <= 0 || rgb.size() != 3 * size_t(width) * size_t(height))
-        throw Error("cannot write image " + path + ": " + std::to_string(rgb.size()) +
-                    " floats do not make a " + std::to_string(width) + "x" +
-                    std::to_string(height) + " RGB image");
+    check_rgb_size(path, width, height, rgb.size());
     // Whole or not at all: into a temporary file, then renamed.
     write_atomically(path, [&](const std::string& tmp) {
         if (ext == ".exr")

@@ -15,6 +15,12 @@ namespace mcpt {
 // Throws mcpt::Error for another extension, a size mismatch, or a file that cannot be written.
 void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb);
 
+// The bytes write_image() would write, for `format` "exr" or "png" (downloads, reports).
+std::vector<unsigned char> encode_image(const std::string& format, int width, int height,
+                                        const std::vector<float>& rgb);
+// 8-bit RGB pixels (3 per pixel, top row first; false-colour maps, screenshots) as PNG bytes.
+std::vector<unsigned char> encode_png8(int width, int height, const std::vector<uint8_t>& rgb8);
+
 // Throws mcpt::Error unless `path` has a format write_image() writes and names a file in an
 // existing, writable folder: what a command checks before it renders.
 void check_image_path(const std::string& path);

@@ -1,0 +1,145 @@
+// mcpt view: renders a scene (or A and B side by side) and serves a page on 127.0.0.1 that
+// shows it converging: the image, its error, and for A/B the maps of their difference.
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <memory>
+#include <thread>
+
+#include "app/commands.h"
+#include "app/view/view_server.h"
+#include "common/error.h"
+#include "common/render/session.h"
+#include "common/view/live_render.h"
+
+namespace mcpt {
+
+namespace {
+
+struct ViewArgs {
+    std::string scene = "cornell";
+    LightingArgs lighting;
+    std::string backend = "opencl";
+    std::string device;
+    std::string a, b;  // A/B: two device specs
+    float b_light_scale = 1.f;
+    int width = 512, height = 512;
+    uint64_t spp = 0;    // each side stops there (0: renders until stopped)
+    double seconds = 0;  // quit after this long (0: until Ctrl-C)
+    uint32_t seed = 0;
+    int max_depth = -1;
+    std::string tree = "auto";
+    std::string listen = "127.0.0.1";
+    int port = 8017;
+};
+
+std::atomic<bool> g_interrupted{false};
+extern "C" void on_interrupt(int) {
+    g_interrupted.store(true);
+}
+
+void run_view(const ViewArgs& args) {
+    if (args.a.empty() != args.b.empty()) throw Error("an A/B view needs both --a and --b");
+    const bool ab = !args.a.empty();
+    // One session per side, the same scene, settings and seed.
+    std::vector<std::string> specs;
+    if (ab)
+        specs = {args.a, args.b};
+    else
+        specs =
+            device_specs(args.backend, args.device.empty() ? std::vector<std::string>{}
+                                                           : std::vector<std::string>{args.device});
+    const Scene scene = load_scene_argument(args.scene);
+    const Environment env = lighting_environment(args.lighting);
+    std::vector<std::unique_ptr<Session>> sessions;
+    ViewInfo info;
+    info.scene = scene.name.empty() ? args.scene : scene.name;
+    for (size_t s = 0; s < specs.size(); ++s) {
+        auto session = std::make_unique<Session>(specs[s]);
+        session->set_environment(env);
+        session->set_scene(scene);
+        SessionSettings& st = session->settings();
+        st.width = args.width, st.height = args.height;
+        st.seed = args.seed, st.max_depth = args.max_depth, st.tree = args.tree;
+        if (s == 1) st.light_scale = args.b_light_scale;
+        session->commit();  // compile now: errors before the server starts
+        info.sides[s] = (ab ? std::string(s ? "B: " : "A: ") : "") + session->device().label();
+        std::printf("%s\n", info.sides[s].c_str());
+        sessions.push_back(std::move(session));
+    }
+    LiveRender live(std::move(sessions), args.spp);
+    ViewServer server(live, info);
+    const int port = server.bind(args.listen, args.port);
+    std::printf("mcpt view: http://%s:%d/ (Ctrl-C stops)\n", args.listen.c_str(), port);
+    std::fflush(stdout);
+    // Render and serve, each on threads of their own, until Ctrl-C or the time is up.
+    live.start();
+    std::signal(SIGPIPE, SIG_IGN);  // a viewer that goes away mid-frame ends only its request
+    std::thread serving([&] { server.serve(); });
+    std::signal(SIGINT, on_interrupt);
+    std::signal(SIGTERM, on_interrupt);
+    const auto start = std::chrono::steady_clock::now();
+    while (!g_interrupted.load()) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        const double t =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        if (args.seconds > 0 && t >= args.seconds) break;
+    }
+    const double wall =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    live.stop();
+    server.stop();
+    serving.join();
+    std::signal(SIGINT, SIG_DFL);
+    std::signal(SIGTERM, SIG_DFL);
+    // What each side rendered, and how many frames the viewers took.
+    for (size_t s = 0; s < live.sides(); ++s) {
+        const RenderResult& r = live.session(s).result();
+        std::printf("%s: %llu spp in %.2f s: %.3f M samples/s, %.2f M rays/s\n",
+                    info.sides[s].c_str(), (unsigned long long)r.spp, r.seconds,
+                    r.seconds > 0 ? double(r.spp) * r.width * r.height / r.seconds * 1e-6 : 0.0,
+                    r.seconds > 0 ? r.rays / r.seconds * 1e-6 : 0.0);
+    }
+    std::printf("frames sent: %llu in %.1f s (%.2f per second)\n",
+                (unsigned long long)server.frames_sent(), wall,
+                wall > 0 ? double(server.frames_sent()) / wall : 0.0);
+    if (!live.failure().empty()) throw Error(live.failure());
+}
+
+}  // namespace
+
+void add_view_command(CLI::App& app) {
+    auto a = std::make_shared<ViewArgs>();
+    CLI::App* sub = app.add_subcommand(
+        "view", "Watch a render converge in the browser (A/B: --a SPEC --b SPEC)");
+    sub->add_option("scene", a->scene, "Built-in scene or .gltf/.glb file")->capture_default_str();
+    add_lighting_options(sub, a->lighting);
+    sub->add_option("--backend", a->backend, "opencl or vulkan")->capture_default_str();
+    sub->add_option("--device", a->device, "Device index or name substring (mcpt devices)");
+    auto* opt_a = sub->add_option("--a", a->a, "A/B: side A, opencl|vulkan[:device]");
+    sub->add_option("--b", a->b, "A/B: side B, opencl|vulkan[:device]")->needs(opt_a);
+    sub->add_option("--b-light-scale", a->b_light_scale,
+                    "Scale B's emitters (negative control: the z map must light up)")
+        ->check(CLI::Range(0.0, 1e6));
+    sub->add_option("--width", a->width)->check(CLI::Range(1, 16384))->capture_default_str();
+    sub->add_option("--height", a->height)->check(CLI::Range(1, 16384))->capture_default_str();
+    sub->add_option("--spp", a->spp, "Stop rendering at this many samples per pixel")
+        ->check(CLI::Range(int64_t(1), int64_t(1000000000000)));
+    sub->add_option("--time", a->seconds, "Quit after this many seconds (default: Ctrl-C)")
+        ->check(CLI::Range(1e-3, 1e7));
+    sub->add_option("--seed", a->seed, "Random seed (A and B share it)")->capture_default_str();
+    sub->add_option("--max-depth", a->max_depth, "Bounces (default 8, or the scene's)")
+        ->check(CLI::Range(0, 1000000));
+    sub->add_option("--tree", a->tree, "auto, sah, median or none")
+        ->check(CLI::IsMember({"auto", "sah", "median", "none"}))
+        ->capture_default_str();
+    sub->add_option("--listen", a->listen,
+                    "Address to serve on (127.0.0.1: this machine only; 0.0.0.0: every network)")
+        ->capture_default_str();
+    sub->add_option("--port", a->port, "Port (0: any free one)")
+        ->check(CLI::Range(0, 65535))
+        ->capture_default_str();
+    sub->callback([a] { run_view(*a); });
+}
+
+}  // namespace mcpt

@@ -1,0 +1,244 @@
+#include "app/view/view_server.h"
+
+#include <httplib.h>
+
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <nlohmann/json.hpp>
+
+#include "common/error.h"
+#include "common/io/image_io.h"
+#include "view_page.h"  // kViewPageHtml, generated from app/view/view_page.html
+
+namespace mcpt {
+
+namespace {
+
+using Json = nlohmann::json;
+
+// The error curve, thinned to at most this many points per request.
+constexpr size_t kMaxCurvePoints = 400;
+
+// A JSON number, or null for infinity and NaN (JSON has neither).
+Json number(double v) {
+    return std::isfinite(v) ? Json(v) : Json(nullptr);
+}
+
+// Header and float32 channels in one body (the format view_server.h describes).
+std::string binary_body(const Json& header, const std::vector<float>& values) {
+    std::string head = header.dump();
+    head.append((4 - head.size() % 4) % 4, ' ');
+    const uint32_t length = uint32_t(head.size());
+    std::string body(4 + head.size() + 4 * values.size(), '\0');
+    std::memcpy(&body[0], &length, 4);  // little-endian hosts only (x86-64, arm64)
+    std::memcpy(&body[4], head.data(), head.size());
+    if (!values.empty()) std::memcpy(&body[4 + head.size()], values.data(), 4 * values.size());
+    return body;
+}
+
+std::string frame_body(const LiveSnapshot& snap) {
+    const RenderResult& r = snap.result;
+    const std::vector<float> mean = r.mean_image(), err = r.std_error_image();
+    const size_t n = mean.size() / 3;
+    const bool counts = !r.samples.empty();
+    const int channels = counts ? 5 : 4;
+    std::vector<float> v(channels * n);
+    for (size_t i = 0; i < n; ++i) {
+        float* p = &v[channels * i];
+        p[0] = mean[3 * i], p[1] = mean[3 * i + 1], p[2] = mean[3 * i + 2];
+        p[3] = (err[3 * i] + err[3 * i + 1] + err[3 * i + 2]) / 3;
+        if (counts) p[4] = float(r.samples[i]);
+    }
+    Json h = {{"width", r.width},
+              {"height", r.height},
+              {"channels", channels},
+              {"spp", r.spp},
+              {"serial", snap.serial}};
+    return binary_body(h, v);
+}
+
+// The side a request names (?side=0 or 1), or -1.
+int side_of(const httplib::Request& req, size_t sides) {
+    if (!req.has_param("side")) return 0;
+    const std::string s = req.get_param_value("side");
+    if (s == "0" || (s == "1" && sides > 1)) return s[0] - '0';
+    return -1;
+}
+
+uint64_t since_of(const httplib::Request& req) {
+    if (!req.has_param("since")) return 0;
+    try {
+        return std::stoull(req.get_param_value("since"));
+    } catch (const std::exception&) {
+        return 0;
+    }
+}
+
+// A handler whose exceptions become a 500 with the message, never a dropped connection.
+httplib::Server::Handler guarded(
+    std::function<void(const httplib::Request&, httplib::Response&)> f) {
+    return [f](const httplib::Request& req, httplib::Response& res) {
+        try {
+            f(req, res);
+        } catch (const std::exception& e) {
+            res.status = 500;
+            res.set_content(std::string("error: ") + e.what() + "\n", "text/plain");
+        }
+    };
+}
+
+}  // namespace
+
+ViewServer::ViewServer(LiveRender& live, ViewInfo info)
+    : live_(live), info_(std::move(info)), server_(std::make_unique<httplib::Server>()) {
+    httplib::Server& s = *server_;
+    s.set_payload_max_length(1 << 16);  // the API takes no bodies
+    s.Get("/", guarded([](const httplib::Request&, httplib::Response& res) {
+              res.set_content(kViewPageHtml, "text/html; charset=utf-8");
+          }));
+    s.Get("/api/state", guarded([this](const httplib::Request&, httplib::Response& res) {
+              res.set_header("Cache-Control", "no-store");
+              res.set_content(state_json(), "application/json");
+          }));
+    // The latest image of a side, unless the viewer has it.
+    s.Get("/api/frame", guarded([this](const httplib::Request& req, httplib::Response& res) {
+              const int side = side_of(req, live_.sides());
+              if (side < 0) {
+                  res.status = 404;
+                  return;
+              }
+              const std::shared_ptr<const LiveSnapshot> snap = live_.snapshot(size_t(side));
+              if (!snap || snap->serial == since_of(req)) {
+                  res.status = 204;
+                  return;
+              }
+              res.set_header("Cache-Control", "no-store");
+              res.set_content(frame_body(*snap), "application/octet-stream");
+              ++frames_;
+          }));
+    // A/B: the maps at the latest milestone both sides reached.
+    s.Get("/api/maps", guarded([this](const httplib::Request& req, httplib::Response& res) {
+              const std::shared_ptr<const LiveMaps> m = live_.sides() == 2 ? live_.maps() : nullptr;
+              if (!m || m->spp == since_of(req)) {
+                  res.status = 204;
+                  return;
+              }
+              const DifferenceMaps& d = m->maps;
+              std::vector<float> v(2 * d.z.size());
+              float max_z = 0;
+              for (size_t i = 0; i < d.z.size(); ++i) {
+                  v[2 * i] = d.z[i], v[2 * i + 1] = d.relative[i];
+                  if (std::isfinite(d.z[i])) max_z = std::max(max_z, std::abs(d.z[i]));
+              }
+              const Json h = {{"width", d.width},
+                              {"height", d.height},
+                              {"channels", 2},
+                              {"spp", m->spp},
+                              {"diverged", d.same_seed.diverged},
+                              {"pixels", d.same_seed.pixels},
+                              {"tolerance", d.same_seed.tolerance},
+                              {"max_abs_z", max_z}};
+              res.set_header("Cache-Control", "no-store");
+              res.set_content(binary_body(h, v), "application/octet-stream");
+          }));
+    // The image as a file: linear EXR or sRGB PNG.
+    s.Get("/api/save", guarded([this](const httplib::Request& req, httplib::Response& res) {
+              const int side = side_of(req, live_.sides());
+              const std::string format =
+                  req.has_param("format") ? req.get_param_value("format") : "exr";
+              if (side < 0 || (format != "exr" && format != "png")) {
+                  res.status = 404;
+                  return;
+              }
+              const std::shared_ptr<const LiveSnapshot> snap = live_.snapshot(size_t(side));
+              if (!snap) {
+                  res.status = 409;
+                  res.set_content("no samples yet\n", "text/plain");
+                  return;
+              }
+              const RenderResult& r = snap->result;
+              const std::vector<unsigned char> bytes =
+                  encode_image(format, r.width, r.height, r.mean_image());
+              const std::string name = "mcpt-" +
+                                       std::string(live_.sides() == 2 ? (side ? "B-" : "A-") : "") +
+                                       std::to_string(r.spp) + "spp." + format;
+              res.set_header("Content-Disposition", "attachment; filename=\"" + name + "\"");
+              res.set_content(std::string(bytes.begin(), bytes.end()),
+                              format == "exr" ? "image/x-exr" : "image/png");
+          }));
+    // Controls.
+    const auto ok = [](httplib::Response& res) { res.set_content("{}", "application/json"); };
+    s.Post("/api/pause", guarded([this, ok](const httplib::Request&, httplib::Response& res) {
+               live_.set_paused(true), ok(res);
+           }));
+    s.Post("/api/resume", guarded([this, ok](const httplib::Request&, httplib::Response& res) {
+               live_.set_paused(false), ok(res);
+           }));
+    s.Post("/api/reset", guarded([this, ok](const httplib::Request&, httplib::Response& res) {
+               live_.reset(), ok(res);
+           }));
+}
+
+ViewServer::~ViewServer() {
+    stop();
+}
+
+int ViewServer::bind(const std::string& host, int port) {
+    if (port == 0) {
+        const int bound = server_->bind_to_any_port(host.c_str());
+        if (bound <= 0) throw Error("cannot listen on " + host + " (any port)");
+        return bound;
+    }
+    if (!server_->bind_to_port(host.c_str(), port))
+        throw Error("cannot listen on " + host + ":" + std::to_string(port) +
+                    " (in use, or not an address of this machine); --port 0 takes a free one");
+    return port;
+}
+
+void ViewServer::serve() {
+    server_->listen_after_bind();
+}
+
+void ViewServer::stop() {
+    if (server_) server_->stop();
+}
+
+uint64_t ViewServer::frames_sent() const {
+    return frames_.load();
+}
+
+std::string ViewServer::state_json() {
+    Json j;
+    j["scene"] = info_.scene;
+    j["paused"] = live_.paused();
+    j["failure"] = live_.failure();
+    Json sides = Json::array();
+    for (size_t s = 0; s < live_.sides(); ++s) {
+        const std::vector<ErrorPoint> series = live_.error_series(s);
+        const std::shared_ptr<const LiveSnapshot> snap = live_.latest(s);
+        Json side;
+        side["label"] = info_.sides[s];
+        const ErrorPoint last = series.empty() ? ErrorPoint{} : series.back();
+        side["spp"] = last.spp;
+        side["seconds"] = last.seconds;
+        side["relative_error"] = number(last.relative_error);
+        side["samples_per_second"] = snap ? snap->samples_per_second : 0.0;
+        side["rays_per_second"] = snap ? snap->rays_per_second : 0.0;
+        side["invalid"] = snap ? snap->result.nonfinite_total : 0;
+        side["serial"] = snap ? snap->serial : 0;
+        // The curve: every point, or evenly thinned (the last one kept).
+        Json curve = Json::array();
+        const size_t stride = series.size() / kMaxCurvePoints + 1;
+        for (size_t i = 0; i < series.size(); ++i)
+            if (i % stride == 0 || i + 1 == series.size())
+                curve.push_back(
+                    {series[i].seconds, series[i].spp, number(series[i].relative_error)});
+        side["curve"] = curve;
+        sides.push_back(side);
+    }
+    j["sides"] = sides;
+    return j.dump();
+}
+
+}  // namespace mcpt

@@ -1,0 +1,55 @@
+// mcpt view's web server: one page (embedded in the binary) and a small API over a
+// LiveRender, served by cpp-httplib on its own threads.
+//
+//   GET  /                      the page
+//   GET  /api/state             JSON: sides, sample counts, speeds, errors, the error curves
+//   GET  /api/frame?side=S&since=N
+//                               side S's latest image (204 when it is still snapshot N)
+//   GET  /api/maps?since=SPP    A/B: the z and divergence maps (204 when unchanged)
+//   GET  /api/save?side=S&format=exr|png
+//                               the image as a file
+//   POST /api/pause, /api/resume, /api/reset
+// Anything else is 404: the server serves no files from disk.
+//
+// Frames and maps are binary: a uint32 (little-endian) byte count of a JSON header, the
+// header (padded with spaces to a multiple of 4 bytes), then float32 values, interleaved
+// channels, top row first. Frames: R, G, B (mean radiance), E (standard error of the channel
+// mean), and N (samples, adaptive sampling only). Maps: z, relative difference.
+#pragma once
+#include <memory>
+#include <string>
+
+#include "common/view/live_render.h"
+
+namespace httplib {
+class Server;
+}
+
+namespace mcpt {
+
+struct ViewInfo {
+    std::string scene;                // shown as the title
+    std::string sides[2] = {"", ""};  // "A: opencl ..." for A/B runs, else the device
+};
+
+class ViewServer {
+  public:
+    ViewServer(LiveRender& live, ViewInfo info);
+    ~ViewServer();
+    // Binds host:port (port 0: any free one); returns the port. Throws mcpt::Error.
+    int bind(const std::string& host, int port);
+    // Serves until stop() (from another thread).
+    void serve();
+    void stop();
+    // Frames sent so far (all sides), for the command's summary.
+    uint64_t frames_sent() const;
+
+  private:
+    std::string state_json();
+    LiveRender& live_;
+    ViewInfo info_;
+    std::unique_ptr<httplib::Server> server_;
+    std::atomic<uint64_t> frames_{0};
+};
+
+}  // namespace mcpt

@@ -1,0 +1,205 @@
+#include "common/view/live_render.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/error.h"
+
+namespace mcpt {
+
+namespace {
+// A render step: long enough that its read-back costs little (Session::step_seconds), short
+// enough that a viewer sees about four new images a second.
+constexpr double kStepSeconds = 0.25;
+// Milestones a side keeps while the other has not reached them (the slower side meets them).
+constexpr size_t kMaxMilestones = 8;
+
+// The sums of a result without its exact fixed-point copy (not needed to look at).
+std::shared_ptr<RenderResult> copy_sums(const RenderResult& r) {
+    auto c = std::make_shared<RenderResult>();
+    c->width = r.width, c->height = r.height;
+    c->spp = r.spp, c->first = r.first, c->seconds = r.seconds;
+    c->sum = r.sum, c->sum_sq = r.sum_sq, c->nonfinite = r.nonfinite, c->samples = r.samples;
+    c->rays = r.rays, c->nonfinite_total = r.nonfinite_total;
+    return c;
+}
+}  // namespace
+
+uint64_t next_milestone(uint64_t spp) {
+    const uint64_t grown = (spp + spp / 4 + 3) / 4 * 4;
+    return std::max(spp / 4 * 4 + 4, grown);
+}
+
+LiveRender::LiveRender(std::vector<std::unique_ptr<Session>> sessions, uint64_t max_spp)
+    : max_spp_(max_spp) {
+    if (sessions.empty() || sessions.size() > 2) throw Error("a live render has one or two sides");
+    for (auto& s : sessions) {
+        if (!s) throw Error("a live render needs sessions");
+        sides_.push_back(std::make_unique<Side>());
+        sides_.back()->session = std::move(s);
+    }
+}
+
+LiveRender::~LiveRender() {
+    stop();
+}
+
+std::string LiveRender::label(size_t side) const {
+    const DeviceInfo& d = sides_.at(side)->session->device();
+    return d.label();
+}
+
+void LiveRender::start() {
+    for (size_t s = 0; s < sides_.size(); ++s)
+        if (!sides_[s]->thread.joinable()) sides_[s]->thread = std::thread([this, s] { run(s); });
+}
+
+void LiveRender::stop() {
+    stopping_.store(true);
+    for (auto& side : sides_) side->session->cancel();
+    wake_.notify_all();
+    for (auto& side : sides_)
+        if (side->thread.joinable()) side->thread.join();
+}
+
+void LiveRender::set_paused(bool paused) {
+    paused_.store(paused);
+    wake_.notify_all();
+}
+
+void LiveRender::reset() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++generation_;
+    for (auto& side : sides_) {
+        side->session->cancel();  // ends the step under way
+        side->series.clear(), side->milestones.clear(), side->snapshot.reset();
+        side->wanted.store(true);
+    }
+    met_[0].reset(), met_[1].reset(), maps_.reset();
+    wake_.notify_all();
+}
+
+std::shared_ptr<const LiveSnapshot> LiveRender::snapshot(size_t side) {
+    Side& s = *sides_.at(side);
+    s.wanted.store(true);
+    std::lock_guard<std::mutex> lock(mutex_);
+    return s.snapshot;
+}
+
+std::shared_ptr<const LiveSnapshot> LiveRender::latest(size_t side) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return sides_.at(side)->snapshot;
+}
+
+std::vector<ErrorPoint> LiveRender::error_series(size_t side) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return sides_.at(side)->series;
+}
+
+std::shared_ptr<const LiveMaps> LiveRender::maps() {
+    std::shared_ptr<const RenderResult> a, b;
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (!met_[0] || (maps_ && maps_->spp == met_[0]->spp)) return maps_;
+        a = met_[0], b = met_[1];
+    }
+    // Computed outside the lock, on the caller's thread.
+    auto m = std::make_shared<LiveMaps>();
+    m->spp = a->spp;
+    m->maps = difference_maps(*a, *b);
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (met_[0] == a) maps_ = m;
+    return m;
+}
+
+std::string LiveRender::failure() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return failure_;
+}
+
+void LiveRender::publish(size_t s, uint64_t generation) {
+    Side& side = *sides_[s];
+    const RenderResult& r = side.session->result();
+    // The error curve gets every step; a snapshot only when a viewer asked for one since the
+    // last ...
+    const double relative_error = r.relative_error();
+    // ... and always before the side waits (paused, or at its last sample), so that a viewer
+    // asking later sees where it stopped.
+    const bool idle = paused_.load() || (max_spp_ > 0 && r.spp >= max_spp_);
+    std::shared_ptr<LiveSnapshot> snap;
+    if (side.wanted.exchange(false) || idle) {
+        snap = std::make_shared<LiveSnapshot>();
+        snap->result = std::move(*copy_sums(r));
+        const double seconds = r.seconds > 0 ? r.seconds : 1;
+        snap->samples_per_second = double(r.spp) * r.width * r.height / seconds;
+        snap->rays_per_second = r.rays / seconds;
+        snap->relative_error = relative_error;
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (generation != generation_) return;  // reset meanwhile: these samples are dropped
+    side.series.push_back({r.seconds, r.spp, relative_error});
+    if (snap) {
+        snap->serial = ++side.serial;
+        side.snapshot = snap;
+    }
+}
+
+void LiveRender::reach_milestone(size_t s, uint64_t spp, uint64_t generation) {
+    // A copy of the sums at the milestone, met now or kept until the other side reaches it.
+    std::shared_ptr<const RenderResult> here = copy_sums(sides_[s]->session->result());
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (generation != generation_) return;
+    Side& other = *sides_[1 - s];
+    auto it = other.milestones.find(spp);
+    if (it != other.milestones.end()) {
+        met_[s] = here, met_[1 - s] = it->second;
+        // Older milestones can no longer be the latest met.
+        other.milestones.erase(other.milestones.begin(), std::next(it));
+        return;
+    }
+    auto& mine = sides_[s]->milestones;
+    mine[spp] = here;
+    if (mine.size() > kMaxMilestones) mine.erase(mine.begin());
+}
+
+void LiveRender::run(size_t s) {
+    Side& side = *sides_[s];
+    Session& session = *side.session;
+    const bool ab = sides_.size() == 2;
+    uint64_t generation = 0;
+    try {
+        while (!stopping_.load()) {
+            // Wait while paused or done; start over after a reset.
+            {
+                std::unique_lock<std::mutex> lock(mutex_);
+                wake_.wait(lock, [&] {
+                    const bool done =
+                        max_spp_ > 0 && session.spp() >= max_spp_ && generation == generation_;
+                    return stopping_.load() || (!paused_.load() && !done);
+                });
+                if (stopping_.load()) break;
+                if (generation != generation_) {
+                    generation = generation_;
+                    session.reset();
+                }
+            }
+            // A step; an A/B side stops at the next milestone (or the last sample), where it
+            // meets the other.
+            uint64_t cap = max_spp_;
+            if (ab) {
+                const uint64_t milestone = next_milestone(session.spp());
+                cap = cap > 0 ? std::min(cap, milestone) : milestone;
+            }
+            const double step_ms = 1e3 * std::max(kStepSeconds, session.step_seconds());
+            session.render(step_ms, 0, cap);
+            if (session.spp() == 0) continue;
+            if (ab && session.spp() == cap) reach_milestone(s, cap, generation);
+            publish(s, generation);
+        }
+    } catch (const std::exception& e) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (failure_.empty()) failure_ = std::string(ab ? (s == 0 ? "A: " : "B: ") : "") + e.what();
+    }
+}
+
+}  // namespace mcpt

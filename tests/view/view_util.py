@@ -1,0 +1,34 @@
+"""Starting and stopping `mcpt view` for the viewer's tests and scripts/bench-view."""
+import re
+import signal
+import subprocess
+import time
+
+
+def start_view(mcpt, args, timeout=180):
+    """Starts `mcpt view ARGS --port 0`; returns the process and its port once it serves."""
+    proc = subprocess.Popen([mcpt, "view", "--port", "0"] + args, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, bufsize=1)
+    deadline = time.time() + timeout
+    lines = []
+    while time.time() < deadline:
+        line = proc.stdout.readline()
+        if not line:
+            break
+        lines.append(line)
+        m = re.search(r"mcpt view: http://127\.0\.0\.1:(\d+)/", line)
+        if m:
+            return proc, int(m.group(1))
+    proc.kill()
+    raise RuntimeError("mcpt view did not start:\n" + "".join(lines))
+
+
+def stop_view(proc, timeout=60):
+    """Ctrl-C, then the rest of its output."""
+    proc.send_signal(signal.SIGINT)
+    try:
+        out, _ = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        out, _ = proc.communicate()
+    return out
