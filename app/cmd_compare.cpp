@@ -1,12 +1,15 @@
 // mcpt compare: render one scene on two backends and report speed side by side and whether
 // the images agree, statistically (independent seeds) and with the same seed.
 // Exit status: 0 agree, 2 differ, 1 error.
+#include <array>
 #include <cstdio>
 #include <thread>
 
 #include "app/commands.h"
 #include "common/analysis/compare.h"
 #include "common/error.h"
+#include "common/io/false_color.h"
+#include "common/io/html_report.h"
 #include "common/io/image_io.h"
 #include "common/render/scene_features.h"
 
@@ -27,6 +30,7 @@ struct CompareArgs {
     std::string tree = "auto";
     double alpha = 0.01;
     std::string output;
+    std::string report;  // folder of the HTML report (index.html)
     float b_light_scale = 1.f;
     std::string b_defines;
     bool parallel = false;  // A and B at once, each in a thread of its own
@@ -40,7 +44,101 @@ struct Side {
     std::string tree;           // the k-d tree it rendered with
 };
 
+using SpeedRow = std::array<std::string, 3>;  // name, A, B
+
+// The report: the speed table, both verdicts and their maps (--report DIR).
+void write_compare_report(const CompareArgs& args, const Side (&sides)[2],
+                          const std::vector<SpeedRow>& speed, const std::string& speed_ratio,
+                          const Agreement& agreement, const DifferenceMaps& maps,
+                          bool same_seed_agrees) {
+    const bool agree = agreement.agree && same_seed_agrees;
+    const int w = args.width, h = args.height;
+    HtmlReport r("mcpt compare " + args.scene + ": " + (agree ? "AGREE" : "DIFFER"));
+    // The overall verdict first, as the exit status has it.
+    r.verdict(agree ? "AGREE" : "DIFFER", agree,
+              std::string("statistical test ") + (agreement.agree ? "AGREE" : "DIFFER") +
+                  ", same-seed test " + (same_seed_agrees ? "AGREE" : "DIFFER") + " (exit status " +
+                  (agree ? "0" : "2") + ")",
+              "overall");
+    char line[256];
+    std::snprintf(line, sizeof line,
+                  "Scene %s, %dx%d, %d batches x %llu spp per backend, same seed at %llu spp.",
+                  args.scene.c_str(), w, h, args.batches, (unsigned long long)args.spp,
+                  (unsigned long long)args.same_seed_spp);
+    r.paragraph(line);
+
+    // Speed, the rows the command prints.
+    r.heading("Speed");
+    std::vector<std::vector<std::string>> rows;
+    for (const SpeedRow& s : speed) rows.push_back({s[0], s[1], s[2]});
+    r.table({"", "A", "B"}, rows);
+    r.paragraph(speed_ratio);
+
+    // Statistical test: verdict, its numbers, the z map.
+    r.heading("Statistical agreement (independent seeds)");
+    const std::string v = agreement.verdict();
+    r.verdict(agreement.agree ? "AGREE" : "DIFFER", agreement.agree, v.substr(v.find(": ") + 2));
+    const auto num = [](const char* format, double x) {
+        char b[64];
+        std::snprintf(b, sizeof b, format, x);
+        return std::string(b);
+    };
+    r.table(
+        {"measure", "value"},
+        {{"family-wise alpha", num("%.3g", args.alpha)},
+         {"pixels tested", std::to_string(agreement.pixels_tested)},
+         {"mean radiance B vs A", num("%+.3f%%", 100 * agreement.mean_relative_diff)},
+         {"min p (Sidak level)",
+          num("%.3g", agreement.min_p) + " (" + num("%.3g", agreement.sidak_level) + ")"},
+         {"pixels below the Sidak level", std::to_string(agreement.sidak_rejections)},
+         {"Benjamini-Hochberg discoveries", std::to_string(agreement.bh_discoveries)},
+         {"mean z score (limit +-" + num("%.3g", agreement.global_z_limit) + ")",
+          num("%.3f", agreement.mean_z_score)},
+         {"chi2 z score (limit " + num("%.3g", agreement.global_z_limit) + ")",
+          num("%.3f", agreement.chi2_score)},
+         {"uniform bias detected with 90% power", num("%.3g%%", 100 * agreement.detectable_bias)},
+         {"non-finite samples A, B", std::to_string(sides[0].batches.nonfinite) + ", " +
+                                         std::to_string(sides[1].batches.nonfinite)}});
+    r.images({{w, h, false_color_pixels(agreement.z_image, z_color),
+               "Per-pixel Welch z of B - A over the batch means: white 0, red B brighter, blue B "
+               "darker, full colour at |z| >= 5; magenta not finite"}});
+
+    // Same seed: verdict, both images, the relative difference and its z.
+    r.heading("Same seed");
+    const SameSeedDiff& d = maps.same_seed;
+    std::snprintf(line, sizeof line,
+                  "%zu of %zu pixels diverged (> %.0e relative), %.3f%% (limit %.3g%%); max "
+                  "|difference| %.3g",
+                  d.diverged, d.pixels, d.tolerance, 100 * d.fraction_diverged(),
+                  100 * args.same_seed_limit, d.max_abs_diff);
+    r.verdict(same_seed_agrees ? "AGREE" : "DIFFER", same_seed_agrees, line);
+    // The relative map log-scaled: 1e-4 x tolerance (black) to 100 x tolerance (white-ish).
+    const float lo = float(d.tolerance * 1e-4), hi = float(d.tolerance * 1e2);
+    // Both images at A's exposure, so that a brighter B looks brighter.
+    const float exposure = display_exposure(sides[0].same_seed.mean_radiance());
+    std::snprintf(line, sizeof line, " (sRGB, exposure %.3g)", exposure);
+    const std::string shown = line;
+    std::snprintf(line, sizeof line,
+                  "Relative difference max over channels |B - A| / max(|A|, |B|, 1e-3), log "
+                  "scale: black <= %.0e, the tolerance %.0e at 2/3, white >= %.0e",
+                  lo, d.tolerance, hi);
+    r.images({{w, h, radiance_to_srgb8(sides[0].same_seed.mean_image(), exposure),
+               "A: " + sides[0].backend->description() + shown},
+              {w, h, radiance_to_srgb8(sides[1].same_seed.mean_image(), exposure),
+               "B: " + sides[1].backend->description() + shown},
+              {w, h,
+               false_color_pixels(maps.relative,
+                                  [&](float x) { return sequential_color(log_unit(x, lo, hi)); }),
+               line},
+              {w, h, false_color_pixels(maps.z, z_color),
+               "z of B - A from each side's sample standard error (conservative with shared "
+               "samples): white 0, red B brighter, blue B darker, full colour at |z| >= 5"}});
+    r.write(args.report);
+    std::printf("wrote %s/index.html\n", args.report.c_str());
+}
+
 void run_compare(const CompareArgs& args) {
+    if (!args.report.empty()) prepare_report_dir(args.report);  // before any rendering
     Scene scene = load_scene_argument(args.scene);
     scene.environment = lighting_environment(args.lighting);
     check_lit(scene);
@@ -100,18 +198,17 @@ void run_compare(const CompareArgs& args) {
                 args.scene.c_str(), args.width, args.height, args.batches,
                 (unsigned long long)args.spp, ro.max_depth);
     std::printf("%-26s %-40s %-40s\n", "", "A", "B");
-    std::printf("%-26s %-40s %-40s\n", "backend", sides[0].backend->description().c_str(),
-                sides[1].backend->description().c_str());
+    std::vector<SpeedRow> speed;  // printed, and in the report
+    speed.push_back({"backend", sides[0].backend->description(), sides[1].backend->description()});
     double rate[2];
     for (int s = 0; s < 2; ++s) {
         const BatchSet& bs = sides[s].batches;
         rate[s] = double(bs.batches) * double(bs.spp_per_batch) * pixels / bs.seconds;
     }
-    auto row = [](const char* name, double x, double y, const char* unit) {
-        std::printf("%-26s %-40s %-40s\n", name, (std::to_string(x) + unit).c_str(),
-                    (std::to_string(y) + unit).c_str());
+    auto row = [&](const char* name, double x, double y, const char* unit) {
+        speed.push_back({name, std::to_string(x) + unit, std::to_string(y) + unit});
     };
-    std::printf("%-26s %-40s %-40s\n", "k-d tree", sides[0].tree.c_str(), sides[1].tree.c_str());
+    speed.push_back({"k-d tree", sides[0].tree, sides[1].tree});
     row("compile/pipeline (s)", sides[0].backend->compile_seconds(),
         sides[1].backend->compile_seconds(), "");
     row("time per sample (ns)", 1e9 / rate[0], 1e9 / rate[1], "");
@@ -130,13 +227,20 @@ void run_compare(const CompareArgs& args) {
     }
     row("device time/sample (ns)", device_ns[0], device_ns[1], "");
     row("host overhead (%)", overhead[0], overhead[1], "");
+    for (const SpeedRow& s : speed)
+        std::printf("%-26s %-40s %-40s\n", s[0].c_str(), s[1].c_str(), s[2].c_str());
     if (args.parallel)
-        std::printf("(A and B rendered at once: on devices that share a machine, their speeds "
-                    "are not each one's alone)\n");
-    std::printf("speed ratio B/A: %.3f", rate[1] / rate[0]);
+        std::printf(
+            "(A and B rendered at once: on devices that share a machine, their speeds "
+            "are not each one's alone)\n");
+    char ratio[128];
+    int at = std::snprintf(ratio, sizeof ratio, "speed ratio B/A: %.3f", rate[1] / rate[0]);
     if (device_ns[0] > 0 && device_ns[1] > 0)
-        std::printf(" (device time alone: %.3f)", device_ns[0] / device_ns[1]);
-    std::printf("\n");
+        std::snprintf(ratio + at, sizeof ratio - at, " (device time alone: %.3f)",
+                      device_ns[0] / device_ns[1]);
+    std::printf("%s\n", ratio);
+    std::string speed_ratio = ratio;
+    if (args.parallel) speed_ratio += " (A and B rendered at once)";
 
     // Statistical agreement.
     const Agreement agreement = test_agreement(sides[0].batches, sides[1].batches, args.alpha);
@@ -149,7 +253,8 @@ void run_compare(const CompareArgs& args) {
                     (unsigned long long)sides[1].batches.nonfinite);
     }
     // Same-seed agreement.
-    const SameSeedDiff d = same_seed_diff(sides[0].same_seed, sides[1].same_seed);
+    const DifferenceMaps maps = difference_maps(sides[0].same_seed, sides[1].same_seed);
+    const SameSeedDiff& d = maps.same_seed;
     const bool same_seed_agrees = d.agree(args.same_seed_limit);
     std::printf(
         "same seed (%llu spp): %s: %zu of %zu pixels diverged (> %.0e relative), %.3f%% "
@@ -169,6 +274,9 @@ void run_compare(const CompareArgs& args) {
         std::printf("wrote %s (R: p-value, G: z of B - A, B: mean difference)\n",
                     args.output.c_str());
     }
+    // The report, whatever the verdict (before the exit status says it).
+    if (!args.report.empty())
+        write_compare_report(args, sides, speed, speed_ratio, agreement, maps, same_seed_agrees);
     // Either test can tell the images apart: the statistical one small biases in noisy pixels,
     // the same-seed one any change of the integrand beyond rounding.
     if (!agreement.agree || !same_seed_agrees) throw ExitStatus{2};
@@ -209,6 +317,10 @@ void add_compare_command(CLI::App& app) {
         ->check(CLI::Range(1e-12, 0.5))
         ->capture_default_str();
     sub->add_option("-o,--output", a->output, "Write p-value / z / difference image (.exr)");
+    sub->add_option(
+           "--report", a->report,
+           "Write a self-contained HTML report (verdicts, speed, images) to DIR/index.html")
+        ->type_name("DIR");
     sub->add_flag("--parallel", a->parallel,
                   "Render A and B at once, each on its device (two GPUs: half the time)");
     sub->add_option("--b-light-scale", a->b_light_scale,

@@ -1,7 +1,8 @@
 // mcpt converge: error against run time. Renders progressively on each backend as independent
 // batches, measures RMSE, relative MSE and mean signed error against a reference at
 // geometrically spaced checkpoints, fits the log-log convergence rate, flags bias, and reports
-// the time each backend needs to reach a relative RMSE. Writes prefix.csv and prefix.svg.
+// the time each backend needs to reach a relative RMSE. Writes prefix.csv and prefix.svg, and
+// with --report DIR a self-contained HTML report.
 #include <unistd.h>
 
 #include <cmath>
@@ -15,6 +16,8 @@
 #include "common/analysis/convergence.h"
 #include "common/error.h"
 #include "common/io/atomic_file.h"
+#include "common/io/false_color.h"
+#include "common/io/html_report.h"
 #include "common/io/svg_plot.h"
 #include "common/render/scene_features.h"
 #include "opencl/cl_backend.h"
@@ -37,6 +40,7 @@ struct ConvergeArgs {
     int max_depth = -1;
     std::string tree = "auto";
     std::string output = "converge";
+    std::string report;  // folder of the HTML report (index.html)
     uint32_t seed = 1;
     std::vector<std::string> samplers{"sobol"};
     std::vector<std::string> sampling{"uniform"};
@@ -46,6 +50,7 @@ struct Run {
     std::string backend, device;
     std::vector<Checkpoint> checkpoints;
     ConvergenceReport report;
+    std::vector<float> image;  // the final accumulation's mean (3 floats per pixel)
 };
 
 std::string scene_label(const Scene& scene, const std::string& arg) {
@@ -125,7 +130,8 @@ void write_csv(const std::string& path, const std::vector<Run>& runs) {
     write_text_atomically(path, f.str());
 }
 
-void write_plot(const std::string& path, const std::string& scene, const std::vector<Run>& runs) {
+// The log-log plot of converge.svg and the report.
+SvgPlot make_plot(const std::string& scene, const std::vector<Run>& runs) {
     SvgPlot plot;
     plot.title = "RMSE against render time: " + scene;
     plot.x_label = "seconds";
@@ -163,10 +169,88 @@ void write_plot(const std::string& path, const std::string& scene, const std::ve
             plot.series.push_back(floor);
         }
     }
-    write_svg(path, plot);
+    return plot;
+}
+
+// The cells of the checkpoint table, as print_checkpoint() prints them.
+std::vector<std::string> checkpoint_cells(const Checkpoint& c) {
+    char b[4][48];
+    std::snprintf(b[0], sizeof b[0], "%.3f", c.seconds);
+    std::snprintf(b[1], sizeof b[1], "%.4g", c.error.rmse);
+    std::snprintf(b[2], sizeof b[2], "%.2f%%", 100 * c.error.rel_rmse);
+    std::snprintf(b[3], sizeof b[3], "%.4g", c.error.rel_mse);
+    char signed_error[48];
+    std::snprintf(signed_error, sizeof signed_error, "%+.4g", c.error.mean_signed_error);
+    return {b[0], std::to_string(c.spp), b[1], b[2], b[3], signed_error};
+}
+
+// Per pixel: mean over channels of |image - reference| / (mean reference + 0.01).
+std::vector<float> relative_error_map(const std::vector<float>& image, const Reference& ref) {
+    std::vector<float> map(image.size() / 3);
+    for (size_t i = 0; i < map.size(); ++i) {
+        double diff = 0, value = 0;
+        for (int c = 0; c < 3; ++c)
+            diff += std::abs(image[3 * i + c] - ref.mean[3 * i + c]), value += ref.mean[3 * i + c];
+        map[i] = float(diff / (value + 0.03));
+    }
+    return map;
+}
+
+// The report: plot, checkpoints, fits and bias, time to error, final images and error maps.
+void write_converge_report(const ConvergeArgs& a, const std::string& label, const Reference& ref,
+                           const std::vector<Run>& runs, const std::string& settings,
+                           const std::vector<std::string>& tte_header,
+                           const std::vector<std::vector<std::string>>& tte_rows) {
+    bool biased = false;
+    for (const Run& r : runs) biased |= r.report.biased;
+    HtmlReport h("mcpt converge " + label + ": " + (biased ? "BIASED" : "CONSISTENT"));
+    h.verdict(biased ? "BIASED" : "CONSISTENT", !biased,
+              biased ? "a run flattens above the noise floor"
+                     : "every run converges at its expected rate",
+              "overall");
+    h.paragraph(settings);
+    h.paragraph("Reference: " + ref.source);
+    h.plot(make_plot(label, runs));
+
+    // Fits and bias, one line per run.
+    h.heading("Fits and bias");
+    for (const Run& r : runs) {
+        char fit[160];
+        std::snprintf(fit, sizeof fit, "RMSE ~ time^%.3f, ~ spp^%.3f; ", r.report.time_fit.slope,
+                      r.report.spp_fit.slope);
+        h.verdict(r.backend + " " + r.device, !r.report.biased, fit + r.report.verdict());
+    }
+    // Time to a relative RMSE.
+    h.heading("Time to a relative RMSE");
+    h.table(tte_header, tte_rows);
+    if (runs.size() > 1) h.paragraph("xN: time relative to " + runs[0].backend);
+
+    // Per run: its checkpoints, final image and error map.
+    constexpr float lo = 1e-4f, hi = 1.f;
+    const float exposure = display_exposure(ref.mean_value());
+    char shown[64];
+    std::snprintf(shown, sizeof shown, " spp (sRGB, exposure %.3g)", exposure);
+    for (const Run& r : runs) {
+        h.heading(r.backend + ": " + r.device);
+        std::vector<std::vector<std::string>> rows;
+        for (const Checkpoint& c : r.checkpoints) rows.push_back(checkpoint_cells(c));
+        h.table({"seconds", "spp", "rmse", "rel rmse", "rel mse", "mean signed"}, rows);
+        const uint64_t spp = r.checkpoints.empty() ? 0 : r.checkpoints.back().spp;
+        h.images(
+            {{a.width, a.height, radiance_to_srgb8(r.image, exposure),
+              "Final image, " + std::to_string(spp) + shown},
+             {a.width, a.height,
+              false_color_pixels(relative_error_map(r.image, ref),
+                                 [&](float x) { return sequential_color(log_unit(x, lo, hi)); }),
+              "Per-pixel relative error mean |image - reference| / (mean reference + 0.01), "
+              "log scale: black <= 1e-4, white >= 1"}});
+    }
+    h.write(a.report);
+    std::printf("wrote %s/index.html\n", a.report.c_str());
 }
 
 void run_converge(const ConvergeArgs& a) {
+    if (!a.report.empty()) prepare_report_dir(a.report);  // before any rendering
     // Scene, tree, render settings.
     Scene scene = load_scene_argument(a.scene);
     scene.environment = lighting_environment(a.lighting);
@@ -180,9 +264,12 @@ void run_converge(const ConvergeArgs& a) {
 
     // Reference.
     const Reference ref = make_reference(a, scene, g, ro);
-    std::printf("scene %s, %dx%d, max depth %u, %s checkpoints, budget %g s%s per backend\n",
-                label.c_str(), a.width, a.height, ro.max_depth, a.checkpoints.c_str(), a.seconds,
-                a.max_spp ? (" or " + std::to_string(a.max_spp) + " spp").c_str() : "");
+    char settings[256];
+    std::snprintf(settings, sizeof settings,
+                  "scene %s, %dx%d, max depth %u, %s checkpoints, budget %g s%s per backend",
+                  label.c_str(), a.width, a.height, ro.max_depth, a.checkpoints.c_str(), a.seconds,
+                  a.max_spp ? (" or " + std::to_string(a.max_spp) + " spp").c_str() : "");
+    std::printf("%s\n", settings);
     std::printf("reference: %s; mean radiance %.4g\n", ref.source.c_str(), ref.mean_value());
     if (!ref.exact()) {
         std::printf(
@@ -222,6 +309,7 @@ void run_converge(const ConvergeArgs& a) {
                                        [&](const Checkpoint& c) { print_checkpoint(run, c); });
                 run.report =
                     analyze_convergence(run.checkpoints, ref.mean_value(), effective_pixels(total));
+                if (!a.report.empty()) run.image = total.mean_image();
                 runs.push_back(std::move(run));
             }
     }
@@ -236,12 +324,18 @@ void run_converge(const ConvergeArgs& a) {
 
     // Time to a relative RMSE (RMSE / mean reference radiance), and the ratio to the first.
     std::printf("\n%-14s", "rel. RMSE");
-    for (const Run& r : runs) std::printf(" %-34.34s", (r.backend + ": " + r.device).c_str());
+    std::vector<std::string> tte_header{"rel. RMSE"};
+    std::vector<std::vector<std::string>> tte_rows;
+    for (const Run& r : runs) {
+        std::printf(" %-34.34s", (r.backend + ": " + r.device).c_str());
+        tte_header.push_back(r.backend + ": " + r.device);
+    }
     std::printf("\n");
     for (double target : a.targets) {
         char head[32];
         std::snprintf(head, sizeof head, "%.3g%%", 100 * target);
         std::printf("%-14s", head);
+        tte_rows.push_back({head});
         double first = 0;
         for (size_t i = 0; i < runs.size(); ++i) {
             const TimeToError t = time_to_error(runs[i].checkpoints, target, runs[i].report);
@@ -254,6 +348,7 @@ void run_converge(const ConvergeArgs& a) {
                 cell += ratio;
             }
             std::printf(" %-34s", cell.c_str());
+            tte_rows.back().push_back(cell);
         }
         std::printf("\n");
     }
@@ -261,8 +356,10 @@ void run_converge(const ConvergeArgs& a) {
 
     // Files.
     write_csv(a.output + ".csv", runs);
-    write_plot(a.output + ".svg", label, runs);
+    write_svg(a.output + ".svg", make_plot(label, runs));
     std::printf("\nwrote %s.csv, %s.svg\n", a.output.c_str(), a.output.c_str());
+    if (!a.report.empty())
+        write_converge_report(a, label, ref, runs, settings, tte_header, tte_rows);
 }
 
 }  // namespace
@@ -313,6 +410,10 @@ void add_converge_command(CLI::App& app) {
         ->capture_default_str();
     sub->add_option("-o,--output", a->output, "Output prefix: prefix.csv, prefix.svg")
         ->capture_default_str();
+    sub->add_option("--report", a->report,
+                    "Also write a self-contained HTML report (plot, tables, images) to "
+                    "DIR/index.html")
+        ->type_name("DIR");
     sub->callback([a] { run_converge(*a); });
 }
 

@@ -18,6 +18,7 @@
 #include "common/render/scene_features.h"
 #include "common/render/session.h"
 #include "common/scene/scene_load.h"
+#include "common/view/tev_stream.h"
 
 namespace mcpt {
 
@@ -48,6 +49,7 @@ struct RenderArgs {
     double checkpoint_every = 30;  // seconds between checkpoints
     std::string part;              // "I/N": this run renders part I of N of the samples
     double chunk_seconds = 0.5;    // several devices: a chunk's duration
+    std::string display_server;    // "HOST:PORT": stream the image to tev
     LightingArgs lighting;
 };
 
@@ -68,6 +70,15 @@ void run_render(const RenderArgs& a) {
     bo.fast_math = a.fast_math;
     bo.limits = a.limits;
     check_image_path(a.output);  // before anything renders
+    // tev: the address is checked now; the stream connects in the background.
+    std::unique_ptr<TevStream> tev;
+    if (!a.display_server.empty())
+        tev = std::make_unique<TevStream>(
+            a.display_server, std::filesystem::path(a.output).filename().string(),
+            [bar = !a.quiet && isatty(2)](const std::string& w) {
+                // (From the stream's thread; off the progress bar's line.)
+                std::fprintf(stderr, "%smcpt: warning: %s\n", bar ? "\n" : "", w.c_str());
+            });
     // An MPI job: rank 0 holds the image, every rank renders chunks on its own device.
     const MpiJob& mpi = mpi_job();
     if (mpi.size > 1 && a.devices.size() > 1)
@@ -176,6 +187,7 @@ void run_render(const RenderArgs& a) {
             throw Error(std::string(e.what()) + "\nwrote the " + std::to_string(r.spp) +
                         " spp rendered before the failure to " + a.output);
         }
+        if (tev) tev->post(r.width, r.height, r.mean_image());
         elapsed += st.seconds;
         if (std::chrono::duration<double>(std::chrono::steady_clock::now() - last_save).count() >=
             a.checkpoint_every)
@@ -195,6 +207,14 @@ void run_render(const RenderArgs& a) {
     }
     if (bar) std::fprintf(stderr, "\n");
     save();
+    // The final image to tev, completely, before the file is written.
+    if (tev) {
+        tev->post(r.width, r.height, r.mean_image());
+        if (!tev->finish())
+            std::fprintf(stderr,
+                         "mcpt: warning: tev at %s: the final image was not sent within 5 s\n",
+                         tev->address().c_str());
+    }
 
     // Throughput and the error the image still carries.
     Backend& backend = session.backend();
@@ -335,6 +355,9 @@ void add_render_command(CLI::App& app) {
                     "Several devices: the duration of a chunk of samples handed to one")
         ->check(CLI::Range(0.01, 3600.0))
         ->capture_default_str();
+    sub->add_option("--display-server", args->display_server,
+                    "Stream the image to tev as it renders (tev's TCP protocol)")
+        ->type_name("HOST:PORT");
     add_lighting_options(sub, args->lighting);
     sub->add_flag("-q,--quiet", args->quiet, "No progress bar");
     sub->add_flag("-v,--verbose", args->verbose, "Say what the build left out and why");

@@ -95,10 +95,13 @@ void run_view(const ViewArgs& args) {
     // What each side rendered, and how many frames the viewers took.
     for (size_t s = 0; s < live.sides(); ++s) {
         const RenderResult& r = live.session(s).result();
-        std::printf("%s: %llu spp in %.2f s: %.3f M samples/s, %.2f M rays/s\n",
-                    info.sides[s].c_str(), (unsigned long long)r.spp, r.seconds,
-                    r.seconds > 0 ? double(r.spp) * r.width * r.height / r.seconds * 1e-6 : 0.0,
-                    r.seconds > 0 ? r.rays / r.seconds * 1e-6 : 0.0);
+        const double paths = double(r.spp) * r.width * r.height;
+        std::printf(
+            "%s: %llu spp in %.2f s: %.3f M samples/s, %.2f M rays/s; over the %.2f s the "
+            "viewer ran: %.3f M samples/s\n",
+            info.sides[s].c_str(), (unsigned long long)r.spp, r.seconds,
+            r.seconds > 0 ? paths / r.seconds * 1e-6 : 0.0,
+            r.seconds > 0 ? r.rays / r.seconds * 1e-6 : 0.0, wall, paths / wall * 1e-6);
     }
     std::printf("frames sent: %llu in %.1f s (%.2f per second)\n",
                 (unsigned long long)server.frames_sent(), wall,
