@@ -2,6 +2,7 @@
 
 #include <httplib.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <functional>
@@ -25,37 +26,80 @@ Json number(double v) {
     return std::isfinite(v) ? Json(v) : Json(nullptr);
 }
 
-// Header and float32 channels in one body (the format view_server.h describes).
-std::string binary_body(const Json& header, const std::vector<float>& values) {
+// Header and data in one body (the format view_server.h describes).
+std::string binary_body(const Json& header, const void* data, size_t bytes) {
     std::string head = header.dump();
     head.append((4 - head.size() % 4) % 4, ' ');
     const uint32_t length = uint32_t(head.size());
-    std::string body(4 + head.size() + 4 * values.size(), '\0');
+    std::string body(4 + head.size() + bytes, '\0');
     std::memcpy(&body[0], &length, 4);  // little-endian hosts only (x86-64, arm64)
     std::memcpy(&body[4], head.data(), head.size());
-    if (!values.empty()) std::memcpy(&body[4 + head.size()], values.data(), 4 * values.size());
+    if (bytes) std::memcpy(&body[4 + head.size()], data, bytes);
     return body;
 }
 
+// A pixel's radiance as RGBE (Ward's shared exponent: 8-bit mantissas scaled by 2^(E - 136));
+// E = 255 marks a non-finite pixel.
+void rgbe(const float (&c)[3], uint8_t* out) {
+    const float m = std::max({c[0], c[1], c[2]});
+    if (!std::isfinite(c[0] + c[1] + c[2])) {
+        out[0] = out[1] = out[2] = 0, out[3] = 255;
+        return;
+    }
+    if (!(m > 1e-32f)) {
+        out[0] = out[1] = out[2] = out[3] = 0;
+        return;
+    }
+    // m = f 2^e, f in [0.5, 1): the exponent from the float's bits; scale = 2^(8 - e).
+    uint32_t bits;
+    std::memcpy(&bits, &m, 4);
+    const int e = int((bits >> 23) & 255) - 126;
+    const uint32_t scale_bits = uint32_t(127 + 8 - e) << 23;
+    float scale;
+    std::memcpy(&scale, &scale_bits, 4);
+    for (int k = 0; k < 3; ++k) out[k] = uint8_t(std::min(std::max(c[k] * scale, 0.f), 255.f));
+    out[3] = uint8_t(e + 128);
+}
+
+// The error byte: 1 + round(254 t), t = (log10 e + 3) / 3 clamped to [0, 1] (0.1% to 100%),
+// with log2 from the float's bits and a quadratic in the mantissa (within 0.005: under half a
+// step of the byte).
+uint8_t error_byte(float e) {
+    if (!(e <= 1.f)) return 255;  // 100% and more, or NaN
+    if (!(e > 1e-3f)) return 1;
+    uint32_t bits;
+    std::memcpy(&bits, &e, 4);
+    const float x = float(bits & 0x7fffff) / float(1 << 23);  // mantissa - 1, in [0, 1)
+    const float log2e = float(int(bits >> 23) - 127) + x * (1.3466f - 0.3466f * x);
+    const float t = (log2e * 0.30103f + 3.f) / 3.f;
+    return uint8_t(1 + std::lround(254 * std::min(std::max(t, 0.f), 1.f)));
+}
+
+// A frame: RGBE per pixel, then one byte per pixel for the relative error (standard error of
+// the channel mean / the mean; 0 unknown, else 1 + 254 t for t = (log10 e + 3) / 3 clamped:
+// 0.1% to 100%). About 5 bytes a pixel; exact values come from /api/pixel.
 std::string frame_body(const LiveSnapshot& snap) {
     const RenderResult& r = snap.result;
-    const std::vector<float> mean = r.mean_image(), err = r.std_error_image();
-    const size_t n = mean.size() / 3;
-    const bool counts = !r.samples.empty();
-    const int channels = counts ? 5 : 4;
-    std::vector<float> v(channels * n);
+    const size_t n = size_t(r.width) * size_t(r.height);
+    std::vector<uint8_t> v(5 * n);
     for (size_t i = 0; i < n; ++i) {
-        float* p = &v[channels * i];
-        p[0] = mean[3 * i], p[1] = mean[3 * i + 1], p[2] = mean[3 * i + 2];
-        p[3] = (err[3 * i] + err[3 * i + 1] + err[3 * i + 2]) / 3;
-        if (counts) p[4] = float(r.samples[i]);
+        float mean[3], err = 0;
+        for (int k = 0; k < 3; ++k) {
+            const ChannelStats st = channel_stats(r, i, k);
+            mean[k] = st.mean, err += st.std_error;
+        }
+        rgbe(mean, &v[4 * i]);
+        const float m = mean[0] + mean[1] + mean[2];
+        v[4 * n + i] = m > 0 ? error_byte(err / m) : 0;
     }
-    Json h = {{"width", r.width},
-              {"height", r.height},
-              {"channels", channels},
-              {"spp", r.spp},
-              {"serial", snap.serial}};
-    return binary_body(h, v);
+    const Json h = {{"width", r.width},
+                    {"height", r.height},
+                    {"spp", r.spp},
+                    {"serial", snap.serial},
+                    {"samples_per_second", snap.samples_per_second},
+                    {"relative_error", number(snap.relative_error)},
+                    {"invalid", r.nonfinite_total}};
+    return binary_body(h, v.data(), v.size());
 }
 
 // The side a request names (?side=0 or 1), or -1.
@@ -101,14 +145,16 @@ ViewServer::ViewServer(LiveRender& live, ViewInfo info)
               res.set_header("Cache-Control", "no-store");
               res.set_content(state_json(), "application/json");
           }));
-    // The latest image of a side, unless the viewer has it.
+    // A side's next image: a long poll, answered as soon as the image exists (204 after a
+    // second without one).
     s.Get("/api/frame", guarded([this](const httplib::Request& req, httplib::Response& res) {
               const int side = side_of(req, live_.sides());
               if (side < 0) {
                   res.status = 404;
                   return;
               }
-              const std::shared_ptr<const LiveSnapshot> snap = live_.snapshot(size_t(side));
+              const std::shared_ptr<const LiveSnapshot> snap =
+                  live_.next_snapshot(size_t(side), since_of(req), 1.0);
               if (!snap || snap->serial == since_of(req)) {
                   res.status = 204;
                   return;
@@ -140,7 +186,44 @@ ViewServer::ViewServer(LiveRender& live, ViewInfo info)
                               {"tolerance", d.same_seed.tolerance},
                               {"max_abs_z", max_z}};
               res.set_header("Cache-Control", "no-store");
-              res.set_content(binary_body(h, v), "application/octet-stream");
+              res.set_content(binary_body(h, v.data(), 4 * v.size()), "application/octet-stream");
+          }));
+    // One pixel's values on every side (hover): radiance, standard error, samples; the maps.
+    s.Get("/api/pixel", guarded([this](const httplib::Request& req, httplib::Response& res) {
+              long x = -1, y = -1;
+              try {
+                  x = std::stol(req.get_param_value("x")), y = std::stol(req.get_param_value("y"));
+              } catch (const std::exception&) {
+              }
+              Json j = {{"x", x}, {"y", y}, {"sides", Json::array()}};
+              for (size_t s = 0; s < live_.sides(); ++s) {
+                  const std::shared_ptr<const LiveSnapshot> snap = live_.latest(s);
+                  if (!snap || x < 0 || y < 0 || x >= snap->result.width ||
+                      y >= snap->result.height) {
+                      j["sides"].push_back(nullptr);
+                      continue;
+                  }
+                  const RenderResult& r = snap->result;
+                  const size_t i = size_t(y) * size_t(r.width) + size_t(x);
+                  Json side = {{"spp", r.spp},
+                               {"samples", r.pixel_samples(i) - r.nonfinite[i]},
+                               {"invalid", r.nonfinite[i]}};
+                  for (int c = 0; c < 3; ++c) {
+                      const ChannelStats st = channel_stats(r, i, c);
+                      side["radiance"].push_back(number(st.mean));
+                      side["std_error"].push_back(number(st.std_error));
+                  }
+                  j["sides"].push_back(side);
+              }
+              const std::shared_ptr<const LiveMaps> m = live_.sides() == 2 ? live_.maps() : nullptr;
+              if (m && x >= 0 && y >= 0 && x < m->maps.width && y < m->maps.height) {
+                  const size_t i = size_t(y) * size_t(m->maps.width) + size_t(x);
+                  j["maps"] = {{"spp", m->spp},
+                               {"z", number(m->maps.z[i])},
+                               {"relative", number(m->maps.relative[i])}};
+              }
+              res.set_header("Cache-Control", "no-store");
+              res.set_content(j.dump(), "application/json");
           }));
     // The image as a file: linear EXR or sRGB PNG.
     s.Get("/api/save", guarded([this](const httplib::Request& req, httplib::Response& res) {
@@ -213,6 +296,7 @@ std::string ViewServer::state_json() {
     j["scene"] = info_.scene;
     j["paused"] = live_.paused();
     j["failure"] = live_.failure();
+    j["done"] = live_.done();
     Json sides = Json::array();
     for (size_t s = 0; s < live_.sides(); ++s) {
         const std::vector<ErrorPoint> series = live_.error_series(s);

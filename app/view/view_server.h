@@ -5,6 +5,8 @@
 //   GET  /api/state             JSON: sides, sample counts, speeds, errors, the error curves
 //   GET  /api/frame?side=S&since=N
 //                               side S's latest image (204 when it is still snapshot N)
+//   GET  /api/pixel?x=X&y=Y     JSON: that pixel's radiance, standard error and samples on
+//                               every side, and its z and relative difference
 //   GET  /api/maps?since=SPP    A/B: the z and divergence maps (204 when unchanged)
 //   GET  /api/save?side=S&format=exr|png
 //                               the image as a file
@@ -12,9 +14,10 @@
 // Anything else is 404: the server serves no files from disk.
 //
 // Frames and maps are binary: a uint32 (little-endian) byte count of a JSON header, the
-// header (padded with spaces to a multiple of 4 bytes), then float32 values, interleaved
-// channels, top row first. Frames: R, G, B (mean radiance), E (standard error of the channel
-// mean), and N (samples, adaptive sampling only). Maps: z, relative difference.
+// header (padded with spaces to a multiple of 4 bytes), then the data, top row first. Frames,
+// to display (about 5 bytes a pixel, so that watching costs little): RGBE radiance, then a
+// byte of relative error per pixel (view_server.cpp, frame_body). Maps: float32 z and
+// relative difference, interleaved.
 #pragma once
 #include <memory>
 #include <string>

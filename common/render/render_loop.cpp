@@ -12,23 +12,6 @@
 
 namespace mcpt {
 
-namespace {
-// Pixel i's mean and standard error of the mean in channel c (0 where unknown: no samples, or
-// fewer than two): what the image, the error image and the relative error are made of.
-struct ChannelStats {
-    float mean = 0, std_error = 0;
-};
-ChannelStats channel_stats(const RenderResult& r, size_t i, int c) {
-    const double count = r.pixel_samples(i) - r.nonfinite[i];
-    if (count <= 0) return {};
-    const double mean = r.sum[3 * i + c] / count;
-    if (count < 2) return {float(mean), 0.f};
-    const double var =
-        std::max(0.0, (r.sum_sq[3 * i + c] / count - mean * mean)) * count / (count - 1);
-    return {float(mean), float(std::sqrt(var / count))};
-}
-}  // namespace
-
 std::vector<float> RenderResult::mean_image() const {
     const size_t n = size_t(width) * size_t(height);
     std::vector<float> img(3 * n);

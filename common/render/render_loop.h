@@ -1,7 +1,9 @@
 // Progressive rendering on any Backend: short dispatches sized to a time target, device sums
 // flushed into double-precision host accumulators so nothing drifts over millions of samples.
 #pragma once
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <vector>
@@ -70,6 +72,21 @@ struct RenderResult {
     // sum and sum_sq from the exact sums.
     void materialize();
 };
+
+// Pixel i's mean and standard error of the mean in channel c (0 where unknown: no samples, or
+// fewer than two): what the image, the error image and the relative error are made of.
+struct ChannelStats {
+    float mean = 0, std_error = 0;
+};
+inline ChannelStats channel_stats(const RenderResult& r, size_t i, int c) {
+    const double count = r.pixel_samples(i) - r.nonfinite[i];
+    if (count <= 0) return {};
+    const double mean = r.sum[3 * i + c] / count;
+    if (count < 2) return {float(mean), 0.f};
+    // The sample variance / count: (E[x^2] - mean^2) / (count - 1).
+    const double se2 = std::max(0.0, r.sum_sq[3 * i + c] / count - mean * mean) / (count - 1);
+    return {float(mean), float(std::sqrt(se2))};
+}
 
 // Adds `part` (samples [part.first, part.first + part.spp)) to `to`, which must end where it
 // begins (or be empty): exact sums exactly, otherwise in double. Throws mcpt::Error on a gap,

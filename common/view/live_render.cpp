@@ -8,9 +8,9 @@
 namespace mcpt {
 
 namespace {
-// A render step: long enough that its read-back costs little (Session::step_seconds), short
-// enough that a viewer sees about four new images a second.
-constexpr double kStepSeconds = 0.25;
+// A render step: long enough that its end (a read-back, the error estimate, a copy of the sums
+// when a viewer asked for one) costs little, short enough for two new images a second.
+constexpr double kStepSeconds = 0.5;
 // Milestones a side keeps while the other has not reached them (the slower side meets them).
 constexpr size_t kMaxMilestones = 8;
 
@@ -56,6 +56,7 @@ void LiveRender::start() {
 
 void LiveRender::stop() {
     stopping_.store(true);
+    published_.notify_all();
     for (auto& side : sides_) side->session->cancel();
     wake_.notify_all();
     for (auto& side : sides_)
@@ -86,6 +87,17 @@ std::shared_ptr<const LiveSnapshot> LiveRender::snapshot(size_t side) {
     return s.snapshot;
 }
 
+std::shared_ptr<const LiveSnapshot> LiveRender::next_snapshot(size_t side, uint64_t since,
+                                                              double timeout_s) {
+    Side& s = *sides_.at(side);
+    s.wanted.store(true);
+    std::unique_lock<std::mutex> lock(mutex_);
+    published_.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] {
+        return stopping_.load() || (s.snapshot && s.snapshot->serial != since);
+    });
+    return s.snapshot;
+}
+
 std::shared_ptr<const LiveSnapshot> LiveRender::latest(size_t side) const {
     std::lock_guard<std::mutex> lock(mutex_);
     return sides_.at(side)->snapshot;
@@ -112,17 +124,24 @@ std::shared_ptr<const LiveMaps> LiveRender::maps() {
     return m;
 }
 
+bool LiveRender::done() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (max_spp_ == 0) return false;
+    for (const auto& side : sides_)
+        if (!side->snapshot || side->snapshot->result.spp < max_spp_) return false;
+    return true;
+}
+
 std::string LiveRender::failure() const {
     std::lock_guard<std::mutex> lock(mutex_);
     return failure_;
 }
 
-void LiveRender::publish(size_t s, uint64_t generation) {
+void LiveRender::publish(size_t s, uint64_t generation, double relative_error) {
     Side& side = *sides_[s];
     const RenderResult& r = side.session->result();
     // The error curve gets every step; a snapshot only when a viewer asked for one since the
     // last ...
-    const double relative_error = r.relative_error();
     // ... and always before the side waits (paused, or at its last sample), so that a viewer
     // asking later sees where it stopped.
     const bool idle = paused_.load() || (max_spp_ > 0 && r.spp >= max_spp_);
@@ -141,6 +160,7 @@ void LiveRender::publish(size_t s, uint64_t generation) {
     if (snap) {
         snap->serial = ++side.serial;
         side.snapshot = snap;
+        published_.notify_all();
     }
 }
 
@@ -191,10 +211,10 @@ void LiveRender::run(size_t s) {
                 cap = cap > 0 ? std::min(cap, milestone) : milestone;
             }
             const double step_ms = 1e3 * std::max(kStepSeconds, session.step_seconds());
-            session.render(step_ms, 0, cap);
+            const PassStats st = session.render(step_ms, 0, cap);
             if (session.spp() == 0) continue;
             if (ab && session.spp() == cap) reach_milestone(s, cap, generation);
-            publish(s, generation);
+            publish(s, generation, st.relative_error);
         }
     } catch (const std::exception& e) {
         std::lock_guard<std::mutex> lock(mutex_);

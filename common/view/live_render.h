@@ -1,6 +1,7 @@
 // A render to watch while it converges: one session (or two, A and B, for an A/B run), each
 // rendering on a thread of its own, publishing what a viewer shows (mcpt view): snapshots of
 // the accumulation, the error against time and, for A and B, the maps of their difference.
+// Steps of 0.5 s: two new images a second.
 //
 // The render threads never wait for a viewer: a snapshot is a copy of the sums made after a
 // render step, and only when a viewer asked for one since the last; everything a viewer
@@ -66,6 +67,8 @@ class LiveRender {
     // Paused sides finish their step and wait; reset drops every side's samples.
     void set_paused(bool paused);
     bool paused() const { return paused_.load(); }
+    // Every side reached max_spp (and waits for a reset).
+    bool done() const;
     void reset();
 
     // The side's latest snapshot (null before its first step). Asking for one makes the side
@@ -73,6 +76,10 @@ class LiveRender {
     std::shared_ptr<const LiveSnapshot> snapshot(size_t side);
     // The latest snapshot without asking for a new one.
     std::shared_ptr<const LiveSnapshot> latest(size_t side) const;
+    // snapshot(), waiting up to `timeout_s` for one newer than serial `since` (a viewer's long
+    // poll: it asks once and gets the next image as soon as it exists). Null before the first.
+    std::shared_ptr<const LiveSnapshot> next_snapshot(size_t side, uint64_t since,
+                                                      double timeout_s);
     std::vector<ErrorPoint> error_series(size_t side) const;
     // A and B: the maps at the highest milestone both reached (null before), computed here on
     // the caller's thread the first time they are asked for.
@@ -92,12 +99,13 @@ class LiveRender {
         std::map<uint64_t, std::shared_ptr<const RenderResult>> milestones;
     };
     void run(size_t s);
-    void publish(size_t s, uint64_t generation);
+    void publish(size_t s, uint64_t generation, double relative_error);
     void reach_milestone(size_t s, uint64_t spp, uint64_t generation);
     std::vector<std::unique_ptr<Side>> sides_;
     uint64_t max_spp_;
-    mutable std::mutex mutex_;  // everything below, and each Side's shared members
-    std::condition_variable wake_;
+    mutable std::mutex mutex_;           // everything below, and each Side's shared members
+    std::condition_variable wake_;       // the render threads wait on it
+    std::condition_variable published_;  // viewers waiting for a snapshot
     std::atomic<bool> paused_{false}, stopping_{false};
     uint64_t generation_ = 0;                     // grows with every reset
     std::shared_ptr<const RenderResult> met_[2];  // A and B at the last milestone both reached

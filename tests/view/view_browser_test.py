@@ -45,7 +45,7 @@ def browser():
     opts = Options()
     opts.binary_location = CHROMIUM
     for a in ["--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-              "--window-size=1300,1500"]:
+              "--window-size=1300,%d" % (1900 if SHOTS else 1500)]:
         opts.add_argument(a)
     return webdriver.Chrome(service=Service(DRIVER), options=opts)
 
@@ -77,13 +77,13 @@ return {w: c.width, h: c.height, hash: hash, mean: sum / (d.length / 4), hot: ho
 # The z map where A's image is brightest (the light seen directly, without noise: pixels
 # partly covered by its edge have sampling noise): full colour there?
 AT_LIGHT = """
-const f = window.mcptView.frames[0], m = window.mcptView.maps, ch = f.channels;
+const f = window.mcptView.frames[0], m = window.mcptView.maps;
+const lum = i => radianceAt(f, i).reduce((a, b) => a + b, 0);
 let max = 0;
-for (let i = 0; i < f.width * f.height; i++)
-  max = Math.max(max, f.data[ch * i] + f.data[ch * i + 1] + f.data[ch * i + 2]);
+for (let i = 0; i < f.width * f.height; i++) max = Math.max(max, lum(i));
 let n = 0, hot = 0;
 for (let i = 0; i < f.width * f.height; i++)
-  if (f.data[ch * i] + f.data[ch * i + 1] + f.data[ch * i + 2] > 0.99 * max) {
+  if (lum(i) > 0.99 * max) {
     n++;
     if (m.data[2 * i] >= 4) hot++;
   }
@@ -124,7 +124,14 @@ try:
     # Paused, the image stays; the exposure brightens it, the linear display changes it.
     drv.find_element(By.ID, "pause").click()
     wait_for(drv, "window.mcptView.state && window.mcptView.state.paused", "pause")
-    time.sleep(1.0)
+    # The step under way when it paused still ends in a frame: wait until none comes for 1.5 s.
+    last, still = None, 0
+    deadline = time.time() + 120
+    while still < 3 and time.time() < deadline:
+        serial = drv.execute_script("return window.mcptView.serial[0]")
+        still = still + 1 if serial == last else 0
+        last = serial
+        time.sleep(0.5)
     held = canvas(drv, "image-0")
     drv.execute_script("const e = document.getElementById('exposure'); e.value = 2;"
                        "e.dispatchEvent(new Event('input'));")
@@ -146,6 +153,7 @@ try:
     # Hovering a pixel shows its radiance, standard error and sample count.
     img = drv.find_element(By.ID, "image-0")
     ActionChains(drv).move_to_element_with_offset(img, 5, 5).perform()
+    wait_for(drv, "document.getElementById('readout').textContent.includes('radiance')", "hover")
     readout = drv.find_element(By.ID, "readout").text
     check("radiance" in readout and "standard error" in readout and "samples" in readout,
           "hover shows the pixel: " + readout.replace("\n", " | "))

@@ -3,6 +3,7 @@
 whatever the path), survives clients that hang up mid-frame, and refuses bad addresses.
 Usage: view_http_test.py MCPT_BINARY"""
 import http.client
+import json
 import signal
 import socket
 import struct
@@ -57,7 +58,13 @@ try:
         time.sleep(0.5)
     check(status == 200, "a frame is served")
     n = struct.unpack("<I", body[:4])[0]
-    check(len(body) == 4 + n + 4 * 4 * 512 * 512, "the frame has 4 float channels per pixel")
+    check(len(body) == 4 + n + 5 * 512 * 512, "the frame has 5 bytes per pixel (RGBE, error)")
+    status, body = get(port, "/api/pixel?x=256&y=256")
+    pixel = json.loads(body)["sides"][0] if status == 200 else None
+    check(pixel is not None and len(pixel["radiance"]) == 3 and pixel["samples"] > 0,
+          "a pixel's values are served: %s" % pixel)
+    status, body = get(port, "/api/pixel?x=-1&y=99999")
+    check(status == 200 and json.loads(body)["sides"] == [None], "a pixel outside: no values")
     # Clients that hang up mid-frame (a reset, not a clean close), twenty times.
     for _ in range(20):
         s = socket.create_connection(("127.0.0.1", port), timeout=30)
