@@ -181,7 +181,10 @@ void run_render(const RenderArgs& a) {
         } catch (const Error& e) {
             // The device failed mid-render: the samples taken before are kept; write them.
             if (bar) std::fprintf(stderr, "\n");
-            if (r.spp == 0) throw;
+            if (r.spp == 0)
+                throw Error(std::string(e.what()) +
+                            "\nno samples were kept: the device failed before its first samples "
+                            "were read back; " + a.output + " was not written");
             save();
             session.write_image(a.output);
             throw Error(std::string(e.what()) + "\nwrote the " + std::to_string(r.spp) +

@@ -152,5 +152,21 @@ TEST(DeviceFailureCli, RenderWritesTheImageSoFarAndFails) {
     }
 }
 
+// Lost at its first dispatch, before any sample was read back: `mcpt render` says that none
+// was kept and writes no image (on a GPU the first read-back can come after many dispatches).
+TEST(DeviceFailureCli, RenderSaysWhenNoSampleWasKept) {
+    for (const std::string& api : test::test_apis()) {
+        const std::string out = testing::TempDir() + "/lost_first_" + api + ".exr";
+        std::filesystem::remove(out);
+        const test::CliRun r = test::run_mcpt(
+            "render --backend " + api + " --width 16 --height 16 --spp 1000000 -q -o " + out,
+            "MCPT_LOSE_DEVICE_AFTER=1");
+        EXPECT_NE(r.status, 0) << r.output;
+        EXPECT_NE(r.output.find("injected by lose_device_after"), std::string::npos) << r.output;
+        EXPECT_NE(r.output.find("no samples were kept"), std::string::npos) << r.output;
+        EXPECT_FALSE(std::filesystem::exists(out)) << r.output;
+    }
+}
+
 }  // namespace
 }  // namespace mcpt

@@ -17,10 +17,11 @@ using ExactSum = __int128;
 // Fixed point with 50 fractional bits: steps of 8.9e-16 (radiance far below any image's
 // precision), sums up to 2^76 (7.6e22: a squared radiance of 1e9 over 75,000 samples).
 constexpr int kExactFractionBits = 50;
+static_assert(kExactFractionBits == 50, "to_exact() scales by 0x1p50");
 
 // A group's float sum as fixed point, truncated toward zero; false when it does not fit.
 inline bool to_exact(float value, ExactSum& out) {
-    const double x = std::ldexp(double(value), kExactFractionBits);
+    const double x = double(value) * 0x1p50;  // exact: a power of two, far from overflow
     if (!(std::fabs(x) < 0x1p100)) return false;  // NaN, Inf or beyond any image
     out = std::fabs(x) < 0x1p62 ? ExactSum(int64_t(x)) : ExactSum(x);
     return true;
@@ -35,8 +36,8 @@ inline double from_exact(ExactSum v) {
 // Adds b to a; false when the sum would leave the range.
 inline bool add_exact(ExactSum& a, ExactSum b) {
     const ExactSum s = ExactSum((unsigned __int128)a + (unsigned __int128)b);
-    const double approx = double(int64_t(s >> 64));
-    if (!(std::fabs(approx) < 0x1p62)) return false;  // 2^126 and beyond
+    const int64_t hi = int64_t(s >> 64);
+    if (hi >= (int64_t(1) << 62) || hi <= -(int64_t(1) << 62)) return false;  // 2^126 and beyond
     a = s;
     return true;
 }

@@ -180,26 +180,34 @@ void ProgressiveRender::read_device_sums() {
 }
 
 void ProgressiveRender::add_device_sums(RenderResult& to) const {
-    // Reproducible: the group's float sums are added exactly (exact_sums.h).
+    // The sums, in pixel ranges on threads of their own (a 1024x1024 group is six million
+    // exact additions); reproducible: the group's float sums added exactly (exact_sums.h).
     const bool exact = !to.exact.empty();
-    bool fits = true;
-    for (size_t i = 0; i < npix_; ++i) {
-        const float* a = &device_sums_[8 * i];
-        for (int c = 0; c < 3; ++c) {
-            if (exact) {
-                ExactSum s, q;
-                fits = fits && to_exact(a[c], s) && to_exact(a[4 + c], q) &&
-                       add_exact(to.exact[6 * i + c], s) && add_exact(to.exact[6 * i + 3 + c], q);
-            } else {
-                to.sum[3 * i + c] += a[c];
-                to.sum_sq[3 * i + c] += a[4 + c];
+    std::atomic<bool> fits{true};
+    for_pixel_ranges(npix_, [&](size_t begin, size_t end) {
+        bool ok = true;
+        for (size_t i = begin; i < end; ++i) {
+            const float* a = &device_sums_[8 * i];
+            for (int c = 0; c < 3; ++c) {
+                if (exact) {
+                    ExactSum s, q;
+                    ok = ok && to_exact(a[c], s) && to_exact(a[4 + c], q) &&
+                         add_exact(to.exact[6 * i + c], s) && add_exact(to.exact[6 * i + 3 + c], q);
+                } else {
+                    to.sum[3 * i + c] += a[c];
+                    to.sum_sq[3 * i + c] += a[4 + c];
+                }
             }
+            to.nonfinite[i] += a[3];
         }
-        to.nonfinite[i] += a[3];
-        to.nonfinite_total += uint64_t(a[3]);
-        to.rays += a[7];
+        if (!ok) fits.store(false);
+    });
+    // Counts in pixel order (the same total on every run).
+    for (size_t i = 0; i < npix_; ++i) {
+        to.nonfinite_total += uint64_t(device_sums_[8 * i + 3]);
+        to.rays += device_sums_[8 * i + 7];
     }
-    if (!fits)
+    if (!fits.load())
         throw Error(
             "radiance too large for reproducible sums (beyond 7.6e22 per pixel): render "
             "without --reproducible or checkpoints");
