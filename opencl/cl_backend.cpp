@@ -3,6 +3,10 @@
 #include <CL/opencl.hpp>
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <sstream>
 
 #include "common/error.h"
@@ -162,6 +166,16 @@ class OpenClBackend final : public Backend {
         const cl_uint zero = 0;
         queue_.enqueueFillBuffer(accum_, zero, counter_offset_, sizeof(zero));
         const size_t global = (p.pixel_count + local_ - 1) / local_ * local_;
+        // Profiling only: $MCPT_DUMP_DISPATCH=DIR[:N] writes a dispatch (default N 300) as
+        // scripts/ptx-replay replays it under Nsight Compute.
+        // (from dispatch N on, the first as large as any before: a pass's first dispatch, past
+        // the first pass's small tiles).
+        max_global_ = std::max(max_global_, global);
+        if (dump_at_ != 0) dump_sizes_.push_back(global);
+        const bool dump =
+            dump_at_ != 0 && ++dispatch_count_ >= dump_at_ && !dumped_ && global == max_global_;
+        dumped_ = dumped_ || dump;
+        if (dump) dump_dispatch(global, "before");
         cl::Event done;
         queue_.enqueueNDRangeKernel(kernel_, cl::NullRange, cl::NDRange(global),
                                     cl::NDRange(local_), nullptr, &done);
@@ -172,6 +186,7 @@ class OpenClBackend final : public Backend {
         if (t1 > t0) device_seconds_ += double(t1 - t0) * 1e-9;
         cl_uint active = 0;
         queue_.enqueueReadBuffer(accum_, CL_TRUE, counter_offset_, sizeof(active), &active);
+        if (dump) dump_dispatch(global, "after");
         if (options_.lose_device_after != 0 && ++dispatches_ >= options_.lose_device_after)
             throw cl::Error(CL_OUT_OF_RESOURCES, "clFinish (injected by lose_device_after)");
         return active;
@@ -183,7 +198,7 @@ class OpenClBackend final : public Backend {
         if (options_.fast_math) opts += " -cl-fast-relaxed-math";
         if (dev_.info.type == "gpu") opts += " -DMCPT_TRIANGLE_WORDS";  // scene_access.h
         if (dev_.info.type == "cpu") opts += " -DMCPT_KD_LEAF_LOOP";    // traverse.h
-        opts += " -DMCPT_KD_MAILBOX";                                    // traverse.h
+        opts += " -DMCPT_KD_MAILBOX";                                   // traverse.h
         // NVIDIA's compiler takes inline PTX (sampler.h: one instruction for a bit reversal).
         // Left alone it gives the kernel 109-147 registers (its Vulkan driver: 80-96); at most
         // 56 it runs 13-43% faster on the H100 without spilling. Denormals flushed to zero:
@@ -239,6 +254,53 @@ class OpenClBackend final : public Backend {
     uint32_t built_features_ = 0;
     double device_seconds_ = 0;
     uint32_t dispatches_ = 0;  // counted for options_.lose_device_after
+    uint64_t dispatch_count_ = 0;
+    size_t max_global_ = 0;
+    std::vector<size_t> dump_sizes_;
+    bool dumped_ = false;
+    uint64_t dump_at_ = dump_dispatch_number();  // $MCPT_DUMP_DISPATCH; 0: none
+
+    static uint64_t dump_dispatch_number() {
+        const char* e = std::getenv("MCPT_DUMP_DISPATCH");
+        if (!e || !*e) return 0;
+        const char* colon = std::strrchr(e, ':');
+        return colon ? std::max(1ull, std::strtoull(colon + 1, nullptr, 10)) : 300;
+    }
+    // The program (PTX on NVIDIA), the launch size and every buffer argument, before the
+    // dispatch, and the accumulation buffer after it (the replay compares against it).
+    void dump_dispatch(size_t global, const char* when) {
+        std::string dir = std::getenv("MCPT_DUMP_DISPATCH");
+        if (const size_t colon = dir.rfind(':'); colon != std::string::npos) dir.resize(colon);
+        std::filesystem::create_directories(dir);
+        const auto write = [&](const std::string& name, const void* data, size_t bytes) {
+            std::ofstream f(dir + "/" + name, std::ios::binary);
+            f.write(static_cast<const char*>(data), std::streamsize(bytes));
+            if (!f) throw Error("cannot write " + dir + "/" + name);
+        };
+        queue_.finish();
+        const cl::Buffer* args[] = {&params_, &tree_, &tris_, &shading_, &accum_};
+        const bool before = std::string(when) == "before";
+        for (int i = before ? 0 : BINDING_COUNT - 1; i < int(BINDING_COUNT); ++i) {
+            std::vector<char> bytes(args[i]->getInfo<CL_MEM_SIZE>());
+            queue_.enqueueReadBuffer(*args[i], CL_TRUE, 0, bytes.size(), bytes.data());
+            write("arg" + std::to_string(i) + (before ? "" : ".after") + ".bin", bytes.data(),
+                  bytes.size());
+        }
+        if (!before) return;
+        // The sizes of the dispatches up to this one.
+        std::string sizes;
+        for (size_t g : dump_sizes_) sizes += std::to_string(g) + "\n";
+        write("sizes.txt", sizes.data(), sizes.size());
+        const std::vector<std::vector<unsigned char>> binaries =
+            program_.getInfo<CL_PROGRAM_BINARIES>();
+        std::string ptx(binaries.at(0).begin(), binaries.at(0).end());
+        while (!ptx.empty() && ptx.back() == '\0') ptx.pop_back();
+        write("kernel.ptx", ptx.data(), ptx.size());
+        const std::string launch = "pathtrace " + std::to_string(global) + " " +
+                                   std::to_string(local_) + " " + std::to_string(BINDING_COUNT) +
+                                   "\n" + built_options_ + "\n";
+        write("launch.txt", launch.data(), launch.size());
+    }
 };
 
 }  // namespace

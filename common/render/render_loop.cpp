@@ -416,7 +416,8 @@ double ProgressiveRender::run_tiles(uint32_t tile, uint32_t spp, uint32_t first,
     p_.state_slots = slots_;
     const auto start = clock::now();
     double dispatch_s = 0;  // this pass's dispatches, without read-backs
-    for (uint32_t offset = 0; offset < npix_; offset += tile) {
+    const uint32_t max_tile = std::min(npix_, slots_);
+    for (uint32_t offset = 0; offset < npix_; offset += p_.pixel_count) {
         p_.pixel_offset = p_.state_base = offset;
         p_.pixel_count = std::min(tile, npix_ - offset);
         if (plan) {
@@ -430,6 +431,7 @@ double ProgressiveRender::run_tiles(uint32_t tile, uint32_t spp, uint32_t first,
         }
         // A round: start the tile's samples, continue their paths until none is left.
         p_.round_start = 1;
+        const double round_before = dispatch_s;
         for (uint32_t active = 1; active > 0; p_.round_start = 0) {
             // Per pixel: the budget per sample times the samples, within the device's cap.
             p_.bounce_budget = uint32_t(std::min<uint64_t>(uint64_t(bounce_budget_) * spp, cap));
@@ -447,6 +449,12 @@ double ProgressiveRender::run_tiles(uint32_t tile, uint32_t spp, uint32_t first,
             else if (active > 0 && t < 0.4 * target_s && uint64_t(bounce_budget_) * spp < cap)
                 bounce_budget_ *= 2;
         }
+        // Rounds far under the target (the first pass starts from a guess of 4096 pixels):
+        // larger tiles for the rest of the pass, up to eight times, toward the target.
+        const double round_s = dispatch_s - round_before;
+        if (round_s < 0.5 * target_s && tile < max_tile && !plan)
+            tile = uint32_t(std::min<double>(
+                max_tile, tile * std::min(8.0, target_s / std::max(round_s, 1e-6))));
         if (windowed_) {
             // The tile's sums, staged until the pass completes (a failure mid-pass adds none).
             backend_.read_accum(window_sums_, p_.pixel_count);
