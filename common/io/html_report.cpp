@@ -35,32 +35,7 @@ pre { background: #f6f6f6; padding: 0.6em; overflow-x: auto; }
 
 }  // namespace
 
-std::string html_escape(const std::string& text) {
-    std::string out;
-    out.reserve(text.size());
-    for (const char c : text) {
-        switch (c) {
-            case '&':
-                out += "&amp;";
-                break;
-            case '<':
-                out += "&lt;";
-                break;
-            case '>':
-                out += "&gt;";
-                break;
-            case '"':
-                out += "&quot;";
-                break;
-            case '\'':
-                out += "&#39;";
-                break;
-            default:
-                out += c;
-        }
-    }
-    return out;
-}
+std::string html_escape(const std::string& text) { return svg_escape(text); }
 
 std::string base64_encode(const std::vector<unsigned char>& bytes) {
     // Three bytes to four characters; the last group padded with '='.

@@ -49,7 +49,7 @@ class HtmlReport {
 // folder: what a command checks before it renders.
 void prepare_report_dir(const std::string& dir);
 
-// &, <, >, ", ' as HTML entities.
+// &, <, >, ", ' as HTML entities (svg_escape()).
 std::string html_escape(const std::string& text);
 // Standard base64 (RFC 4648, with '=' padding).
 std::string base64_encode(const std::vector<unsigned char>& bytes);

@@ -79,6 +79,9 @@ std::string svg_escape(const std::string& text) {
             case '"':
                 out += "&quot;";
                 break;
+            case '\'':
+                out += "&#39;";
+                break;
             default:
                 out += c;
         }

@@ -26,7 +26,7 @@ std::string render_svg(const SvgPlot& plot);
 // render_svg() into `path`; throws mcpt::Error if it cannot be written.
 void write_svg(const std::string& path, const SvgPlot& plot);
 
-// Escapes &, <, >, " for SVG text.
+// Escapes &, <, >, ", ' for SVG and HTML text.
 std::string svg_escape(const std::string& text);
 
 }  // namespace mcpt
