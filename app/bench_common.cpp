@@ -32,7 +32,7 @@ std::vector<OpenBackend> open_backends(const std::vector<std::string>& specs_in,
 
 FrameTiming time_frames(Backend& backend, const GpuScene& g, const Camera& camera, RenderOptions ro,
                         int frames) {
-    backend.load(g, ro.width, ro.height);
+    backend.load(g, ro.width, ro.height, ro.group_spp > 0);
     // Warm-up.
     const uint64_t spp = ro.spp;
     ro.spp = 1, ro.seed = 99;

@@ -62,14 +62,14 @@ Compile time_compile(const std::string& spec, const GpuScene& g, uint32_t featur
     o.compile_nonce = nonce;
     {
         auto cold = open_device(spec, o);
-        cold->load(g, w, h);
+        cold->load(g, w, h, false);
         c.cold_s = cold->compile_seconds();
     }
     o.compile_nonce = 0;
     auto warm = open_device(spec, o);
-    warm->load(g, w, h);  // fills the caches if this build was never made before
+    warm->load(g, w, h, false);  // fills the caches if this build was never made before
     auto cached = open_device(spec, o);
-    cached->load(g, w, h);
+    cached->load(g, w, h, false);
     c.cached_s = cached->compile_seconds();
     return c;
 }

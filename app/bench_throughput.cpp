@@ -130,7 +130,7 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
             Backend& backend = *ob.backend;
             const GpuScene g =
                 prepare_scene(scene, backend.device(), tree_options(a.tree), a.width, a.height);
-            backend.load(g, a.width, a.height);
+            backend.load(g, a.width, a.height, false);
             RenderOptions ro;
             ro.width = a.width, ro.height = a.height;
             ro.max_depth = uint32_t(default_max_depth(scene));

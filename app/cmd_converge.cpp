@@ -290,7 +290,7 @@ void run_converge(const ConvergeArgs& a) {
                 // --tree auto: the tree this device's cost model picks.
                 GpuScene gb = prepare_scene(scene, backend->device(), tree_opts, a.width, a.height);
                 if (sampler == "independent") gb.features |= FEATURE_INDEPENDENT_SAMPLER;
-                backend->load(gb, a.width, a.height);
+                backend->load(gb, a.width, a.height, false);
                 Run run;
                 run.backend = backend->device().backend;
                 if (a.samplers.size() > 1) run.backend += "/" + sampler;

@@ -3,6 +3,7 @@
 // samples that ended to the pixel's sums in the accumulation buffer and keeps the path for the next dispatch.
 // Everything else is the shared device code in common/gpu/ (the GLSL twin is
 // shaders/pathtrace.comp, with the same function names).
+#include "../common/gpu/fold_sums.h"
 #include "../common/gpu/integrator.h"
 
 __kernel void pathtrace(__global const GpuParams* params, __global const uint* tree,
@@ -26,6 +27,18 @@ __kernel void pathtrace(__global const GpuParams* params, __global const uint* t
     // The pixel's sums, path state and the pending word.
     AccumPlace at = accum_place(SCENE_ARGS_ pixel);
     uint sum = at.sum;
+    // Reproducible: the group's float sums into the exact sums (fold_sums.h), nothing traced.
+    if (params->fold_sums != 0u) {
+        __global uint4* exact =
+            (__global uint4*)accum + params->exact_vec4 + EXACT_VEC4_PER_PIXEL * pixel;
+        ExactPixel px = {exact[0], exact[1], exact[2], exact[3], exact[4], exact[5], exact[6]};
+        FoldStep f = fold_pixel(accum[sum], accum[sum + 1u], px, params->fold_sums);
+        exact[0] = f.px.sum_r, exact[1] = f.px.sum_g, exact[2] = f.px.sum_b;
+        exact[3] = f.px.sq_r, exact[4] = f.px.sq_g, exact[5] = f.px.sq_b;
+        exact[6] = f.px.counts;
+        if (!f.ok) *(__global uint*)(accum + at.pending) = 1u;  // out of range
+        return;
+    }
     __global float4* state = accum + at.state;
     __global uint* pending = (__global uint*)(accum + at.pending);
     // Start the pixel's samples of this round, or continue its path.

@@ -92,12 +92,12 @@ class OpenClBackend final : public Backend {
                std::to_string(local_) + window_note(accum_shape_);
     }
 
-    void load(const GpuScene& scene, int width, int height) override {
+    void load(const GpuScene& scene, int width, int height, bool exact_sums) override {
         build(scene.stack_size, compile_features(options_, scene));
         // Check every buffer against the device limits before allocating.
         check_device_limits(scene, width, height, dev_.info, description());
-        const uint64_t npix = uint64_t(width) * uint64_t(height);
-        const AccumLayout layout = accum_layout(npix, dev_.info.memory.max_buffer_bytes);
+        const AccumLayout layout =
+            accum_layout_for(scene, width, height, dev_.info.memory, exact_sums);
         const uint64_t accum_bytes = layout.bytes;
         sums_floats_ = size_t(layout.sums_bytes() / 4);
         counter_offset_ = size_t(layout.pending_offset());
@@ -128,6 +128,21 @@ class OpenClBackend final : public Backend {
         try {
             queue_.enqueueWriteBuffer(accum_, CL_TRUE, accum_shape_.plan_offset(), words.size() * 4,
                                       words.data());
+        } catch (const cl::Error& e) {
+            stopped(e.err(), e.what());
+        }
+    }
+
+    const AccumLayout& accum_shape() const override { return accum_shape_; }
+
+    void read_exact(std::vector<uint32_t>& out, uint32_t first, uint32_t count) override {
+        if (uint64_t(first) + count > accum_shape_.exact_pixels)
+            throw Error("opencl: exact sums of pixels the buffer does not hold");
+        const uint64_t per_pixel = EXACT_VEC4_PER_PIXEL * 16;
+        out.resize(size_t(count) * EXACT_VEC4_PER_PIXEL * 4);
+        try {
+            queue_.enqueueReadBuffer(accum_, CL_TRUE, accum_shape_.exact_offset() + first * per_pixel,
+                                     count * per_pixel, out.data());
         } catch (const cl::Error& e) {
             stopped(e.err(), e.what());
         }

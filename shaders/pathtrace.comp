@@ -6,11 +6,13 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #define MCPT_GLSL 1
+#include "../common/gpu/fold_sums.h"
 #include "../common/gpu/integrator.h"
 
 layout(local_size_x_id = 1) in;
 layout(std430, binding = BINDING_ACCUM) buffer AccumBlock { vec4 accum[]; };
 layout(std430, binding = BINDING_ACCUM) buffer ActiveBlock { uint accum_words[]; };
+layout(std430, binding = BINDING_ACCUM) buffer ExactBlock { uvec4 accum_exact[]; };
 
 void main() {
     uint gid = gl_GlobalInvocationID.x;
@@ -21,6 +23,24 @@ void main() {
     uint sum = at.sum;
     uint state = at.state;
     uint pending = 4u * at.pending;
+    // Reproducible: the group's float sums into the exact sums (fold_sums.h), nothing traced.
+    if (params.fold_sums != 0u) {
+        uint exact = params.exact_vec4 + EXACT_VEC4_PER_PIXEL * pixel;
+        ExactPixel px = ExactPixel(accum_exact[exact], accum_exact[exact + 1u],
+                                   accum_exact[exact + 2u], accum_exact[exact + 3u],
+                                   accum_exact[exact + 4u], accum_exact[exact + 5u],
+                                   accum_exact[exact + 6u]);
+        FoldStep f = fold_pixel(accum[sum], accum[sum + 1u], px, params.fold_sums);
+        accum_exact[exact] = f.px.sum_r;
+        accum_exact[exact + 1u] = f.px.sum_g;
+        accum_exact[exact + 2u] = f.px.sum_b;
+        accum_exact[exact + 3u] = f.px.sq_r;
+        accum_exact[exact + 4u] = f.px.sq_g;
+        accum_exact[exact + 5u] = f.px.sq_b;
+        accum_exact[exact + 6u] = f.px.counts;
+        if (!f.ok) accum_words[pending] = 1u;  // out of range
+        return;
+    }
     // Start the pixel's samples of this round, or continue its path.
     PathState st;
     if (params.round_start != 0u) {

@@ -14,7 +14,7 @@ namespace {
 class AccumWindow : public ::testing::TestWithParam<std::string> {};
 
 std::vector<float> render_image(const std::string& api, uint64_t max_buffer_bytes,
-                                std::string* layout) {
+                                std::string* layout, uint64_t spp = 20) {
     BackendOptions o;
     o.max_buffer_bytes = max_buffer_bytes;
     Session s(test::test_backend(api, o));
@@ -24,7 +24,7 @@ std::vector<float> render_image(const std::string& api, uint64_t max_buffer_byte
     s.settings().seed = 5;
     // 6 samples, then on to 20: the window renders the group that 6 cut short again whole.
     EXPECT_EQ(s.render(1e6, 0, 6).spp, 6u);
-    EXPECT_EQ(s.render(1e6, 0, 20).spp, 20u);
+    EXPECT_EQ(s.render(1e6, 0, spp).spp, spp);
     *layout = s.backend().layout();
     return s.image_rgba32f();
 }
@@ -36,9 +36,29 @@ TEST_P(AccumWindow, WindowedBufferGivesTheWholeImageBuffersImage) {
     const std::vector<float> whole = render_image(GetParam(), 0, &whole_layout);
     const std::vector<float> windowed = render_image(GetParam(), small, &window_layout);
     EXPECT_EQ(whole_layout.find("window"), std::string::npos) << whole_layout;
+    EXPECT_NE(whole_layout.find("exact sums on the device"), std::string::npos) << whole_layout;
     EXPECT_NE(window_layout.find("accumulation in windows of 481 pixels"), std::string::npos)
         << window_layout;
     EXPECT_EQ(whole, windowed);
+}
+
+// Reproducible groups added exactly on the device (fold_sums.h) and on the host (where the
+// exact sums do not fit beside the others): the same image, bit for bit, over several groups.
+TEST_P(AccumWindow, ExactSumsOnTheDeviceGiveTheHostsImage) {
+    const uint64_t npix = 48 * 40;
+    const AccumLayout plain = accum_layout(npix, 0);
+    const uint64_t no_room = plain.bytes + 16 * npix;  // the sums fit, the exact sums do not
+    ASSERT_FALSE(accum_layout(npix, no_room).window);
+    ASSERT_EQ(accum_layout(npix, no_room, true).exact_pixels, 0u);
+    std::string device_layout, host_layout;
+    const std::vector<float> device = render_image(GetParam(), 0, &device_layout, 70);
+    const std::vector<float> host = render_image(GetParam(), no_room, &host_layout, 70);
+    EXPECT_NE(device_layout.find("exact sums on the device"), std::string::npos) << device_layout;
+    EXPECT_EQ(host_layout.find("exact sums"), std::string::npos) << host_layout;
+    EXPECT_EQ(device, host);
+    // Negative control: one sample more is another image.
+    std::string other_layout;
+    EXPECT_NE(render_image(GetParam(), 0, &other_layout, 71), device);
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, AccumWindow, ::testing::ValuesIn(test::test_apis()),

@@ -27,7 +27,7 @@ std::vector<double> image_means(const std::string& api, bool adaptive, bool own_
     const Scene scene = make_builtin_scene("cornell");
     const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, TreeOptions{}));
     std::unique_ptr<Backend> backend = test::test_backend(api);
-    backend->load(g, kSize, kSize);
+    backend->load(g, kSize, kSize, false);
     std::vector<double> means;
     for (int k = 0; k < kRenders; ++k) {
         RenderOptions o;

@@ -15,7 +15,7 @@ class Continuation : public ::testing::TestWithParam<std::string> {};
 // and the number of dispatches it took.
 std::pair<std::vector<float>, int> round_sums(Backend& b, const Scene& scene, const GpuScene& g,
                                               int size, uint32_t spp, uint32_t budget) {
-    b.load(g, size, size);
+    b.load(g, size, size, false);
     gpu::GpuParams p = g.params;
     set_camera(p, scene.camera, size, size);
     p.max_depth = 8, p.rr_depth = 3, p.seed = 11, p.light_scale = 1.f;

@@ -121,7 +121,7 @@ FurnaceConvergence furnace_convergence(float light_scale, uint64_t max_spp,
     po.schedule = Schedule::SppDoubling;  // spp-based: independent of machine load
     po.max_spp = max_spp;
     po.seed_base = 11;
-    backend->load(g, po.render.width, po.render.height);
+    backend->load(g, po.render.width, po.render.height, false);
     const Reference ref = constant_reference(32, 32, exact, "exact");
     FurnaceConvergence f;
     RenderResult total;

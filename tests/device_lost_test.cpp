@@ -30,7 +30,12 @@ class FailingBackend final : public Backend {
 
     std::string description() const override { return inner_->description(); }
     const DeviceInfo& device() const override { return inner_->device(); }
-    void load(const GpuScene& s, int w, int h) override { inner_->load(s, w, h); }
+    void load(const GpuScene& s, int w, int h, bool exact) override { inner_->load(s, w, h, exact); }
+    const AccumLayout& accum_shape() const override { return inner_->accum_shape(); }
+    void read_exact(std::vector<uint32_t>& out, uint32_t first, uint32_t count) override {
+        ++reads_;
+        inner_->read_exact(out, first, count);
+    }
     uint32_t dispatch(const gpu::GpuParams& p) override {
         const bool pass_starts = p.round_start && p.pixel_offset == 0;
         if (pass_starts) pass_spp_.push_back(p.samples_per_dispatch);
@@ -129,6 +134,39 @@ TEST_P(DeviceFailure, OtherFailureKeepsTheImageAndRenderingGoesOn) {
     EXPECT_EQ(session_->image_rgba32f(), before_);
     EXPECT_EQ(session_->render(1e6, 0, 12).spp, 12u);
     EXPECT_NE(session_->image_rgba32f(), before_);
+}
+
+// Reproducible: whole groups go to exact sums on the device (fold_sums.h) and reach the host
+// at a read-back. A device lost after many groups keeps those read back, a whole number of
+// groups, and the image is exactly a fresh render of that many samples.
+TEST_P(DeviceFailure, LostDeviceKeepsWholeGroupsReproducibly) {
+    auto wrapped = std::make_unique<FailingBackend>(test::test_backend(GetParam()));
+    FailingBackend* fb = wrapped.get();
+    Session s(std::move(wrapped));
+    s.set_scene(load_scene("cornell"));
+    s.settings().width = s.settings().height = 32;
+    s.settings().reproducible = true;
+    ASSERT_EQ(s.render(1e6, 0, 32).spp, 32u);
+    ASSERT_NE(s.backend().layout().find("exact sums on the device"), std::string::npos);
+    fb->arm(40, true);
+    EXPECT_THROW(s.render(1e6, 0, 100000), DeviceLost);
+    const uint64_t kept = s.spp();
+    EXPECT_EQ(kept % kReproducibleGroupSpp, 0u);
+    // The groups folded since the last read-back are lost with the device: all of them where
+    // none was read back (a render() reads back once a second).
+    uint32_t completed = 0;
+    for (size_t i = 0; i + 1 < fb->pass_spp().size(); ++i) completed += fb->pass_spp()[i];
+    ASSERT_GE(completed, 2 * kReproducibleGroupSpp);
+    EXPECT_LE(kept, 32u + completed);
+    if (fb->reads_since_armed() == 0) {
+        EXPECT_EQ(kept, 32u);
+    }
+    Session fresh(test::test_backend(GetParam()));
+    fresh.set_scene(load_scene("cornell"));
+    fresh.settings().width = fresh.settings().height = 32;
+    fresh.settings().reproducible = true;
+    ASSERT_EQ(fresh.render(1e6, 0, kept).spp, kept);
+    EXPECT_EQ(s.image_rgba32f(), fresh.image_rgba32f()) << kept << " samples kept";
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, DeviceFailure, ::testing::ValuesIn(test::test_apis()),

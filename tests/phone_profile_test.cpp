@@ -56,12 +56,12 @@ TEST(PhoneProfile, SceneBeyondTheProfileNamesBufferSizeAndLimit) {
     Scene scene = make_builtin_scene("cornell");
     GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, TreeOptions{}));
     // An image whose sums exceed 128 MiB (256 MiB) loads, accumulating through a window.
-    b->load(g, 4096, 2048);
+    b->load(g, 4096, 2048, false);
     EXPECT_NE(b->layout().find("accumulation in windows of"), std::string::npos) << b->layout();
     // A scene array over 128 MiB is refused with its name, size and the limit.
     g.triangles.resize((129u << 20) / sizeof(gpu::GpuTriangle) + 1);
     try {
-        b->load(g, 64, 64);
+        b->load(g, 64, 64, false);
         FAIL() << "a triangle buffer over 128 MiB was accepted";
     } catch (const Error& e) {
         EXPECT_NE(std::string(e.what()).find("triangles need 129 MiB, "

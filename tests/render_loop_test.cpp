@@ -7,9 +7,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <map>
 
+#include "common/gpu/fold_sums.h"
 #include "common/render/adaptive.h"
 
 namespace mcpt {
@@ -26,11 +28,37 @@ class FakeBackend final : public Backend {
   public:
     std::string description() const override { return "fake"; }
     const DeviceInfo& device() const override { return info_; }
-    void load(const GpuScene&, int w, int h) override {
+    void load(const GpuScene&, int w, int h, bool exact) override {
         accum_.assign(size_t(w) * h * 8, 0.f);
-        slots_.assign(accum_layout(uint64_t(w) * h, 0).slots, Slot{});
+        layout_ = accum_layout(uint64_t(w) * h, 0, exact && offer_exact);
+        slots_.assign(layout_.slots, Slot{});
+        exact_.assign(size_t(layout_.exact_pixels) * EXACT_VEC4_PER_PIXEL, glm::uvec4(0));
+    }
+    const AccumLayout& accum_shape() const override { return layout_; }
+    // Exact sums as the kernels fold them: the device code itself (common/gpu/fold_sums.h).
+    void read_exact(std::vector<uint32_t>& out, uint32_t first, uint32_t count) override {
+        out.resize(size_t(count) * EXACT_VEC4_PER_PIXEL * 4);
+        std::memcpy(out.data(), &exact_.at(size_t(first) * EXACT_VEC4_PER_PIXEL),
+                    out.size() * 4);
+    }
+    uint32_t fold(const gpu::GpuParams& p) {
+        ++folds;
+        uint32_t out_of_range = 0;
+        for (uint32_t i = p.pixel_offset; i < p.pixel_offset + p.pixel_count; ++i) {
+            glm::uvec4* e = &exact_.at(size_t(i) * EXACT_VEC4_PER_PIXEL);
+            const float* a = &accum_[8 * size_t(i)];
+            const gpu::ExactPixel px{e[0], e[1], e[2], e[3], e[4], e[5], e[6]};
+            const gpu::FoldStep f = gpu::fold_pixel(glm::vec4(a[0], a[1], a[2], a[3]),
+                                                    glm::vec4(a[4], a[5], a[6], a[7]), px,
+                                                    p.fold_sums);
+            e[0] = f.px.sum_r, e[1] = f.px.sum_g, e[2] = f.px.sum_b;
+            e[3] = f.px.sq_r, e[4] = f.px.sq_g, e[5] = f.px.sq_b, e[6] = f.px.counts;
+            out_of_range |= f.ok ? 0u : 1u;
+        }
+        return out_of_range;
     }
     uint32_t dispatch(const gpu::GpuParams& p) override {
+        if (p.fold_sums) return fold(p);
         ++dispatches;
         most_samples_per_round = std::max(most_samples_per_round, p.samples_per_dispatch);
         most_bounces_per_dispatch = std::max(most_bounces_per_dispatch, p.bounce_budget);
@@ -75,7 +103,8 @@ class FakeBackend final : public Backend {
     std::string layout() const override { return "fake"; }
     double device_seconds() const override { return 0; }
     uint32_t max_bounces_per_dispatch() const override { return cap; }
-    size_t dispatches = 0;
+    bool offer_exact = true;  // room for exact sums when a reproducible render asks
+    size_t dispatches = 0, folds = 0;
     uint32_t most_samples_per_round = 0, most_bounces_per_dispatch = 0;
     uint32_t cap = 1u << 20, bounces = 1;
 
@@ -84,10 +113,36 @@ class FakeBackend final : public Backend {
         uint32_t sample = 0, left = 0, done = 0;
     };
     DeviceInfo info_;
+    AccumLayout layout_;
     std::vector<float> accum_;
+    std::vector<glm::uvec4> exact_;
     std::vector<Slot> slots_;
     std::vector<uint32_t> plan_;
 };
+
+// Reproducible: each group's float sums added exactly on the device (the fake runs the device
+// code, fold_sums.h) give the sums of the host's exact additions, bit for bit.
+TEST(RenderLoop, ExactSumsOnTheDeviceEqualTheHosts) {
+    RenderOptions o;
+    o.width = 7, o.height = 5;
+    o.spp = 16 * 37 + 5;  // the last, partial group shown on top of the exact sums
+    o.group_spp = 16;
+    FakeBackend device, host;
+    host.offer_exact = false;
+    device.noisy = host.noisy = [](uint32_t p) { return p % 3 == 0; };
+    const RenderResult a = render(device, GpuScene{}, Camera{}, o);
+    const RenderResult b = render(host, GpuScene{}, Camera{}, o);
+    EXPECT_GE(device.folds, 37u);
+    EXPECT_EQ(host.folds, 0u);
+    EXPECT_EQ(a.spp, o.spp);
+    EXPECT_EQ(a.sum, b.sum);
+    EXPECT_EQ(a.sum_sq, b.sum_sq);
+    EXPECT_EQ(a.rays, b.rays);
+    EXPECT_EQ(a.nonfinite, b.nonfinite);
+    // Negative control: without the partial group's samples, another image.
+    o.spp -= 5;
+    EXPECT_NE(render(host, GpuScene{}, Camera{}, o).sum, a.sum);
+}
 
 TEST(RenderLoop, TenMillionSamplesDoNotDrift) {
     FakeBackend backend;

@@ -136,7 +136,7 @@ TEST(VulkanLimits, RefusesBufferOverMaxStorageBufferRange) {
     {
         ScopedEnv limit("MCPT_VULKAN_MAX_BUFFER_BYTES", "256");
         try {
-            vk->load(p.gpu, 32, 32);
+            vk->load(p.gpu, 32, 32, false);
             FAIL() << "a 256-byte maxStorageBufferRange was not enforced";
         } catch (const Error& e) {
             const std::string m = e.what();
@@ -146,7 +146,7 @@ TEST(VulkanLimits, RefusesBufferOverMaxStorageBufferRange) {
     }
     // An image whose sums exceed any device's range (8 GiB > 4 GiB) accumulates through a
     // window within it.
-    vk->load(p.gpu, 16384, 16384);
+    vk->load(p.gpu, 16384, 16384, false);
     EXPECT_NE(vk->layout().find("accumulation in windows of"), std::string::npos) << vk->layout();
     // The same backend still works within the limits.
     const RenderResult r = render_on(*vk, p, 16, 1, 0);
@@ -162,7 +162,7 @@ TEST(VulkanDispatch, SplitDispatchMatchesSingleDispatch) {
         std::optional<ScopedEnv> limit;
         if (split) limit.emplace("MCPT_VULKAN_MAX_GROUP_COUNT", "1");
         auto vk = open_vulkan();
-        vk->load(p.gpu, size, size);
+        vk->load(p.gpu, size, size, false);
         gpu::GpuParams params = p.gpu.params;
         set_camera(params, p.scene.camera, size, size);
         params.max_depth = 8, params.rr_depth = 3, params.seed = 5, params.light_scale = 1.f;

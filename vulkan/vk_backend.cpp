@@ -278,14 +278,15 @@ struct VulkanBackend::Impl {
 
     // ---- Backend
 
-    void load(const GpuScene& scene, int width, int height) {
+    void load(const GpuScene& scene, int width, int height, bool exact_sums) {
         // Check every buffer against the device limits before allocating or compiling.
         const uint64_t npix = uint64_t(width) * uint64_t(height);
         pd.info.memory = vk::memory_limits(pd);
         limit_buffers(pd.info.memory, options.max_buffer_bytes);
-        const AccumLayout layout = accum_layout(npix, pd.info.memory.max_buffer_bytes);
-        const uint64_t accum_bytes = layout.bytes;
         check_device_limits(scene, width, height, pd.info, description());
+        const AccumLayout layout =
+            accum_layout_for(scene, width, height, pd.info.memory, exact_sums);
+        const uint64_t accum_bytes = layout.bytes;
         dev->wait_idle();
         release_scene();
 
@@ -463,6 +464,32 @@ struct VulkanBackend::Impl {
         dev->submit_and_wait();
     }
 
+    void read_exact(std::vector<uint32_t>& out, uint32_t first, uint32_t count) {
+        if (uint64_t(first) + count > accum_shape.exact_pixels)
+            throw Error("vulkan: exact sums of pixels the buffer does not hold");
+        const uint64_t per_pixel = EXACT_VEC4_PER_PIXEL * 16;
+        out.resize(size_t(count) * EXACT_VEC4_PER_PIXEL * 4);
+        const uint64_t offset = accum_shape.exact_offset() + first * per_pixel;
+        if (accum.mapped) {
+            std::memcpy(out.data(), static_cast<const char*>(accum.mapped) + offset,
+                        size_t(count * per_pixel));
+            return;
+        }
+        // Not host-visible: through the readback buffer, as many pixels at a time as it holds.
+        const uint64_t step = std::max<uint64_t>(1, readback.size / per_pixel);
+        for (uint64_t done = 0; done < count; done += step) {
+            const uint64_t bytes = std::min<uint64_t>(step, count - done) * per_pixel;
+            dev->begin_commands();
+            const VkBufferCopy region{offset + done * per_pixel, 0, bytes};
+            dev->fn().vkCmdCopyBuffer(dev->cmd(), accum.buffer, readback.buffer, 1, &region);
+            dev->barrier(VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                         VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
+            dev->submit_and_wait();
+            std::memcpy(reinterpret_cast<char*>(out.data()) + done * per_pixel, readback.mapped,
+                        size_t(bytes));
+        }
+    }
+
     void read_accum(std::vector<float>& out, uint32_t count) {
         if (pixels == 0) throw Error("vulkan: read_accum() before load()");
         // The sums only (the path state after them stays on the device).
@@ -495,8 +522,11 @@ std::string VulkanBackend::description() const {
 const DeviceInfo& VulkanBackend::device() const {
     return impl_->pd.info;
 }
-void VulkanBackend::load(const GpuScene& scene, int width, int height) {
-    impl_->load(scene, width, height);
+void VulkanBackend::load(const GpuScene& scene, int width, int height, bool exact_sums) {
+    impl_->load(scene, width, height, exact_sums);
+}
+const AccumLayout& VulkanBackend::accum_shape() const {
+    return impl_->accum_shape;
 }
 uint32_t VulkanBackend::dispatch(const gpu::GpuParams& params) {
     return impl_->dispatch(params);
@@ -506,6 +536,9 @@ void VulkanBackend::write_plan(const std::vector<uint32_t>& words) {
 }
 void VulkanBackend::read_accum(std::vector<float>& out, uint32_t pixels) {
     impl_->read_accum(out, pixels);
+}
+void VulkanBackend::read_exact(std::vector<uint32_t>& out, uint32_t first, uint32_t count) {
+    impl_->read_exact(out, first, count);
 }
 double VulkanBackend::compile_seconds() const {
     return impl_->compile_seconds;

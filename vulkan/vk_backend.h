@@ -40,10 +40,12 @@ class VulkanBackend final : public Backend {
 
     std::string description() const override;
     const DeviceInfo& device() const override;
-    void load(const GpuScene& scene, int width, int height) override;
+    void load(const GpuScene& scene, int width, int height, bool exact_sums) override;
+    const AccumLayout& accum_shape() const override;
     uint32_t dispatch(const gpu::GpuParams& params) override;
     void write_plan(const std::vector<uint32_t>& words) override;
     void read_accum(std::vector<float>& out, uint32_t pixels) override;
+    void read_exact(std::vector<uint32_t>& out, uint32_t first, uint32_t count) override;
     // Seconds spent creating the compute pipeline in load().
     double compile_seconds() const override;
     uint32_t compiled_features() const override;

@@ -42,7 +42,7 @@ BatchSet batch_means(const std::vector<RenderResult>& renders) {
 BatchSet render_batches(Backend& backend, const GpuScene& scene, const Camera& camera,
                         RenderOptions options, const BatchOptions& batch) {
     if (batch.batches < 2) throw Error("need at least 2 batches");
-    backend.load(scene, options.width, options.height);
+    backend.load(scene, options.width, options.height, options.group_spp > 0);
     options.spp = batch.spp_per_batch;
     // One batch: an independent render with its own seed.
     std::vector<RenderResult> renders;

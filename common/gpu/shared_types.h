@@ -215,7 +215,11 @@ MCPT_STRUCT(GpuParams) {
     uint env_width, env_height;
     uint env_word, env_rows_word, env_cols_word;
     float env_u_shift, env_pmf;
-    uint pad_params0, pad_params1, pad_params2;  // std140: a multiple of 16 bytes
+    // Reproducible renders with their exact sums on the device (exact_vec4 > 0, the vec4 where
+    // they start): FOLD_ADD or FOLD_STORE makes a dispatch add (store) each pixel's float sums,
+    // one whole group, to (as) its exact sums and trace nothing; overflow sets the pending word.
+    uint fold_sums, exact_vec4;
+    uint pad_params0;  // std140: a multiple of 16 bytes
 };
 // GpuParams.scene_flags: the triangle buffer holds GpuTriangleAttributes after the triangles;
 // some material has an alpha mask (the traversal reads materials only then).
@@ -230,7 +234,15 @@ MCPT_STRUCT(GpuParams) {
 // one vec4 whose first word is set when a pixel still owes samples after a dispatch, then the
 // sample plan: PLAN_WORDS_PER_SLOT words per slot (first sample index, samples), written by
 // the host before a round when GpuParams.sample_plan is set.
+// Reproducible renders may add, after the plan, the exact sums of whole groups (fold_sums.h):
+// EXACT_VEC4_PER_PIXEL uvec4 per pixel of the image, at GpuParams.exact_vec4.
+//   [7*i .. 7*i+2] = sums of radiance (rgb), [7*i+3 .. 7*i+5] = sums of squares (rgb): each a
+//                    128-bit two's complement fixed-point number (exact_sums.h), low word first
+//   [7*i+6]        = non-finite samples, rays traced: two 64-bit counts, low word first
 #define ACCUM_VEC4_PER_PIXEL 2u
+#define EXACT_VEC4_PER_PIXEL 7u
+#define FOLD_ADD 1u
+#define FOLD_STORE 2u
 #define PATH_STATE_VEC4 6u
 #define PLAN_WORDS_PER_SLOT 2u
 #define MAX_STATE_SLOTS 1048576u  // 96 MiB of path state at most
@@ -251,6 +263,7 @@ static_assert(sizeof(mcpt::gpu::GpuTexture) == 16, "GpuTexture must be 16 bytes"
 static_assert(offsetof(mcpt::gpu::GpuParams, light_power_total) == 14 * 4, "GpuParams layout");
 static_assert(offsetof(mcpt::gpu::GpuParams, cam_px) == 21 * 4, "GpuParams layout");
 static_assert(offsetof(mcpt::gpu::GpuParams, light_scale) == 33 * 4, "GpuParams layout");
+static_assert(offsetof(mcpt::gpu::GpuParams, fold_sums) == 53 * 4, "GpuParams layout");
 #endif
 
 #endif  // MCPT_GPU_SHARED_TYPES_H

@@ -68,8 +68,12 @@ class Backend {
     virtual std::string description() const = 0;
     virtual const DeviceInfo& device() const = 0;
     // Compiles the program for this scene (stack size), uploads its arrays and allocates the
-    // accumulation buffer for width*height pixels. Throws mcpt::Error on device limits.
-    virtual void load(const GpuScene& scene, int width, int height) = 0;
+    // accumulation buffer for width*height pixels, with room for exact sums when exact_sums
+    // asks and they fit (accum_layout_for(), device_limits.h). Throws mcpt::Error on device
+    // limits.
+    virtual void load(const GpuScene& scene, int width, int height, bool exact_sums) = 0;
+    // What load() allocated.
+    virtual const AccumLayout& accum_shape() const = 0;
     // Runs one dispatch and waits for it; returns non-zero while some of its pixels still owe
     // samples of the round (their paths continue in the next dispatch, round_start = 0).
     // Throws mcpt::DeviceLost when the device stops (lost, or out of resources executing).
@@ -80,6 +84,9 @@ class Backend {
     // The accumulation sums, ACCUM_VEC4_PER_PIXEL * 4 floats per pixel, of the first `pixels`
     // pixels the buffer holds (0: all; a window's tile may fill only part of it).
     virtual void read_accum(std::vector<float>& out, uint32_t pixels) = 0;
+    // The exact sums (EXACT_VEC4_PER_PIXEL * 4 words per pixel, shared_types.h) of pixels
+    // [first, first + count); only when accum_shape().exact_pixels covers them.
+    virtual void read_exact(std::vector<uint32_t>& out, uint32_t first, uint32_t count) = 0;
     // Seconds spent compiling in load().
     virtual double compile_seconds() const = 0;
     // Device time spent in dispatches so far (OpenCL profiling events, Vulkan timestamps);

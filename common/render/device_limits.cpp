@@ -50,6 +50,21 @@ void check_device_limits(const GpuScene& scene, int width, int height, const Dev
     }
 }
 
+AccumLayout accum_layout_for(const GpuScene& scene, int width, int height, const MemoryLimits& m,
+                             bool exact_sums) {
+    const uint64_t npix = uint64_t(width) * uint64_t(height);
+    const AccumLayout plain = accum_layout(npix, m.max_buffer_bytes);
+    if (!exact_sums) return plain;
+    const AccumLayout exact = accum_layout(npix, m.max_buffer_bytes, true);
+    if (exact.exact_pixels == 0) return plain;
+    if (m.max_allocation_bytes > 0 && exact.bytes > m.max_allocation_bytes) return plain;
+    uint64_t total = exact.bytes - plain.bytes;
+    for (const auto& [what, bytes] : device_buffers(scene, width, height, m.max_buffer_bytes))
+        total += bytes;
+    if (m.device_memory_bytes > 0 && total > m.device_memory_bytes / 2) return plain;
+    return exact;
+}
+
 void limit_buffers(MemoryLimits& m, uint64_t max_buffer_bytes) {
     if (max_buffer_bytes == 0) return;
     if (m.max_buffer_bytes == 0 || max_buffer_bytes < m.max_buffer_bytes) {

@@ -19,6 +19,12 @@ namespace mcpt {
 std::vector<std::pair<std::string, uint64_t>> device_buffers(const GpuScene& scene, int width,
                                                              int height, uint64_t max_buffer_bytes);
 
+// The accumulation buffer load() allocates: with room for exact sums (reproducible renders)
+// when exact_sums asks and they fit the largest buffer and allocation and, with the scene,
+// half of the device's memory; otherwise without (the host then adds the groups exactly).
+AccumLayout accum_layout_for(const GpuScene& scene, int width, int height, const MemoryLimits& m,
+                             bool exact_sums);
+
 // Lowers m.max_buffer_bytes to max_buffer_bytes (0: leaves it), noting why: how tests make a
 // device's largest buffer small (BackendOptions::max_buffer_bytes).
 void limit_buffers(MemoryLimits& m, uint64_t max_buffer_bytes);

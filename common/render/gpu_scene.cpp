@@ -314,11 +314,11 @@ void append_words(std::vector<uint32_t>& out, const std::vector<T>& v) {
 }  // namespace
 
 std::string window_note(const AccumLayout& l) {
-    return l.window ? ", accumulation in windows of " + std::to_string(l.sum_pixels) + " pixels"
-                    : "";
+    if (l.window) return ", accumulation in windows of " + std::to_string(l.sum_pixels) + " pixels";
+    return l.exact_pixels > 0 ? ", exact sums on the device" : "";
 }
 
-AccumLayout accum_layout(uint64_t npix, uint64_t max_buffer_bytes) {
+AccumLayout accum_layout(uint64_t npix, uint64_t max_buffer_bytes, bool exact_sums) {
     // In vec4s: the sums of every pixel, the slots, the pending word, the sample plan.
     const uint64_t limit = max_buffer_bytes > 0 ? max_buffer_bytes / 16 : UINT64_MAX;
     const uint64_t sums = npix * ACCUM_VEC4_PER_PIXEL;
@@ -347,6 +347,13 @@ AccumLayout accum_layout(uint64_t npix, uint64_t max_buffer_bytes) {
     }
     l.slots = uint32_t(slots);
     l.bytes = (uint64_t(l.sum_pixels) * ACCUM_VEC4_PER_PIXEL + slot_vec4s(slots)) * 16;
+    // The exact sums after the plan, where they fit (else the host adds the groups).
+    const uint64_t exact = npix * EXACT_VEC4_PER_PIXEL * 16;
+    if (exact_sums && !l.window && (max_buffer_bytes == 0 || l.bytes + exact <= max_buffer_bytes) &&
+        (l.bytes + exact) / 16 < (uint64_t(1) << 32)) {
+        l.exact_pixels = uint32_t(npix);
+        l.bytes += exact;
+    }
     return l;
 }
 

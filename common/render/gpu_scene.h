@@ -55,20 +55,26 @@ uint32_t oct_encode(glm::vec3 n);
 // one path-state slot per pixel of a round's tile (the whole image up to MAX_STATE_SLOTS, as
 // many as fit); or, when not even the sums fit, a window of `slots` pixels with their sums
 // and slots, which a round's tile never exceeds and the host reads back after each round.
+// With exact_sums (reproducible renders) and no window, the exact sums of every pixel follow
+// (EXACT_VEC4_PER_PIXEL vec4 each) where they fit within max_buffer_bytes.
 struct AccumLayout {
     bool window = false;
-    uint32_t sum_pixels = 0;  // pixels whose sums the buffer holds (npix, or slots)
-    uint32_t slots = 0;       // path-state slots: the largest tile
-    uint64_t bytes = 0;       // sums, path state, the pending word and the sample plan
+    uint32_t sum_pixels = 0;    // pixels whose sums the buffer holds (npix, or slots)
+    uint32_t slots = 0;         // path-state slots: the largest tile
+    uint32_t exact_pixels = 0;  // pixels whose exact sums the buffer holds (npix, or 0)
+    uint64_t bytes = 0;  // sums, path state, the pending word, the sample plan, exact sums
     uint64_t sums_bytes() const { return uint64_t(sum_pixels) * ACCUM_VEC4_PER_PIXEL * 16; }
     uint64_t pending_offset() const {
         return sums_bytes() + uint64_t(slots) * PATH_STATE_VEC4 * 16;
     }
     uint64_t plan_offset() const { return pending_offset() + 16; }
     uint64_t plan_bytes() const { return uint64_t(slots) * PLAN_WORDS_PER_SLOT * 4; }
+    uint64_t exact_bytes() const { return uint64_t(exact_pixels) * EXACT_VEC4_PER_PIXEL * 16; }
+    uint64_t exact_offset() const { return bytes - exact_bytes(); }  // a multiple of 16
 };
-AccumLayout accum_layout(uint64_t npix, uint64_t max_buffer_bytes);
-// ", accumulation in windows of N pixels" for a windowed layout (Backend::layout()), else "".
+AccumLayout accum_layout(uint64_t npix, uint64_t max_buffer_bytes, bool exact_sums = false);
+// ", accumulation in windows of N pixels" for a windowed layout (Backend::layout()), ", exact
+// sums on the device" for one with exact sums, else "".
 std::string window_note(const AccumLayout& layout);
 
 // Pinhole camera for a width x height image into params.

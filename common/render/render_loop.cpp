@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <thread>
 
 #include "common/error.h"
@@ -121,7 +122,7 @@ RenderResult render(Backend& backend, const GpuScene& scene, const Camera& camer
     if (opt.width <= 0 || opt.height <= 0 || opt.width > 16384 || opt.height > 16384) {
         throw Error("image size must be between 1x1 and 16384x16384");
     }
-    backend.load(scene, opt.width, opt.height);
+    backend.load(scene, opt.width, opt.height, opt.group_spp > 0);
     return render_loaded(backend, scene, camera, opt, progress);
 }
 
@@ -157,7 +158,7 @@ ProgressiveRender::ProgressiveRender(Backend& backend, const GpuScene& scene, co
     r_.sum_sq.assign(3 * size_t(npix_), 0.0);
     r_.nonfinite.assign(npix_, 0.0);
     // The accumulation buffer the backend allocated for this size (gpu_scene.h).
-    const AccumLayout layout = accum_layout(npix_, backend.device().memory.max_buffer_bytes);
+    const AccumLayout& layout = backend.accum_shape();
     slots_ = layout.slots;
     windowed_ = layout.window;
     p_.accum_window = windowed_ ? 1u : 0u;
@@ -169,6 +170,9 @@ ProgressiveRender::ProgressiveRender(Backend& backend, const GpuScene& scene, co
         group_ = std::min(opt.group_spp, opt.flush_spp);
         settled_ = r_;
         settled_.exact.assign(6 * size_t(npix_), 0);
+        // Each group's sums go to exact sums on the device where it keeps them (fold_group()).
+        exact_on_device_ = layout.exact_pixels == npix_ && !windowed_;
+        p_.exact_vec4 = exact_on_device_ ? uint32_t(layout.exact_offset() / 16) : 0u;
     }
     // Work per dispatch (pixel-samples), adapted to the measured rate.
     work_ = std::min<double>(npix_, 4096);
@@ -215,9 +219,14 @@ void ProgressiveRender::add_device_sums(RenderResult& to) const {
 
 void ProgressiveRender::settle() {
     if (unflushed_ == 0) return;
-    read_device_sums();
     // Reproducible: only whole groups reach the (exact) settled sums.
     const bool group_end = group_ == 0 || unflushed_ >= group_;
+    if (group_end && exact_on_device_) {
+        fold_group();
+        unflushed_ = 0;
+        return;  // the samples reach the host at the next sync_exact()
+    }
+    read_device_sums();
     if (group_ == 0) {
         add_device_sums(r_);
     } else if (group_end) {
@@ -228,6 +237,65 @@ void ProgressiveRender::settle() {
     // Adaptive, warming up: keep the sums of the warm-up's first half (adaptive.h).
     if (opt_.adaptive && r_.spp == kAdaptiveWarmupSpp / 2) half_ = r_;
     if (group_end) unflushed_ = 0;
+    flushed_ = true;
+    flushed_at_ = std::chrono::steady_clock::now();
+}
+
+void ProgressiveRender::fold_group() {
+    // One dispatch over the image, tracing nothing; FOLD_STORE after a sync (the host has the
+    // groups before). It sets the pending word where a sum leaves the exact range.
+    gpu::GpuParams p = p_;
+    p.fold_sums = device_groups_ ? FOLD_ADD : FOLD_STORE;
+    p.pixel_offset = 0, p.pixel_count = npix_;
+    if (backend_.dispatch(p) != 0)
+        throw Error(
+            "radiance too large for reproducible sums (beyond 7.6e22 per pixel): render "
+            "without --reproducible or checkpoints");
+    device_groups_ = true;
+    device_spp_ = r_.spp;
+}
+
+void ProgressiveRender::sync_exact() {
+    if (!device_groups_) return;
+    // In chunks of pixels: read back, then added on threads, pixel ranges apart.
+    const uint32_t chunk = std::min<uint32_t>(npix_, 1u << 18);
+    const size_t words = EXACT_VEC4_PER_PIXEL * 4;
+    std::atomic<bool> fits{true};
+    uint64_t nonfinite = 0, rays = 0;
+    for (uint32_t first = 0; first < npix_; first += chunk) {
+        const uint32_t n = std::min(chunk, npix_ - first);
+        backend_.read_exact(exact_words_, first, n);
+        std::atomic<uint64_t> chunk_nonfinite{0}, chunk_rays{0};
+        for_pixel_ranges(n, [&](size_t begin, size_t end) {
+            bool ok = true;
+            uint64_t nf = 0, ry = 0;
+            for (size_t k = begin; k < end; ++k) {
+                const uint32_t* w = &exact_words_[words * k];
+                const size_t i = first + k;
+                for (int j = 0; j < 6; ++j) {
+                    ExactSum v;
+                    std::memcpy(&v, w + 4 * j, sizeof(v));  // little-endian, low word first
+                    ok = ok && add_exact(settled_.exact[6 * i + j], v);
+                }
+                const uint64_t pixel_nonfinite = w[24] | uint64_t(w[25]) << 32;
+                settled_.nonfinite[i] += double(pixel_nonfinite);
+                nf += pixel_nonfinite;
+                ry += w[26] | uint64_t(w[27]) << 32;
+            }
+            chunk_nonfinite += nf, chunk_rays += ry;
+            if (!ok) fits.store(false);
+        });
+        nonfinite += chunk_nonfinite.load(), rays += chunk_rays.load();
+    }
+    if (!fits.load())
+        throw Error(
+            "radiance too large for reproducible sums (beyond 7.6e22 per pixel): render "
+            "without --reproducible or checkpoints");
+    settled_.nonfinite_total += nonfinite;
+    settled_.rays += double(rays);
+    settled_.spp = device_spp_;
+    device_groups_ = false;
+    stale_ = true;
     flushed_ = true;
     flushed_at_ = std::chrono::steady_clock::now();
 }
@@ -244,6 +312,7 @@ void ProgressiveRender::flush() {
         settle();
     }
     if (group_ == 0) return;
+    sync_exact();
     show_settled();
     if (partial) add_device_sums(r_);
 }
@@ -263,11 +332,14 @@ double ProgressiveRender::seconds_since_flush() const {
 void ProgressiveRender::discard_unflushed() {
     r_.spp -= unflushed_;
     unflushed_ = 0;
+    // Groups in the device's exact sums, not read back, are gone with it.
+    if (device_groups_) r_.spp = settled_.spp, device_groups_ = false;
     if (group_ > 0) show_settled();
 }
 
 const RenderResult& ProgressiveRender::settled() {
     if (group_ == 0) return r_;
+    sync_exact();
     if (stale_) settled_.materialize(), stale_ = false;
     settled_.seconds = r_.seconds;
     return settled_;
@@ -283,6 +355,7 @@ void ProgressiveRender::restore(const RenderResult& saved) {
         throw Error("saved sums are not a reproducible render's (exact, whole groups)");
     r_ = saved;
     base_ = saved.first;
+    device_groups_ = false;
     if (group_ > 0) {
         settled_ = saved;
         r_.exact.clear();
@@ -309,6 +382,7 @@ void ProgressiveRender::begin_at(uint64_t first) {
     };
     zero(r_);
     if (group_ > 0) zero(settled_), stale_ = false;
+    device_groups_ = false;
     base_ = first;
     unflushed_ = 0;
 }

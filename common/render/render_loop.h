@@ -133,7 +133,7 @@ class ProgressiveRender {
     // Continues the sums with samples from index `first` on (another chunk; after whole groups
     // when reproducible): they then hold samples of several ranges, counted in spp.
     void continue_at(uint64_t first);
-    // settled() without bringing exact sums' doubles up to date.
+    // settled() without bringing exact sums' doubles up to date; after a flush().
     const RenderResult& settled_sums() const { return group_ > 0 ? settled_ : r_; }
     // Seconds the last pass took, and the longest and the median dispatch so far.
     double last_pass_seconds() const { return last_pass_s_; }
@@ -160,13 +160,23 @@ class ProgressiveRender {
     void read_device_sums();
     void add_device_sums(RenderResult& to) const;
     // The device sums to the host's: all of them, or (reproducible) a whole group's into the
-    // exact settled sums; result()'s doubles are brought up to date by flush().
+    // exact settled sums, or into the device's exact sums where it keeps them (fold_group());
+    // result()'s doubles are brought up to date by flush().
     void settle();
+    // Reproducible, exact sums on the device: the group's float sums added to them there (no
+    // read-back; fold_sums.h), and the device's exact sums read back and added to settled_.
+    void fold_group();
+    void sync_exact();
     Backend& backend_;
     RenderOptions opt_;
     gpu::GpuParams p_{};
     RenderResult r_;
-    RenderResult settled_;  // reproducible: the sums up to the last group end
+    RenderResult settled_;  // reproducible: the sums up to the last group end (read back)
+    // Reproducible, exact sums on the device: the groups since the last sync_exact() are
+    // there (device_groups_), up to sample count device_spp_.
+    bool exact_on_device_ = false, device_groups_ = false;
+    uint64_t device_spp_ = 0;
+    std::vector<uint32_t> exact_words_;  // a chunk of them, read back
     void show_settled();    // result()'s sums = settled_'s (its sample count and time kept)
     bool stale_ = false;    // settled_'s doubles lag its exact sums
     uint64_t base_ = 0;     // the first sample index of the sums (begin_at())

@@ -149,7 +149,7 @@ void Session::commit() {
     GpuScene to_load = prepared_;
     if (!s.specialize) to_load.features = FEATURE_ALL;
     if (s.sampler == "independent") to_load.features |= FEATURE_INDEPENDENT_SAMPLER;
-    backend_->load(to_load, s.width, s.height);
+    backend_->load(to_load, s.width, s.height, s.reproducible);
     RenderOptions ro;
     ro.width = s.width, ro.height = s.height;
     ro.max_depth = uint32_t(max_depth());
