@@ -15,6 +15,7 @@
 #include "common/io/atomic_file.h"
 #include "common/io/svg_plot.h"
 #include "common/render/prepare.h"
+#include "common/render/session.h"
 #include "common/scene/builtin_scenes.h"
 #include "common/scene/scene.h"
 
@@ -118,7 +119,10 @@ void write_plot(const std::string& path, const std::vector<ThroughputRow>& rows)
 }  // namespace
 
 void run_throughput_bench(const ThroughputBenchArgs& a) {
-    std::vector<OpenBackend> backends = open_backends(a.backends);
+    // One session per device, driven as `mcpt render` drives its own (render_until()).
+    std::vector<std::unique_ptr<Session>> sessions;
+    for (OpenBackend& ob : open_backends(a.backends))
+        sessions.push_back(std::make_unique<Session>(std::move(ob.backend)));
     const auto scenes = throughput_scenes(a);
     std::printf("bench --throughput: %dx%d, tree %s, %.1f s warm-up, %.1f s timed per row\n",
                 a.width, a.height, a.tree.c_str(), a.warmup_seconds, a.seconds);
@@ -126,19 +130,26 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
     std::vector<ThroughputRow> rows;
     for (const auto& [name, scene] : scenes) {
         const size_t first = rows.size();
-        for (OpenBackend& ob : backends) {
-            Backend& backend = *ob.backend;
-            const GpuScene g =
-                prepare_scene(scene, backend.device(), tree_options(a.tree), a.width, a.height);
-            backend.load(g, a.width, a.height, false);
+        for (const std::unique_ptr<Session>& session : sessions) {
+            Session& s = *session;
+            Backend& backend = s.backend();
+            s.set_scene(scene);
+            s.settings().width = a.width, s.settings().height = a.height;
+            s.settings().tree = a.tree;
+            // Warm-up (compilation done, clocks up, dispatch sizes settled), then the timed run
+            // from zero.
+            s.settings().seed = 1;
+            RenderGoal goal;
+            goal.seconds = a.warmup_seconds;
+            render_until(s, goal);
+            s.reset();
+            goal.seconds = a.seconds;
+            render_until(s, goal);
+            const RenderResult& r = s.result();
+            const GpuScene& g = s.prepared();
             RenderOptions ro;
             ro.width = a.width, ro.height = a.height;
-            ro.max_depth = uint32_t(default_max_depth(scene));
-            // Warm-up (compilation done, clocks up, dispatch sizes settled), then the timed run.
-            ro.seconds = a.warmup_seconds, ro.seed = 99;
-            render_loaded(backend, g, scene.camera, ro);
-            ro.seconds = a.seconds, ro.seed = 1;
-            const RenderResult r = render_loaded(backend, g, scene.camera, ro);
+            ro.max_depth = uint32_t(s.max_depth());
             ThroughputRow row;
             row.scene = name;
             row.tree = tree_kind_name(g.tree_kind);

@@ -158,55 +158,45 @@ void run_render(const RenderArgs& a) {
     if (spp == 0 && seconds <= 0 && a.target_error <= 0) spp = 64;
     const bool bar = !a.quiet && isatty(2);
     const RenderResult& r = session.result();
-    double elapsed = r.seconds;  // a resumed render's time counts
-    PassStats st;
     auto last_save = std::chrono::steady_clock::now();
     const auto save = [&] {
         if (a.checkpoint.empty() || session.spp() == 0) return;
         session.save_checkpoint(a.checkpoint);
         last_save = std::chrono::steady_clock::now();
     };
-    while (true) {
-        // (Without a progress bar a step may be longer: each ends with a read-back.)
-        double step_cap_ms = a.checkpoint.empty()
-                                 ? (bar ? 250.0 : 1000.0)
-                                 : std::clamp(a.checkpoint_every * 1e3, 1.0, 250.0);
-        // Steps long enough that their ends (a read-back; on several devices, collecting the
-        // sums) cost little.
-        step_cap_ms = std::max(step_cap_ms, 1e3 * session.step_seconds());
-        const double step_ms =
-            seconds > 0 ? std::min(step_cap_ms, (seconds - elapsed) * 1e3) : step_cap_ms;
-        try {
-            st = session.render(std::max(step_ms, 0.0), a.target_error, spp);
-        } catch (const Error& e) {
-            // The device failed mid-render: the samples taken before are kept; write them.
-            if (bar) std::fprintf(stderr, "\n");
-            if (r.spp == 0)
-                throw Error(std::string(e.what()) +
-                            "\nno samples were kept: the device failed before its first samples "
-                            "were read back; " + a.output + " was not written");
-            save();
-            session.write_image(a.output);
-            throw Error(std::string(e.what()) + "\nwrote the " + std::to_string(r.spp) +
-                        " spp rendered before the failure to " + a.output);
-        }
+    RenderGoal goal;
+    goal.spp = spp, goal.seconds = seconds, goal.target_error = a.target_error;
+    // (Without a progress bar a step may be longer: each ends with a read-back.)
+    goal.step_seconds = a.checkpoint.empty() ? (bar ? 0.25 : 1.0)
+                                             : std::clamp(a.checkpoint_every, 1e-3, 0.25);
+    const auto after_step = [&](const PassStats& st) {
         if (tev) tev->post(r.width, r.height, r.mean_image());
-        elapsed += st.seconds;
         if (std::chrono::duration<double>(std::chrono::steady_clock::now() - last_save).count() >=
             a.checkpoint_every)
             save();
-        if (bar) {
-            double frac = spp > 0       ? double(r.spp) / double(spp)
-                          : seconds > 0 ? std::min(1.0, elapsed / seconds)
-                                        : 0.0;
-            // With a target error, progress is also the fraction of the samples it needs.
-            if (a.target_error > 0 && st.relative_error < HUGE_VAL)
-                frac =
-                    std::max(frac, std::min(1.0, std::pow(a.target_error / st.relative_error, 2)));
-            print_progress(frac, r);
-        }
-        if (st.target_reached || (spp > 0 && r.spp >= spp) || (seconds > 0 && elapsed >= seconds))
-            break;
+        if (!bar) return;
+        double frac = spp > 0       ? double(r.spp) / double(spp)
+                      : seconds > 0 ? std::min(1.0, r.seconds / seconds)
+                                    : 0.0;
+        // With a target error, progress is also the fraction of the samples it needs.
+        if (a.target_error > 0 && st.relative_error < HUGE_VAL)
+            frac = std::max(frac, std::min(1.0, std::pow(a.target_error / st.relative_error, 2)));
+        print_progress(frac, r);
+    };
+    PassStats st;
+    try {
+        st = render_until(session, goal, after_step);
+    } catch (const Error& e) {
+        // The device failed mid-render: the samples taken before are kept; write them.
+        if (bar) std::fprintf(stderr, "\n");
+        if (r.spp == 0)
+            throw Error(std::string(e.what()) +
+                        "\nno samples were kept: the device failed before its first samples "
+                        "were read back; " + a.output + " was not written");
+        save();
+        session.write_image(a.output);
+        throw Error(std::string(e.what()) + "\nwrote the " + std::to_string(r.spp) +
+                    " spp rendered before the failure to " + a.output);
     }
     if (bar) std::fprintf(stderr, "\n");
     save();

@@ -412,6 +412,15 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
             uint32_t(std::min<uint64_t>(until_flush, (r_.spp < half ? half : 2 * half) - r_.spp));
     }
     uint32_t spp = uint32_t(std::clamp(std::floor(work / npix_), 1.0, double(until_flush)));
+    // Tiles of about the work target, whatever the samples below.
+    uint32_t tile_spp = spp;
+    if (group_ > 0 && !windowed_ && spp < until_flush) {
+        // Reproducible: as few passes to the group end as passes of this size take (each
+        // round ends in a tail of long paths, and a short pass before the group end would add
+        // a round): passes of at most twice the size (dispatches stay within the target).
+        const uint32_t passes = until_flush / spp;
+        spp = (until_flush + passes - 1) / passes;
+    }
     if (windowed_ && group_ > 0) {
         // Reproducible through a window, whose sums restart every pass: a pass renders a whole
         // group (or up to max_spp), and a group that max_spp cut short is rendered again
@@ -419,10 +428,11 @@ uint32_t ProgressiveRender::pass(uint64_t max_spp) {
         max_spp = max_spp == UINT64_MAX ? max_spp : max_spp + unflushed_;
         r_.spp -= unflushed_;
         unflushed_ = 0;
-        spp = group_;
+        spp = tile_spp = group_;
     }
     spp = uint32_t(std::max<uint64_t>(1, std::min<uint64_t>(spp, max_spp)));
-    const double dispatch_s = run_tiles(tile_for(spp), spp, uint32_t(base_ + r_.spp), nullptr);
+    const double dispatch_s =
+        run_tiles(tile_for(std::min(spp, tile_spp)), spp, uint32_t(base_ + r_.spp), nullptr);
     r_.spp += spp;
     unflushed_ += spp;
     retarget(double(spp) * npix_, dispatch_s);

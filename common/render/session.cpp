@@ -402,8 +402,36 @@ void Session::set_part(const SamplePart& part) {
     dirty_ = true;
 }
 
+PassStats render_until(Session& session, const RenderGoal& goal,
+                       const std::function<void(const PassStats&)>& after_step) {
+    if (goal.spp == 0 && !(goal.seconds > 0) && !(goal.target_error > 0))
+        throw Error("give a sample count, a time budget or a target error");
+    const RenderResult& r = session.result();
+    double elapsed = r.seconds;  // a resumed render's time counts
+    PassStats st;
+    while (true) {
+        // Steps long enough that their ends (a read-back; on several devices, collecting the
+        // sums) cost little.
+        const double step = std::max(goal.step_seconds, session.step_seconds());
+        const double budget = goal.seconds > 0 ? std::min(step, goal.seconds - elapsed) : step;
+        st = session.render(std::max(budget, 0.0) * 1e3, goal.target_error, goal.spp);
+        elapsed += st.seconds;
+        if (after_step) after_step(st);
+        if (st.target_reached || (goal.spp > 0 && r.spp >= goal.spp) ||
+            (goal.seconds > 0 && elapsed >= goal.seconds))
+            return st;
+    }
+}
+
 void Session::reset() {
-    dirty_ = true;
+    // The scene stays on the device while nothing else changed: new sums, the loop's timings
+    // kept (adaptive sampling plans from its warm-up: that starts again with a commit).
+    if (dirty_ || !progressive_ || several() || committed_settings_.adaptive || !lost_.empty()) {
+        dirty_ = true;
+        return;
+    }
+    progressive_->begin_at(part_.first);
+    round_open_ = false;
 }
 
 const RenderResult& Session::result() const {

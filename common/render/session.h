@@ -191,4 +191,20 @@ class Session {
     std::string lost_;  // why the device stopped; empty while it works
 };
 
+// Where render_until() stops: samples per pixel, seconds of rendering (a resumed render's
+// included), a relative error; 0: no limit of that kind (at least one is needed).
+struct RenderGoal {
+    uint64_t spp = 0;
+    double seconds = 0;
+    double target_error = 0;
+    // Each step (a Session::render() call, which ends with a read-back) lasts at most this,
+    // unless Session::step_seconds() asks for longer.
+    double step_seconds = 1.0;
+};
+
+// The loop of `mcpt render` and `mcpt bench --throughput`: Session::render() in steps until
+// the goal is reached, calling after_step (if set) after each. Returns the last step's stats.
+PassStats render_until(Session& session, const RenderGoal& goal,
+                       const std::function<void(const PassStats&)>& after_step = {});
+
 }  // namespace mcpt

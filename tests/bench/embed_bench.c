@@ -1,9 +1,11 @@
 /* The cost of embedding mcpt through its C API, on one device:
- *   throughput  samples/s of the default scene (256x256) rendered for `seconds`;
+ *   throughput  samples/s of the default scene (SIZE x SIZE, default 256) rendered for
+ *               `seconds`, in one call;
  *   pass        median wall time of a 1-spp pass at 64x64 (a few ms of work), the part of it the
  *               engine measured inside (Session::render), and their difference: what the C API
  *               call adds per pass.
- * Usage: mcpt_embed_bench DEVICE [SECONDS] [PASSES]; prints one CSV line (see the header). */
+ * Usage: mcpt_embed_bench DEVICE [SECONDS] [PASSES] [SIZE]; prints one CSV line (see the
+ * header). */
 #define _POSIX_C_SOURCE 199309L /* clock_gettime */
 #include <mcpt/mcpt.h>
 #include <stdio.h>
@@ -35,20 +37,21 @@ static int fail(mcpt_session s) {
 int main(int argc, char** argv) {
     const double seconds = argc > 2 ? atof(argv[2]) : 5.0;
     const int passes = argc > 3 ? atoi(argv[3]) : 200;
+    const int size = argc > 4 ? atoi(argv[4]) : 256;
     mcpt_session s = NULL;
     mcpt_render_stats st;
     double *wall = malloc(sizeof(double) * (size_t)passes),
            *inside = malloc(sizeof(double) * (size_t)passes);
     int i;
-    if (argc < 2 || passes < 1 || !wall || !inside) {
-        fprintf(stderr, "usage: mcpt_embed_bench DEVICE [SECONDS] [PASSES]\n");
+    if (argc < 2 || passes < 1 || size < 1 || !wall || !inside) {
+        fprintf(stderr, "usage: mcpt_embed_bench DEVICE [SECONDS] [PASSES] [SIZE]\n");
         return 2;
     }
     if (mcpt_session_create(argv[1], &s) != MCPT_OK || mcpt_session_load_builtin(s, "cornell") ||
-        mcpt_session_set_size(s, 256, 256) || mcpt_session_commit(s) ||
+        mcpt_session_set_size(s, size, size) || mcpt_session_commit(s) ||
         mcpt_session_render(s, 1000.0 * seconds, 0.0, 0, &st))
         return fail(s);
-    const double samples_per_s = (double)st.samples * 256.0 * 256.0 / st.seconds;
+    const double samples_per_s = (double)st.samples * (double)size * (double)size / st.seconds;
     /* 1-spp passes at 64x64, after a few to warm up. */
     if (mcpt_session_set_size(s, 64, 64) || mcpt_session_commit(s)) return fail(s);
     for (i = -5; i < passes; ++i) {
