@@ -167,8 +167,8 @@ void run_render(const RenderArgs& a) {
     RenderGoal goal;
     goal.spp = spp, goal.seconds = seconds, goal.target_error = a.target_error;
     // (Without a progress bar a step may be longer: each ends with a read-back.)
-    goal.step_seconds = a.checkpoint.empty() ? (bar ? 0.25 : 1.0)
-                                             : std::clamp(a.checkpoint_every, 1e-3, 0.25);
+    goal.step_seconds =
+        a.checkpoint.empty() ? (bar ? 0.25 : 1.0) : std::clamp(a.checkpoint_every, 1e-3, 0.25);
     const auto after_step = [&](const PassStats& st) {
         if (tev) tev->post(r.width, r.height, r.mean_image());
         if (std::chrono::duration<double>(std::chrono::steady_clock::now() - last_save).count() >=
@@ -192,7 +192,8 @@ void run_render(const RenderArgs& a) {
         if (r.spp == 0)
             throw Error(std::string(e.what()) +
                         "\nno samples were kept: the device failed before its first samples "
-                        "were read back; " + a.output + " was not written");
+                        "were read back; " +
+                        a.output + " was not written");
         save();
         session.write_image(a.output);
         throw Error(std::string(e.what()) + "\nwrote the " + std::to_string(r.spp) +

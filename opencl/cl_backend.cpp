@@ -141,7 +141,8 @@ class OpenClBackend final : public Backend {
         const uint64_t per_pixel = EXACT_VEC4_PER_PIXEL * 16;
         out.resize(size_t(count) * EXACT_VEC4_PER_PIXEL * 4);
         try {
-            queue_.enqueueReadBuffer(accum_, CL_TRUE, accum_shape_.exact_offset() + first * per_pixel,
+            queue_.enqueueReadBuffer(accum_, CL_TRUE,
+                                     accum_shape_.exact_offset() + first * per_pixel,
                                      count * per_pixel, out.data());
         } catch (const cl::Error& e) {
             stopped(e.err(), e.what());

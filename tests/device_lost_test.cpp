@@ -30,7 +30,9 @@ class FailingBackend final : public Backend {
 
     std::string description() const override { return inner_->description(); }
     const DeviceInfo& device() const override { return inner_->device(); }
-    void load(const GpuScene& s, int w, int h, bool exact) override { inner_->load(s, w, h, exact); }
+    void load(const GpuScene& s, int w, int h, bool exact) override {
+        inner_->load(s, w, h, exact);
+    }
     const AccumLayout& accum_shape() const override { return inner_->accum_shape(); }
     void read_exact(std::vector<uint32_t>& out, uint32_t first, uint32_t count) override {
         ++reads_;

@@ -55,19 +55,28 @@ TEST(FoldSums, TermsEqualTheHostsForEveryExponent) {
     // across and above each 32-bit word, and the edge of the range (2^50 * 2^50).
     std::mt19937 rng(7);
     for (uint32_t e = 0; e < 256; ++e)
-        for (uint32_t m : {0u, 1u, 0x7fffffu, 0x400000u, uint32_t(rng()) & 0x7fffffu, uint32_t(rng()) & 0x7fffffu})
+        for (uint32_t m : {0u, 1u, 0x7fffffu, 0x400000u, uint32_t(rng()) & 0x7fffffu,
+                           uint32_t(rng()) & 0x7fffffu})
             for (uint32_t sign : {0u, 1u}) expect_same_term(from_bits(sign << 31 | e << 23 | m));
-    expect_same_term(0x1p49f);                   // just inside: 2^99
+    expect_same_term(0x1p49f);                       // just inside: 2^99
     expect_same_term(std::nextafter(0x1p50f, 0.f));  // just inside
-    expect_same_term(0x1p50f);                   // the first value out of range
+    expect_same_term(0x1p50f);                       // the first value out of range
 }
 
 TEST(FoldSums, SumsEqualTheHostsAtTheRangesEdges) {
     // Sums around +-2^126 (the high 64 bits at +-2^62), and carries across every word.
     const ExactSum edge = ExactSum(1) << 126;
-    std::vector<ExactSum> values = {0, 1, -1, edge - 1, -edge + 1, edge - 2, -(edge - 2),
-                                    ExactSum(UINT32_MAX), ExactSum(UINT64_MAX),
-                                    (ExactSum(1) << 96) - 1, -(ExactSum(1) << 96)};
+    std::vector<ExactSum> values = {0,
+                                    1,
+                                    -1,
+                                    edge - 1,
+                                    -edge + 1,
+                                    edge - 2,
+                                    -(edge - 2),
+                                    ExactSum(UINT32_MAX),
+                                    ExactSum(UINT64_MAX),
+                                    (ExactSum(1) << 96) - 1,
+                                    -(ExactSum(1) << 96)};
     std::mt19937_64 rng(11);
     for (int i = 0; i < 200; ++i) values.push_back(ExactSum(int64_t(rng())) << (rng() % 62));
     for (ExactSum a : values)
@@ -87,8 +96,8 @@ TEST(FoldSums, PixelFoldAddsOrStoresAndCounts) {
     gpu::FoldStep f = gpu::fold_pixel(glm::vec4(1.5f, -2.f, 0.f, 3.f),
                                       glm::vec4(2.25f, 4.f, 0.f, 4e9f), zero, FOLD_STORE);
     ASSERT_TRUE(f.ok);
-    f = gpu::fold_pixel(glm::vec4(0.25f, 0.f, 0.f, 1.f), glm::vec4(0.0625f, 0.f, 0.f, 4e9f),
-                        f.px, FOLD_ADD);
+    f = gpu::fold_pixel(glm::vec4(0.25f, 0.f, 0.f, 1.f), glm::vec4(0.0625f, 0.f, 0.f, 4e9f), f.px,
+                        FOLD_ADD);
     ASSERT_TRUE(f.ok);
     EXPECT_DOUBLE_EQ(from_exact(from_words(f.px.sum_r)), 1.75);
     EXPECT_DOUBLE_EQ(from_exact(from_words(f.px.sum_g)), -2.0);
@@ -100,7 +109,8 @@ TEST(FoldSums, PixelFoldAddsOrStoresAndCounts) {
     f = gpu::fold_pixel(glm::vec4(1.f, 0.f, 0.f, 0.f), glm::vec4(0.f), f.px, FOLD_STORE);
     EXPECT_DOUBLE_EQ(from_exact(from_words(f.px.sum_r)), 1.0);
     EXPECT_EQ(f.px.counts, glm::uvec4(0u));
-    EXPECT_FALSE(gpu::fold_pixel(glm::vec4(0.f), glm::vec4(3e38f, 0.f, 0.f, 0.f), zero, FOLD_ADD).ok);
+    EXPECT_FALSE(
+        gpu::fold_pixel(glm::vec4(0.f), glm::vec4(3e38f, 0.f, 0.f, 0.f), zero, FOLD_ADD).ok);
 }
 
 }  // namespace

@@ -38,8 +38,7 @@ class FakeBackend final : public Backend {
     // Exact sums as the kernels fold them: the device code itself (common/gpu/fold_sums.h).
     void read_exact(std::vector<uint32_t>& out, uint32_t first, uint32_t count) override {
         out.resize(size_t(count) * EXACT_VEC4_PER_PIXEL * 4);
-        std::memcpy(out.data(), &exact_.at(size_t(first) * EXACT_VEC4_PER_PIXEL),
-                    out.size() * 4);
+        std::memcpy(out.data(), &exact_.at(size_t(first) * EXACT_VEC4_PER_PIXEL), out.size() * 4);
     }
     uint32_t fold(const gpu::GpuParams& p) {
         ++folds;
@@ -48,9 +47,9 @@ class FakeBackend final : public Backend {
             glm::uvec4* e = &exact_.at(size_t(i) * EXACT_VEC4_PER_PIXEL);
             const float* a = &accum_[8 * size_t(i)];
             const gpu::ExactPixel px{e[0], e[1], e[2], e[3], e[4], e[5], e[6]};
-            const gpu::FoldStep f = gpu::fold_pixel(glm::vec4(a[0], a[1], a[2], a[3]),
-                                                    glm::vec4(a[4], a[5], a[6], a[7]), px,
-                                                    p.fold_sums);
+            const gpu::FoldStep f =
+                gpu::fold_pixel(glm::vec4(a[0], a[1], a[2], a[3]),
+                                glm::vec4(a[4], a[5], a[6], a[7]), px, p.fold_sums);
             e[0] = f.px.sum_r, e[1] = f.px.sum_g, e[2] = f.px.sum_b;
             e[3] = f.px.sq_r, e[4] = f.px.sq_g, e[5] = f.px.sq_b, e[6] = f.px.counts;
             out_of_range |= f.ok ? 0u : 1u;

@@ -29,8 +29,8 @@ struct VulkanBackend::Impl {
     size_t messages_before = 0;  // the shared instance's count when this backend began
     vk::PhysicalDevice pd;
     std::unique_ptr<vk::Device> dev;
-    VkQueryPool timer = VK_NULL_HANDLE;  // two timestamps per dispatch, if the queue has them
-    VkShaderModule module = VK_NULL_HANDLE;        // scene in storage buffers
+    VkQueryPool timer = VK_NULL_HANDLE;      // two timestamps per dispatch, if the queue has them
+    VkShaderModule module = VK_NULL_HANDLE;  // scene in storage buffers
     VkShaderModule texel_module = VK_NULL_HANDLE;  // scene in texel buffers
     VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
     VkPipelineLayout pipeline_layout = VK_NULL_HANDLE;

@@ -62,7 +62,7 @@ struct AccumLayout {
     uint32_t sum_pixels = 0;    // pixels whose sums the buffer holds (npix, or slots)
     uint32_t slots = 0;         // path-state slots: the largest tile
     uint32_t exact_pixels = 0;  // pixels whose exact sums the buffer holds (npix, or 0)
-    uint64_t bytes = 0;  // sums, path state, the pending word, the sample plan, exact sums
+    uint64_t bytes = 0;         // sums, path state, the pending word, the sample plan, exact sums
     uint64_t sums_bytes() const { return uint64_t(sum_pixels) * ACCUM_VEC4_PER_PIXEL * 16; }
     uint64_t pending_offset() const {
         return sums_bytes() + uint64_t(slots) * PATH_STATE_VEC4 * 16;

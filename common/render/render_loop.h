@@ -177,10 +177,10 @@ class ProgressiveRender {
     bool exact_on_device_ = false, device_groups_ = false;
     uint64_t device_spp_ = 0;
     std::vector<uint32_t> exact_words_;  // a chunk of them, read back
-    void show_settled();    // result()'s sums = settled_'s (its sample count and time kept)
-    bool stale_ = false;    // settled_'s doubles lag its exact sums
-    uint64_t base_ = 0;     // the first sample index of the sums (begin_at())
-    uint32_t group_ = 0;    // reproducible: samples per group (0: not reproducible)
+    void show_settled();  // result()'s sums = settled_'s (its sample count and time kept)
+    bool stale_ = false;  // settled_'s doubles lag its exact sums
+    uint64_t base_ = 0;   // the first sample index of the sums (begin_at())
+    uint32_t group_ = 0;  // reproducible: samples per group (0: not reproducible)
     uint32_t npix_ = 0, unflushed_ = 0;
     double work_ = 0, last_pass_s_ = 0, longest_dispatch_s_ = 0;
     uint64_t longest_at_ = 0;
