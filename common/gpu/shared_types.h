@@ -29,24 +29,24 @@ MCPT_NAMESPACE_BEGIN
 
 // Scene features (bits of MCPT_FEATURES): code a scene does not need is compiled out,
 // through -D in OpenCL and a specialization constant in Vulkan (common/scene_features.h).
-#define FEATURE_TRIANGLES 1u         // triangle meshes
-#define FEATURE_SPHERES 2u           // analytic spheres
-#define FEATURE_DIFFUSE 4u           // Lambertian surfaces (and next-event estimation)
-#define FEATURE_MIRROR 8u            // perfect mirrors
-#define FEATURE_GLASS 16u            // dielectrics (Fresnel, refraction, total internal reflection)
-#define FEATURE_TRIANGLE_LIGHTS 32u  // emissive triangles
-#define FEATURE_SPHERE_LIGHTS 64u    // emissive spheres
-#define FEATURE_KDTREE 128u          // k-d traversal with its stack (else: test every triangle)
-#define FEATURE_MICROFACET 256u  // GGX materials: metallic-roughness, rough glass (microfacet.h)
-#define FEATURE_SHADING_NORMALS 512u   // per-vertex normals (smooth shading) and normal maps
-#define FEATURE_TEXTURES 1024u         // texture coordinates and texture fetches (texture.h)
-#define FEATURE_ALPHA_MASK 2048u       // alphaMode MASK: cut-out surfaces rays pass through
+#define FEATURE_TRIANGLES 1u        // triangle meshes
+#define FEATURE_SPHERES 2u          // analytic spheres
+#define FEATURE_DIFFUSE 4u          // Lambertian surfaces (and next-event estimation)
+#define FEATURE_MIRROR 8u           // perfect mirrors
+#define FEATURE_GLASS 16u           // dielectrics (Fresnel, refraction, total internal reflection)
+#define FEATURE_TRIANGLE_LIGHTS 32u // emissive triangles
+#define FEATURE_SPHERE_LIGHTS 64u   // emissive spheres
+#define FEATURE_KDTREE 128u         // k-d traversal with its stack (else: test every triangle)
+#define FEATURE_MICROFACET 256u     // GGX materials: metallic-roughness, rough glass (microfacet.h)
+#define FEATURE_SHADING_NORMALS 512u  // per-vertex normals (smooth shading) and normal maps
+#define FEATURE_TEXTURES 1024u      // texture coordinates and texture fetches (texture.h)
+#define FEATURE_ALPHA_MASK 2048u    // alphaMode MASK: cut-out surfaces rays pass through
 #define FEATURE_PUNCTUAL_LIGHTS 4096u  // point, spot and directional lights (KHR_lights_punctual)
-#define FEATURE_ENVIRONMENT 8192u      // an environment map or constant background (lights.h)
-#define FEATURE_ALL 16383u             // every feature a scene can use: the full kernel
-#define FEATURE_TEST_NAN 16384u  // tests only: poison samples of pixels 0 and 1 (never in ALL)
+#define FEATURE_ENVIRONMENT 8192u   // an environment map or constant background (lights.h)
+#define FEATURE_ALL 16383u          // every feature a scene can use: the full kernel
+#define FEATURE_TEST_NAN 16384u     // tests only: poison samples of pixels 0 and 1 (never in ALL)
 #define FEATURE_INDEPENDENT_SAMPLER 32768u  // independent uniforms, not Sobol (A/B, never in ALL)
-#define FEATURE_BITS 65535u                 // every bit above
+#define FEATURE_BITS 65535u         // every bit above
 #define FEATURE_COUNT 16
 
 // The smallest GGX alpha a MAT_PBR material keeps (roughness 0.01): below it the lobe's peak
@@ -87,7 +87,7 @@ MCPT_NAMESPACE_BEGIN
 #define TEXTURE_WRAP_REPEAT 0u
 #define TEXTURE_WRAP_CLAMP 1u
 #define TEXTURE_WRAP_MIRROR 2u
-#define TEXTURE_NEAREST 16u     // GpuTexture.flags: wrap_s | wrap_t << 2 | TEXTURE_NEAREST
+#define TEXTURE_NEAREST 16u  // GpuTexture.flags: wrap_s | wrap_t << 2 | TEXTURE_NEAREST
 #define STORAGE_BUFFER_COUNT 4  // every binding but the parameters (a uniform buffer)
 #define TEXEL_BUFFER_COUNT 3    // Vulkan's texel-buffer views
 
@@ -132,13 +132,13 @@ MCPT_STRUCT(GpuSphere) {
 };
 
 MCPT_STRUCT(GpuMaterial) {
-    float r, g, b;       // diffuse albedo, mirror tint, glass tint or metallic-roughness base color
-    uint type;           // MAT_*
-    float er, eg, eb;    // emitted radiance (front side of triangles, outside of spheres)
-    float ior;           // index of refraction (glass; the dielectric Fresnel of MAT_PBR)
-    float metallic;      // MAT_PBR: 0 dielectric over diffuse, 1 conductor
-    float alpha;         // MAT_PBR, MAT_ROUGH_GLASS: GGX alpha = roughness^2 (>= MIN_GGX_ALPHA)
-    float specular;      // MAT_PBR: KHR_materials_specular factor (scales the dielectric Fresnel)
+    float r, g, b;  // diffuse albedo, mirror tint, glass tint or metallic-roughness base color
+    uint type;      // MAT_*
+    float er, eg, eb;  // emitted radiance (front side of triangles, outside of spheres)
+    float ior;         // index of refraction (glass; the dielectric Fresnel of MAT_PBR)
+    float metallic;    // MAT_PBR: 0 dielectric over diffuse, 1 conductor
+    float alpha;       // MAT_PBR, MAT_ROUGH_GLASS: GGX alpha = roughness^2 (>= MIN_GGX_ALPHA)
+    float specular;    // MAT_PBR: KHR_materials_specular factor (scales the dielectric Fresnel)
     float alpha_cutoff;  // alphaMode MASK: cut out where alpha < cutoff (0: opaque)
     // Textures (GpuTexture index or NO_TEXTURE): base color (rgb, alpha) times r, g, b; glTF's
     // metallic-roughness (b: metallic, g: roughness) times the factors; tangent-space normals;
@@ -179,15 +179,14 @@ MCPT_STRUCT(GpuParams) {
     uint seed;
     uint max_depth, rr_depth;
     uint num_triangles, num_spheres, num_lights, num_nodes;
-    float
-        light_power_total;  // sum over lights of area * mean(Le): pdf_area(x) = mean(Le(x)) / total
+    float light_power_total;  // sum over lights of area * mean(Le): pdf_area(x) = mean(Le(x)) / total
     float scene_min_x, scene_min_y, scene_min_z;
     float scene_max_x, scene_max_y, scene_max_z;
     float cam_px, cam_py, cam_pz;  // pinhole position
     float cam_ux, cam_uy, cam_uz;  // right * tan(fov/2) * aspect
     float cam_vx, cam_vy, cam_vz;  // up * tan(fov/2)
     float cam_wx, cam_wy, cam_wz;  // forward (unit)
-    float light_scale;             // 1.0; negative-control tests scale every emitter
+    float light_scale;  // 1.0; negative-control tests scale every emitter
     uint num_materials;
     // Paths carried across dispatches: a round gives each pixel of [pixel_offset,
     // pixel_offset + pixel_count) samples_per_dispatch samples; its first dispatch starts them
