@@ -284,29 +284,29 @@ void run_converge(const ConvergeArgs& a) {
     std::printf("\n%-18s %-28s %9s %8s %11s %9s %11s %12s\n", "backend", "device", "seconds", "spp",
                 "rmse", "rel rmse", "rel mse", "mean signed");
     for (size_t b = 0; b < a.backends.size(); ++b) {
-        std::unique_ptr<Backend> backend = open_device(a.backends[b]);
+        Session session(open_device(a.backends[b]));
+        session.set_scene(scene);
+        session.settings().width = a.width, session.settings().height = a.height;
+        session.settings().max_depth = int(ro.max_depth);
+        session.settings().tree = a.tree;  // auto: the tree this device's cost model picks
+        const Backend& backend = session.backend();
         for (const std::string& sampler : a.samplers)
             for (const std::string& sampling : a.sampling) {
-                // --tree auto: the tree this device's cost model picks.
-                GpuScene gb = prepare_scene(scene, backend->device(), tree_opts, a.width, a.height);
-                if (sampler == "independent") gb.features |= FEATURE_INDEPENDENT_SAMPLER;
-                backend->load(gb, a.width, a.height, false);
+                session.settings().sampler = sampler;
+                session.settings().adaptive = sampling == "adaptive";
                 Run run;
-                run.backend = backend->device().backend;
+                run.backend = backend.device().backend;
                 if (a.samplers.size() > 1) run.backend += "/" + sampler;
                 if (a.sampling.size() > 1) run.backend += "/" + sampling;
-                run.device = backend->device().name;
+                run.device = backend.device().name;
                 ProgressiveOptions po;
-                po.render = ro;
-                po.render.adaptive = sampling == "adaptive";
                 po.schedule =
                     a.checkpoints == "time" ? Schedule::TimeDoubling : Schedule::SppDoubling;
                 po.seconds = a.seconds, po.max_spp = a.max_spp;
                 po.seed_base = a.seed + 100000u * uint32_t(runs.size());
                 RenderResult total;
-                run.checkpoints =
-                    render_progressive(*backend, gb, scene.camera, po, ref, &total,
-                                       [&](const Checkpoint& c) { print_checkpoint(run, c); });
+                run.checkpoints = render_progressive(
+                    session, po, ref, &total, [&](const Checkpoint& c) { print_checkpoint(run, c); });
                 run.report =
                     analyze_convergence(run.checkpoints, ref.mean_value(), effective_pixels(total));
                 if (!a.report.empty()) run.image = total.mean_image();

@@ -110,22 +110,21 @@ FurnaceConvergence furnace_convergence(float light_scale, uint64_t max_spp,
     validate_scene(scene);
     double exact = 0;
     EXPECT_TRUE(exact_furnace_radiance(scene, exact));
-    GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, TreeOptions{}));
+    Session session(test::test_opencl_backend());
+    session.set_scene(scene);
+    session.settings().width = session.settings().height = 32;
+    session.settings().max_depth = scene.max_depth_hint;
+    session.settings().light_scale = light_scale;
     // Independent samples converge as spp^-1/2, the rate the analysis is built on.
-    if (independent) g.features |= FEATURE_INDEPENDENT_SAMPLER;
-    auto backend = test::test_opencl_backend();
+    if (independent) session.settings().sampler = "independent";
     ProgressiveOptions po;
-    po.render.width = 32, po.render.height = 32;
-    po.render.max_depth = uint32_t(scene.max_depth_hint);
-    po.render.light_scale = light_scale;
     po.schedule = Schedule::SppDoubling;  // spp-based: independent of machine load
     po.max_spp = max_spp;
     po.seed_base = 11;
-    backend->load(g, po.render.width, po.render.height, false);
     const Reference ref = constant_reference(32, 32, exact, "exact");
     FurnaceConvergence f;
     RenderResult total;
-    f.checkpoints = render_progressive(*backend, g, scene.camera, po, ref, &total);
+    f.checkpoints = render_progressive(session, po, ref, &total);
     f.pixels = effective_pixels(total);
     f.report = analyze_convergence(f.checkpoints, exact, f.pixels);
     return f;

@@ -204,45 +204,38 @@ double effective_pixels(const RenderResult& r) {
 
 // ---- progressive rendering
 
-std::vector<Checkpoint> render_progressive(Backend& backend, const GpuScene& scene,
-                                           const Camera& camera, const ProgressiveOptions& opt,
+std::vector<Checkpoint> render_progressive(Session& session, const ProgressiveOptions& opt,
                                            const Reference& ref, RenderResult* total_out,
                                            const std::function<void(const Checkpoint&)>& on_cp) {
-    using clock = std::chrono::steady_clock;
     const bool by_time = opt.schedule == Schedule::TimeDoubling;
     if (opt.max_spp == 0 && !(opt.seconds > 0)) throw Error("give a sample count or a time budget");
     if (by_time && !(opt.seconds > 0)) throw Error("time checkpoints need a time budget");
     std::vector<Checkpoint> cps;
     // One sample sequence (one seed), continued from checkpoint to checkpoint: a
     // low-discrepancy sampler keeps its stratification across them.
-    RenderOptions ro = opt.render;
-    ro.seed = opt.seed_base;
-    ProgressiveRender pr(backend, scene, camera, ro);
-    RenderResult& total = pr.result();
-    double seconds = 0;  // time in the render loop; measuring the error is left out
-    // Renders until the image has `spp` samples per pixel (0: no limit) or the render time
-    // reaches `until_s` (0: no limit), then flushes.
-    auto render_until = [&](uint64_t spp, double until_s) {
-        const auto start = clock::now();
-        auto now_s = [&] {
-            return seconds + std::chrono::duration<double>(clock::now() - start).count();
-        };
-        while ((spp == 0 || total.spp < spp) && (until_s == 0 || now_s() < until_s))
-            pr.pass(spp > 0 ? spp - total.spp : UINT64_MAX);
-        pr.flush();
-        seconds = now_s();
-        total.seconds = seconds;
+    session.settings().seed = opt.seed_base;
+    session.reset();
+    session.commit();
+    const RenderResult& total = session.result();
+    // The render loop of `mcpt render` (render_until), in as few steps as it allows: the time
+    // is the sessions' render time (measuring the error is left out).
+    auto render_to = [&](uint64_t spp, double until_s) {
+        RenderGoal goal;
+        goal.spp = spp, goal.seconds = until_s;
+        goal.step_seconds = until_s > 0 ? until_s : 3600;
+        render_until(session, goal);
     };
     const int n_time = std::max(1, opt.time_checkpoints);
     bool last = false;
     for (int k = 0; !last; ++k) {
         // Next checkpoint: double the samples (or reach the next time checkpoint), within budget.
+        const double seconds = total.seconds;
         const double remaining = opt.seconds - seconds;
         if (by_time) {
             if (k >= n_time) break;
             const double t_k = opt.seconds * std::ldexp(1.0, k - (n_time - 1));
             if (t_k <= seconds) continue;
-            render_until(0, t_k);
+            render_to(0, t_k);
         } else {
             uint64_t want = std::max<uint64_t>(1, total.spp);
             if (opt.max_spp > 0) want = std::min(want, opt.max_spp - total.spp);
@@ -255,9 +248,9 @@ std::vector<Checkpoint> render_progressive(Backend& backend, const GpuScene& sce
                 }
             }
             if (last)
-                render_until(0, opt.seconds);
+                render_to(0, opt.seconds);
             else
-                render_until(total.spp + want, 0);
+                render_to(total.spp + want, 0);
         }
         cps.push_back({total.seconds, total.spp, measure_error(total, ref)});
         if (on_cp) on_cp(cps.back());

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "common/render/render_loop.h"
+#include "common/render/session.h"
 #include "common/scene/scene.h"
 
 namespace mcpt {
@@ -78,7 +79,6 @@ enum class Schedule {
 };
 
 struct ProgressiveOptions {
-    RenderOptions render;  // size, bounces, light scale; spp, seconds and seed are set here
     Schedule schedule = Schedule::SppDoubling;
     uint64_t max_spp = 0;  // stop once this many samples per pixel are taken (0: no limit)
     double seconds = 0;    // stop once this much render time is spent (0: no limit)
@@ -86,12 +86,14 @@ struct ProgressiveOptions {
     uint32_t seed_base = 1;  // the seed of the one sample sequence
 };
 
-// Renders progressively on a loaded backend, one sample sequence continued to each checkpoint
-// (doubling sample counts or times), measuring the error of the image so far at each. `total` (optional)
-// receives the final accumulation; `on_checkpoint` (optional) sees each checkpoint.
+// Renders progressively through `session` (its scene and settings: size, bounces, tree,
+// sampler, adaptive sampling; the seed is opt.seed_base), from zero, one sample sequence
+// continued to each checkpoint (doubling sample counts or times), measuring the error of the
+// image so far at each. `total` (optional) receives the final accumulation; `on_checkpoint`
+// (optional) sees each checkpoint.
 std::vector<Checkpoint> render_progressive(
-    Backend& backend, const GpuScene& scene, const Camera& camera, const ProgressiveOptions& opt,
-    const Reference& ref, RenderResult* total = nullptr,
+    Session& session, const ProgressiveOptions& opt, const Reference& ref,
+    RenderResult* total = nullptr,
     const std::function<void(const Checkpoint&)>& on_checkpoint = nullptr);
 
 struct LogLogFit {

@@ -295,6 +295,7 @@ void ProgressiveRender::sync_exact() {
     settled_.rays += double(rays);
     settled_.spp = device_spp_;
     device_groups_ = false;
+    synced_once_ = true;
     stale_ = true;
     flushed_ = true;
     flushed_at_ = std::chrono::steady_clock::now();
@@ -325,7 +326,8 @@ void ProgressiveRender::show_settled() {
 }
 
 double ProgressiveRender::seconds_since_flush() const {
-    if (!flushed_) return HUGE_VAL;
+    // Nothing on the host yet, or (exact sums on the device) no whole group: at once.
+    if (!flushed_ || (device_groups_ && !synced_once_)) return HUGE_VAL;
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - flushed_at_).count();
 }
 

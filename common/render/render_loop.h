@@ -115,7 +115,8 @@ class ProgressiveRender {
     uint32_t pass(uint64_t max_spp = UINT64_MAX);
     // Adds the device sums into result().
     void flush();
-    // Seconds since a flush last added samples; HUGE_VAL before the first.
+    // Seconds since a flush last added samples; HUGE_VAL before the first (exact sums on the
+    // device: before the first whole group).
     double seconds_since_flush() const;
     // Forgets the samples not yet flushed (the device stopped: its sums are gone), so
     // result() holds exactly the samples flushed before (reproducible: before the last group
@@ -175,6 +176,7 @@ class ProgressiveRender {
     // Reproducible, exact sums on the device: the groups since the last sync_exact() are
     // there (device_groups_), up to sample count device_spp_.
     bool exact_on_device_ = false, device_groups_ = false;
+    bool synced_once_ = false;  // a group has reached the host (the first does at once)
     uint64_t device_spp_ = 0;
     std::vector<uint32_t> exact_words_;  // a chunk of them, read back
     void show_settled();  // result()'s sums = settled_'s (its sample count and time kept)

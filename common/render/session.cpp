@@ -70,6 +70,13 @@ bool same(const SessionSettings& a, const SessionSettings& b) {
            a.reproducible == b.reproducible && a.adaptive == b.adaptive &&
            a.dispatch_ms == b.dispatch_ms && a.light_scale == b.light_scale;
 }
+// The settings the device's program and buffers depend on (the rest: seed, light scale,
+// timings, only the render loop's).
+bool same_on_device(const SessionSettings& a, const SessionSettings& b) {
+    return a.width == b.width && a.height == b.height && a.max_depth == b.max_depth &&
+           a.tree == b.tree && a.tree_depth == b.tree_depth && a.specialize == b.specialize &&
+           a.sampler == b.sampler && a.reproducible == b.reproducible;
+}
 }  // namespace
 
 Session::Session(const std::string& device_spec, BackendOptions options) {
@@ -116,12 +123,14 @@ void Session::set_scene(Scene scene) {
     if (environment_.present()) scene_.environment = environment_;
     has_scene_ = true;
     dirty_ = true;
+    loaded_ = false;
 }
 
 void Session::set_environment(Environment env) {
     environment_ = std::move(env);
     scene_.environment = environment_;
     dirty_ = true;
+    loaded_ = false;
 }
 
 int Session::max_depth() const {
@@ -143,13 +152,19 @@ void Session::commit() {
             "turn one of them off");
     progressive_.reset();
     dirty_ = true;
-    // Tree, layout, limits; then compile and upload.
-    prepared_ =
-        prepare_scene(scene_, device(), tree_options(s.tree, s.tree_depth), s.width, s.height);
-    GpuScene to_load = prepared_;
-    if (!s.specialize) to_load.features = FEATURE_ALL;
-    if (s.sampler == "independent") to_load.features |= FEATURE_INDEPENDENT_SAMPLER;
-    backend_->load(to_load, s.width, s.height, s.reproducible);
+    // Tree, layout, limits; then compile and upload (unless only the seed, the light scale
+    // or the timings changed: the scene stays on the device).
+    if (!loaded_ || !same_on_device(s, loaded_settings_)) {
+        loaded_ = false;
+        prepared_ =
+            prepare_scene(scene_, device(), tree_options(s.tree, s.tree_depth), s.width, s.height);
+        GpuScene to_load = prepared_;
+        if (!s.specialize) to_load.features = FEATURE_ALL;
+        if (s.sampler == "independent") to_load.features |= FEATURE_INDEPENDENT_SAMPLER;
+        backend_->load(to_load, s.width, s.height, s.reproducible);
+        loaded_ = true;
+        loaded_settings_ = s;
+    }
     RenderOptions ro;
     ro.width = s.width, ro.height = s.height;
     ro.max_depth = uint32_t(max_depth());

@@ -184,6 +184,10 @@ class Session {
     SessionSettings settings_;
     SessionSettings committed_settings_;
     bool dirty_ = true;
+    // The backend holds the scene as loaded_settings_ asked (commit() loads it again only
+    // when what the device depends on changed).
+    bool loaded_ = false;
+    SessionSettings loaded_settings_;
     GpuScene prepared_;
     std::unique_ptr<ProgressiveRender> progressive_;
     RenderResult empty_;
