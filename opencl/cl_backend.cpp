@@ -222,6 +222,10 @@ class OpenClBackend final : public Backend {
         // (docs/benchmarks.md); lang.h also takes GLSL's normalize and length there.
         if (dev_.info.platform.find("NVIDIA") != std::string::npos)
             opts += " -DMCPT_NVIDIA_OPENCL -cl-nv-maxrregcount=56 -cl-denorms-are-zero";
+        const KdSteps steps = kd_steps(dev_.info);
+        if (steps.nodes != 1 || steps.triangles != 1)
+            opts += " -DKD_NODE_STEPS=" + std::to_string(steps.nodes) +
+                    "u -DKD_TRI_STEPS=" + std::to_string(steps.triangles) + "u";
         if (!options_.extra_defines.empty()) opts += " " + options_.extra_defines;
         if (program_() != nullptr && opts == built_options_) return;
         const auto t0 = std::chrono::steady_clock::now();

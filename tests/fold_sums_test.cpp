@@ -78,7 +78,8 @@ TEST(FoldSums, SumsEqualTheHostsAtTheRangesEdges) {
                                     (ExactSum(1) << 96) - 1,
                                     -(ExactSum(1) << 96)};
     std::mt19937_64 rng(11);
-    for (int i = 0; i < 200; ++i) values.push_back(ExactSum(int64_t(rng())) << (rng() % 62));
+    for (int i = 0; i < 200; ++i)
+        values.push_back(ExactSum(int64_t(rng())) * (ExactSum(1) << (rng() % 62)));
     for (ExactSum a : values)
         for (ExactSum b : values) {
             ExactSum host = a;

@@ -237,11 +237,14 @@ struct VulkanBackend::Impl {
         if (pipeline) f.vkDestroyPipeline(dev->handle(), pipeline, nullptr);
         pipeline = VK_NULL_HANDLE;
         const auto t0 = std::chrono::steady_clock::now();
-        // Specialization: id 0 = KD_STACK_SIZE, id 1 = local_size_x, id 2 = MCPT_FEATURES.
-        const uint32_t values[3] = {stack_size, local, features};
-        const VkSpecializationMapEntry entries[3] = {{0, 0, 4}, {1, 4, 4}, {2, 8, 4}};
+        // Specialization: id 0 = KD_STACK_SIZE, id 1 = local_size_x, id 2 = MCPT_FEATURES,
+        // ids 3 and 4 = KD_NODE_STEPS and KD_TRI_STEPS.
+        const KdSteps steps = kd_steps(pd.info);
+        const uint32_t values[5] = {stack_size, local, features, steps.nodes, steps.triangles};
+        const VkSpecializationMapEntry entries[5] = {
+            {0, 0, 4}, {1, 4, 4}, {2, 8, 4}, {3, 12, 4}, {4, 16, 4}};
         VkSpecializationInfo spec{};
-        spec.mapEntryCount = 3;
+        spec.mapEntryCount = 5;
         spec.pMapEntries = entries;
         spec.dataSize = sizeof(values);
         spec.pData = values;

@@ -93,6 +93,8 @@ uvec2 triangle_word(uint w) {
 // constants; id 1 is the workgroup size).
 layout(constant_id = 0) const uint KD_STACK_SIZE = 64u;
 layout(constant_id = 2) const uint MCPT_FEATURES = FEATURE_ALL;
+layout(constant_id = 3) const uint KD_NODE_STEPS = 1u;  // traverse.h
+layout(constant_id = 4) const uint KD_TRI_STEPS = 1u;
 #define SCENE_PARAMS_
 #define SCENE_ARGS_
 #define PARAM(x) params.x
@@ -183,6 +185,12 @@ MCPT_FN GpuTriangle load_triangle(__global const GpuTriangle* triangles, uint i)
 #endif
 #ifndef MCPT_FEATURES
 #define MCPT_FEATURES FEATURE_ALL  // OpenCL builds pass -DMCPT_FEATURES from the scene
+#endif
+#ifndef KD_NODE_STEPS
+#define KD_NODE_STEPS 1u  // node steps per traversal iteration (traverse.h)
+#endif
+#ifndef KD_TRI_STEPS
+#define KD_TRI_STEPS 1u  // triangles per traversal iteration (traverse.h)
 #endif
 #endif
 

@@ -15,6 +15,34 @@ MCPT_NAMESPACE_BEGIN
 // one the ray reaches after rounding is not.
 #define KD_SLACK 1.0e-6f
 
+// Several node steps and triangles per loop iteration (KD_NODE_STEPS, KD_TRI_STEPS: lavapipe),
+// as loops; GLSL takes them as specialization constants, so always. One of each (OpenCL on
+// GPUs, PoCL) is the plain loop body: NVIDIA's OpenCL compiler, under its register limit, ran
+// the loops' form 16-18% slower even at one step.
+#if defined(MCPT_GLSL)
+#define KD_STEP_LOOPS 1
+#elif KD_NODE_STEPS > 1u || KD_TRI_STEPS > 1u
+#define KD_STEP_LOOPS 1
+#endif
+#if defined(KD_STEP_LOOPS)
+// `continue` takes the next step; KD_NODE_STEPS_EXIT ends the steps (as it does after a
+// leaf: its triangles first), `break` (with finished set) the traversal.
+#define KD_NODE_STEPS_BEGIN \
+    bool leaf = false;      \
+    for (uint step = 0u; step < KD_NODE_STEPS; ++step) {
+#define KD_NODE_STEPS_LEAF leaf = true
+#define KD_NODE_STEPS_POPPED \
+    if (leaf) break
+#define KD_NODE_STEPS_EXIT break
+#define KD_TRI_STEPS_BEGIN for (uint k = 0u; k < KD_TRI_STEPS && tri_left > 0u; ++k) {
+#else
+#define KD_NODE_STEPS_BEGIN {
+#define KD_NODE_STEPS_LEAF
+#define KD_NODE_STEPS_POPPED
+#define KD_NODE_STEPS_EXIT continue
+#define KD_TRI_STEPS_BEGIN {
+#endif
+
 // Triangle tri_index against the ray, up to the nearest hit so far: the updated hit.
 MCPT_FN Hit closer_triangle_hit(SCENE_PARAMS_ Ray ray, WoopRay wr, uint tri_index, uint skip,
                                 Hit hit) {
@@ -103,8 +131,9 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
 
     // Clip the ray to the scene bounds.
     vec3 inv_d = V3(1.0f / ray.d.x, 1.0f / ray.d.y, 1.0f / ray.d.z);
-    vec2 range = intersect_bounds(ray, V3(PARAM(scene_min_x), PARAM(scene_min_y), PARAM(scene_min_z)),
-                                  V3(PARAM(scene_max_x), PARAM(scene_max_y), PARAM(scene_max_z)), inv_d);
+    vec2 range =
+        intersect_bounds(ray, V3(PARAM(scene_min_x), PARAM(scene_min_y), PARAM(scene_min_z)),
+                         V3(PARAM(scene_max_x), PARAM(scene_max_y), PARAM(scene_max_z)), inv_d);
     if (range.x > range.y) return hit;
     float tmin = range.x, tmax = range.y;
 
@@ -126,6 +155,8 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
     while (true) {
 #if !defined(MCPT_KD_LEAF_LOOP)
         if (tri_left > 0u) {
+            // Up to KD_TRI_STEPS triangles of the leaf.
+            KD_TRI_STEPS_BEGIN
             float nearest = hit.t;
             uint tri = LEAF_INDEX(tri_next);
             LeafHit lh = leaf_triangle_hit(SCENE_ARGS_ ray, wr, tri, skip, hit, mailbox);
@@ -134,6 +165,7 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
             if (any_hit && hit.t < nearest) return hit;
             tri_next += 1u;
             tri_left -= 1u;
+        }
             continue;
         }
         if (done) {
@@ -141,6 +173,10 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
             break;
         }
 #endif
+        // Up to KD_NODE_STEPS node steps (scene_access.h), each visiting a node or passing
+        // one that starts beyond the nearest hit, until a leaf: lanes at interior nodes keep
+        // pace with lanes testing a triangle.
+        KD_NODE_STEPS_BEGIN
         // Visit the node unless it starts beyond the nearest hit.
         if (hit.t >= tmin) {
 #ifdef MCPT_COUNTERS
@@ -179,8 +215,9 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
                 }
                 continue;
             }
-            // Leaf: its triangles, in the next iterations (before the next node's visit) or
-            // in a loop here.
+            // Leaf: its triangles, in the next iterations (before the next node's visit)
+            // or in a loop here.
+            KD_NODE_STEPS_LEAF;
             tri_left = n.flags >> 2u;
             tri_next = n.split_or_offset;
 #if defined(MCPT_KD_LEAF_LOOP)
@@ -204,13 +241,18 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
             break;
 #else
             done = true;  // after the leaf's triangles
-            continue;
+            KD_NODE_STEPS_EXIT;
 #endif
         }
         sp -= 1u;
         node = stack_node[sp];
         tmin = stack_tmin[sp];
         tmax = stack_tmax[sp];
+        KD_NODE_STEPS_POPPED;
+        }
+#if defined(MCPT_KD_LEAF_LOOP)
+        if (finished) break;
+#endif
     }
     if (!finished) hit.status = TRACE_INCOMPLETE;
     return hit;

@@ -60,6 +60,13 @@ struct BackendOptions {
 // The MCPT_FEATURES value a backend compiles `scene` with: the feature bits, and the compile
 // nonce above them (ignored by the device code, but part of every cache key).
 uint32_t compile_features(const BackendOptions& options, const GpuScene& scene);
+// Node steps and triangles per k-d traversal iteration (KD_NODE_STEPS, KD_TRI_STEPS:
+// common/gpu/traverse.h) for this device; $MCPT_KD_NODE_STEPS and $MCPT_KD_TRI_STEPS (1-32)
+// override them, for measurements.
+struct KdSteps {
+    uint32_t nodes = 1, triangles = 1;
+};
+KdSteps kd_steps(const DeviceInfo& device);
 
 class Backend {
   public:

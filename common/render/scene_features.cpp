@@ -1,5 +1,9 @@
 #include "common/render/scene_features.h"
 
+#include <cstdlib>
+#include <string>
+
+#include "common/error.h"
 #include "common/render/backend.h"
 #include "common/render/gpu_scene.h"
 
@@ -82,6 +86,28 @@ std::string features_left_out(uint32_t features) {
 uint32_t compile_features(const BackendOptions& options, const GpuScene& scene) {
     const uint32_t f = options.features != 0 ? options.features : scene.features;
     return (f & FEATURE_BITS) | (options.compile_nonce << FEATURE_COUNT);
+}
+
+namespace {
+uint32_t steps_from_env(const char* name, uint32_t fallback) {
+    const char* e = std::getenv(name);
+    if (!e) return fallback;
+    const int n = std::atoi(e);
+    if (n < 1 || n > 32)
+        throw Error(std::string(name) + " must be 1 to 32, not '" + std::string(e) + "'");
+    return uint32_t(n);
+}
+}  // namespace
+
+KdSteps kd_steps(const DeviceInfo& device) {
+    KdSteps s;
+    // lavapipe runs both sides of every branch under a mask, so each iteration costs a node
+    // step and a triangle test whichever its lanes need: 8 node steps and 2 triangles per
+    // iteration balance them (+55% on the meshes; docs/traversal.md).
+    if (device.backend == "vulkan" && device.type == "cpu") s.nodes = 8, s.triangles = 2;
+    s.nodes = steps_from_env("MCPT_KD_NODE_STEPS", s.nodes);
+    s.triangles = steps_from_env("MCPT_KD_TRI_STEPS", s.triangles);
+    return s;
 }
 
 }  // namespace mcpt
