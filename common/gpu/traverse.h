@@ -15,12 +15,16 @@ MCPT_NAMESPACE_BEGIN
 // one the ray reaches after rounding is not.
 #define KD_SLACK 1.0e-6f
 
-// Several node steps and triangles per loop iteration (KD_NODE_STEPS, KD_TRI_STEPS: lavapipe),
-// as loops; GLSL takes them as specialization constants, so always. One of each (OpenCL on
-// GPUs, PoCL) is the plain loop body: NVIDIA's OpenCL compiler, under its register limit, ran
-// the loops' form 16-18% slower even at one step.
+// Several node steps and triangles per loop iteration (KD_NODE_STEPS, KD_TRI_STEPS), as loops:
+// in the Vulkan module for GPUs always (specialization constants; at one step each it ran
+// NVIDIA's Vulkan 3-5% faster than the plain loop body), in OpenCL builds when asked for more
+// than one. The plain body elsewhere: NVIDIA's OpenCL compiler ran the loops' form 16-18%
+// slower and lavapipe 35% slower at one step, and no step count beat the plain body there
+// (docs/traversal.md).
 #if defined(MCPT_GLSL)
+#if !defined(MCPT_SCENE_TEXELS)
 #define KD_STEP_LOOPS 1
+#endif
 #elif KD_NODE_STEPS > 1u || KD_TRI_STEPS > 1u
 #define KD_STEP_LOOPS 1
 #endif

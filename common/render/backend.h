@@ -62,7 +62,8 @@ struct BackendOptions {
 uint32_t compile_features(const BackendOptions& options, const GpuScene& scene);
 // Node steps and triangles per k-d traversal iteration (KD_NODE_STEPS, KD_TRI_STEPS:
 // common/gpu/traverse.h) for this device; $MCPT_KD_NODE_STEPS and $MCPT_KD_TRI_STEPS (1-32)
-// override them, for measurements.
+// override them, for measurements (builds with the steps' loops: OpenCL, and Vulkan's
+// module for GPUs, which lavapipe runs with BackendOptions::scene_reads = "storage").
 struct KdSteps {
     uint32_t nodes = 1, triangles = 1;
 };

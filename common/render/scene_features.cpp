@@ -99,12 +99,9 @@ uint32_t steps_from_env(const char* name, uint32_t fallback) {
 }
 }  // namespace
 
-KdSteps kd_steps(const DeviceInfo& device) {
+KdSteps kd_steps(const DeviceInfo&) {
+    // One of each on every device measured (docs/traversal.md).
     KdSteps s;
-    // lavapipe runs both sides of every branch under a mask, so each iteration costs a node
-    // step and a triangle test whichever its lanes need: 8 node steps and 2 triangles per
-    // iteration balance them (+55% on the meshes; docs/traversal.md).
-    if (device.backend == "vulkan" && device.type == "cpu") s.nodes = 8, s.triangles = 2;
     s.nodes = steps_from_env("MCPT_KD_NODE_STEPS", s.nodes);
     s.triangles = steps_from_env("MCPT_KD_TRI_STEPS", s.triangles);
     return s;

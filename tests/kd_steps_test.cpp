@@ -1,0 +1,71 @@
+// Node steps and triangles per traversal iteration (KD_NODE_STEPS, KD_TRI_STEPS:
+// common/gpu/traverse.h) change how the loop is cut, not what a ray visits: the plain loop
+// body (one of each), and 1 and 1, 3 and 5 in the steps' loops give the same image, bit for
+// bit, on both APIs (Vulkan: the module for GPUs, the one with the loops). A count out of
+// range is refused.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+
+#include "common/error.h"
+#include "common/render/session.h"
+#include "common/scene/builtin_scenes.h"
+#include "test_util.h"
+
+namespace mcpt {
+namespace {
+
+class KdSteps : public ::testing::TestWithParam<std::string> {};
+
+// A mesh through its k-d tree, 16 samples; nullptr: the variable unset (the default).
+std::vector<float> render_mesh(const std::string& api, const char* nodes, const char* tris,
+                               uint32_t seed = 3) {
+    const auto set = [](const char* name, const char* value) {
+        if (value)
+            setenv(name, value, 1);
+        else
+            unsetenv(name);
+    };
+    set("MCPT_KD_NODE_STEPS", nodes);
+    set("MCPT_KD_TRI_STEPS", tris);
+    BackendOptions o;
+    if (api == "vulkan") o.scene_reads = "storage";  // the module with the steps' loops
+    Session s(test::test_backend(api, o));
+    Scene scene = make_bumpy_sphere_scene(24);
+    validate_scene(scene);
+    s.set_scene(scene);
+    s.settings().width = 48, s.settings().height = 40;
+    s.settings().tree = "sah";
+    s.settings().reproducible = true;
+    s.settings().seed = seed;
+    s.render(1e6, 0, 16);
+    set("MCPT_KD_NODE_STEPS", nullptr);
+    set("MCPT_KD_TRI_STEPS", nullptr);
+    return s.image_rgba32f();
+}
+
+TEST_P(KdSteps, StepsPerIterationGiveTheSameImage) {
+    const std::vector<float> defaults = render_mesh(GetParam(), nullptr, nullptr);
+    EXPECT_EQ(render_mesh(GetParam(), "1", "1"), defaults);
+    EXPECT_EQ(render_mesh(GetParam(), "3", "5"), defaults);
+    // Negative control: another seed is another image.
+    EXPECT_NE(render_mesh(GetParam(), nullptr, nullptr, 4), defaults);
+}
+
+TEST_P(KdSteps, OutOfRangeIsRefused) {
+    try {
+        render_mesh(GetParam(), "0", nullptr);
+        ADD_FAILURE() << "0 node steps accepted";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("MCPT_KD_NODE_STEPS must be 1 to 32, not '0'"),
+                  std::string::npos)
+            << e.what();
+    }
+    unsetenv("MCPT_KD_NODE_STEPS");
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, KdSteps, ::testing::ValuesIn(test::test_apis()),
+                         [](const auto& info) { return info.param; });
+
+}  // namespace
+}  // namespace mcpt
