@@ -37,7 +37,8 @@ struct CompareArgs {
 };
 
 struct Side {
-    std::unique_ptr<Backend> backend;
+    std::unique_ptr<Session> session;  // renders the batches and the same-seed image
+    Backend& backend() const { return session->backend(); }
     BatchSet batches;
     RenderResult same_seed;
     double device_seconds = 0;  // of the batches, 0 if the device cannot time itself
@@ -123,9 +124,9 @@ void write_compare_report(const CompareArgs& args, const Side (&sides)[2],
                   "scale: black <= %.0e, the tolerance %.0e at 2/3, white >= %.0e",
                   lo, d.tolerance, hi);
     r.images({{w, h, radiance_to_srgb8(sides[0].same_seed.mean_image(), exposure),
-               "A: " + sides[0].backend->description() + shown},
+               "A: " + sides[0].backend().description() + shown},
               {w, h, radiance_to_srgb8(sides[1].same_seed.mean_image(), exposure),
-               "B: " + sides[1].backend->description() + shown},
+               "B: " + sides[1].backend().description() + shown},
               {w, h,
                false_color_pixels(maps.relative,
                                   [&](float x) { return sequential_color(log_unit(x, lo, hi)); }),
@@ -156,19 +157,27 @@ void run_compare(const CompareArgs& args) {
         BackendOptions opt;
         RenderOptions side_ro = ro;
         if (s == 1) opt.extra_defines = args.b_defines, side_ro.light_scale = args.b_light_scale;
-        sides[s].backend = open_device(specs[s], opt);
+        sides[s].session = std::make_unique<Session>(open_device(specs[s], opt));
+        Session& session = *sides[s].session;
+        session.set_scene(scene);
+        session.settings().width = args.width, session.settings().height = args.height;
+        session.settings().max_depth = int(side_ro.max_depth);
+        session.settings().light_scale = side_ro.light_scale;
         // The tree: as asked, or (auto) the one this side's device cost model picks.
-        const GpuScene g = prepare_scene(scene, sides[s].backend->device(), tree_options(args.tree),
-                                         args.width, args.height);
-        sides[s].tree = tree_kind_name(g.tree_kind);
+        session.settings().tree = args.tree;
+        session.commit();
+        sides[s].tree = tree_kind_name(session.prepared().tree_kind);
         BatchOptions side_bo = bo;
         side_bo.seed_base = 1000u + 100000u * uint32_t(s);
-        const double device_before = sides[s].backend->device_seconds();
-        sides[s].batches = render_batches(*sides[s].backend, g, scene.camera, side_ro, side_bo);
-        sides[s].device_seconds = sides[s].backend->device_seconds() - device_before;
-        side_ro.spp = args.same_seed_spp;
-        side_ro.seed = 7;
-        sides[s].same_seed = render_loaded(*sides[s].backend, g, scene.camera, side_ro);
+        const double device_before = session.backend().device_seconds();
+        sides[s].batches = render_batches(session, side_bo);
+        sides[s].device_seconds = session.backend().device_seconds() - device_before;
+        session.settings().seed = 7;
+        session.reset();
+        RenderGoal goal;
+        goal.spp = args.same_seed_spp;
+        render_until(session, goal);
+        sides[s].same_seed = session.result();
     };
     if (args.parallel) {
         // A and B on their devices at once; a failure of either is reported after both end.
@@ -199,7 +208,8 @@ void run_compare(const CompareArgs& args) {
                 (unsigned long long)args.spp, ro.max_depth);
     std::printf("%-26s %-40s %-40s\n", "", "A", "B");
     std::vector<SpeedRow> speed;  // printed, and in the report
-    speed.push_back({"backend", sides[0].backend->description(), sides[1].backend->description()});
+    speed.push_back(
+        {"backend", sides[0].backend().description(), sides[1].backend().description()});
     double rate[2];
     for (int s = 0; s < 2; ++s) {
         const BatchSet& bs = sides[s].batches;
@@ -209,8 +219,8 @@ void run_compare(const CompareArgs& args) {
         speed.push_back({name, std::to_string(x) + unit, std::to_string(y) + unit});
     };
     speed.push_back({"k-d tree", sides[0].tree, sides[1].tree});
-    row("compile/pipeline (s)", sides[0].backend->compile_seconds(),
-        sides[1].backend->compile_seconds(), "");
+    row("compile/pipeline (s)", sides[0].backend().compile_seconds(),
+        sides[1].backend().compile_seconds(), "");
     row("time per sample (ns)", 1e9 / rate[0], 1e9 / rate[1], "");
     row("M samples/s", rate[0] * 1e-6, rate[1] * 1e-6, "");
     row("M rays/s", sides[0].batches.rays / sides[0].batches.seconds * 1e-6,

@@ -53,6 +53,20 @@ BatchSet render_batches(Backend& backend, const GpuScene& scene, const Camera& c
     return batch_means(renders);
 }
 
+BatchSet render_batches(Session& session, const BatchOptions& batch) {
+    if (batch.batches < 2) throw Error("need at least 2 batches");
+    std::vector<RenderResult> renders;
+    for (int b = 0; b < batch.batches; ++b) {
+        session.settings().seed = batch.seed_base + uint32_t(b);
+        session.reset();
+        RenderGoal goal;
+        goal.spp = batch.spp_per_batch;
+        render_until(session, goal);
+        renders.push_back(session.result());
+    }
+    return batch_means(renders);
+}
+
 std::string Agreement::verdict() const {
     std::ostringstream o;
     o << (agree ? "AGREE" : "DIFFER") << ": min p " << min_p << " (Sidak level " << sidak_level

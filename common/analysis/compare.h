@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "common/render/render_loop.h"
+#include "common/render/session.h"
 
 namespace mcpt {
 
@@ -31,6 +32,9 @@ BatchSet batch_means(const std::vector<RenderResult>& renders);
 // Loads the scene once, then renders the batches with independent seeds.
 BatchSet render_batches(Backend& backend, const GpuScene& scene, const Camera& camera,
                         RenderOptions options, const BatchOptions& batch);
+// The same through a session (its scene and settings; the seeds are set here), each batch
+// rendered from zero by render_until(), the loop of `mcpt render`.
+BatchSet render_batches(Session& session, const BatchOptions& batch);
 
 struct Agreement {
     size_t pixels_tested = 0;  // pixels with variance or differing means
