@@ -238,6 +238,10 @@ void run_render(const RenderArgs& a) {
                         (unsigned long long)loop->longest_dispatch_number(),
                         1e3 * loop->median_dispatch_seconds());
         }
+        if (session.readbacks() > 0)
+            std::printf("read-backs to the host: %llu, %.3f s (%.1f%% of the render)\n",
+                        (unsigned long long)session.readbacks(), session.readback_seconds(),
+                        r.seconds > 0 ? 100.0 * session.readback_seconds() / r.seconds : 0.0);
         std::printf("features used: %s\n", feature_names(g.features).c_str());
         std::printf("compiled for: %s; left out: %s\n",
                     feature_names(backend.compiled_features()).c_str(),

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <limits>
 #include <random>
@@ -90,6 +91,18 @@ TEST(FoldSums, SumsEqualTheHostsAtTheRangesEdges) {
                 ASSERT_TRUE(from_words(device.w) == host);
             }
         }
+}
+
+// from_exact() scales by multiplications: the bits of the two ldexp() calls it replaced.
+TEST(FoldSums, FromExactEqualsTheLdexpForm) {
+    std::mt19937_64 rng(5);
+    for (int i = 0; i < 100000; ++i) {
+        const ExactSum v = ExactSum(int64_t(rng())) * (ExactSum(1) << (rng() % 63)) +
+                           ExactSum(rng() >> (rng() % 64));
+        const double hi = double(int64_t(v >> 64)), lo = double(uint64_t(v));
+        const double ldexp_form = std::ldexp(std::ldexp(hi, 64) + lo, -kExactFractionBits);
+        ASSERT_EQ(from_exact(v), ldexp_form);
+    }
 }
 
 TEST(FoldSums, PixelFoldAddsOrStoresAndCounts) {

@@ -27,10 +27,13 @@ inline bool to_exact(float value, ExactSum& out) {
     return true;
 }
 
-// The sum as a double, the same on every machine (two exact conversions, one rounding each).
+// The sum as a double, the same on every machine: the two halves converted (one rounding
+// each), added (one rounding); the scalings by powers of two are exact (normal range: the
+// sum is an integer), so a fused multiply-add gives the same bits.
 inline double from_exact(ExactSum v) {
+    static_assert(kExactFractionBits == 50, "the scale below is 0x1p-50");
     const double hi = double(int64_t(v >> 64)), lo = double(uint64_t(v));
-    return std::ldexp(std::ldexp(hi, 64) + lo, -kExactFractionBits);
+    return (hi * 0x1p64 + lo) * 0x1p-50;
 }
 
 // Adds b to a; false when the sum would leave the range.

@@ -321,7 +321,17 @@ void ProgressiveRender::flush() {
 void ProgressiveRender::show_settled() {
     // The image's doubles, from the exact sums (r_ keeps its sample count and render time).
     if (stale_) settled_.materialize(), stale_ = false;
-    r_.sum = settled_.sum, r_.sum_sq = settled_.sum_sq, r_.nonfinite = settled_.nonfinite;
+    // Copied in pixel ranges on threads (r_'s arrays are image-sized already).
+    r_.sum.resize(settled_.sum.size()), r_.sum_sq.resize(settled_.sum_sq.size());
+    r_.nonfinite.resize(settled_.nonfinite.size());
+    for_pixel_ranges(npix_, [this](size_t begin, size_t end) {
+        std::copy(settled_.sum.begin() + 3 * begin, settled_.sum.begin() + 3 * end,
+                  r_.sum.begin() + 3 * begin);
+        std::copy(settled_.sum_sq.begin() + 3 * begin, settled_.sum_sq.begin() + 3 * end,
+                  r_.sum_sq.begin() + 3 * begin);
+        std::copy(settled_.nonfinite.begin() + begin, settled_.nonfinite.begin() + end,
+                  r_.nonfinite.begin() + begin);
+    });
     r_.rays = settled_.rays, r_.nonfinite_total = settled_.nonfinite_total;
 }
 

@@ -373,6 +373,7 @@ PassStats Session::render(double budget_ms, double target_error, uint64_t max_sp
                 progressive_->flush();
                 const bool reached = check && r.spp >= 2 && r.relative_error() <= target_error;
                 collect_s_ = elapsed() - c0;
+                readbacks_ += 1, readback_total_s_ += collect_s_;
                 if (check) checked_at = t;
                 if (reached) break;
             }
@@ -388,6 +389,7 @@ PassStats Session::render(double budget_ms, double target_error, uint64_t max_sp
         progressive_->flush();
         st.relative_error = r.relative_error();
         collect_s_ = elapsed() - c0;
+        readbacks_ += 1, readback_total_s_ += collect_s_;
     } catch (const DeviceLost& e) {
         // The device's sums are gone: keep what was read back, render no more.
         progressive_->discard_unflushed();
@@ -417,10 +419,16 @@ void Session::set_part(const SamplePart& part) {
     dirty_ = true;
 }
 
+bool Session::needs_commit() const {
+    return dirty_ || !same(settings_, committed_settings_);
+}
+
 PassStats render_until(Session& session, const RenderGoal& goal,
                        const std::function<void(const PassStats&)>& after_step) {
     if (goal.spp == 0 && !(goal.seconds > 0) && !(goal.target_error > 0))
         throw Error("give a sample count, a time budget or a target error");
+    // Commit first: the result held below is then the one render() adds to.
+    if (session.needs_commit()) session.commit();
     const RenderResult& r = session.result();
     double elapsed = r.seconds;  // a resumed render's time counts
     PassStats st;

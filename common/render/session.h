@@ -88,6 +88,10 @@ class Session {
     // their sums (every device waits meanwhile).
     uint64_t rounds() const { return rounds_; }
     double collect_seconds() const { return collect_total_s_; }
+    // One device: the read-backs render() made (the sums to the host, with the error
+    // estimate), and the seconds they took, since the session began.
+    uint64_t readbacks() const { return readbacks_; }
+    double readback_seconds() const { return readback_total_s_; }
     // Per device, what it rendered since the accumulation began; empty on one device.
     const std::vector<WorkerStats>& device_stats() const { return device_stats_; }
 
@@ -140,6 +144,9 @@ class Session {
     // The prepared scene (tree kind and why, features); valid after commit().
     const GpuScene& prepared() const { return prepared_; }
     bool committed() const { return !dirty_; }
+    // Whether the next render() commits first (the scene or a setting changed): result()
+    // is then replaced, and references to it dangle.
+    bool needs_commit() const;
     // The accumulated result (sums, spp, rays, seconds of render() calls); empty before. On
     // several devices: the samples every device rendered, added.
     const RenderResult& result() const;
@@ -166,6 +173,8 @@ class Session {
     bool round_open_ = false;    // render_chunk() added samples since add_round_to()
     double reduce_seconds_ = 0;  // collecting the last round's sums
     double collect_s_ = 0;       // one device: the last read-back and error estimate
+    uint64_t readbacks_ = 0;
+    double readback_total_s_ = 0;
     uint64_t rounds_ = 0;
     double collect_total_s_ = 0;
     double round_seconds() const;
