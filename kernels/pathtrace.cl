@@ -31,11 +31,10 @@ __kernel void pathtrace(__global const GpuParams* params, __global const uint* t
     if (params->fold_sums != 0u) {
         __global uint4* exact =
             (__global uint4*)accum + params->exact_vec4 + EXACT_VEC4_PER_PIXEL * pixel;
-        ExactPixel px = {exact[0], exact[1], exact[2], exact[3], exact[4], exact[5], exact[6]};
+        ExactPixel px;
+        for (uint k = 0u; k < EXACT_VEC4_PER_PIXEL; ++k) px.w[k] = exact[k];
         FoldStep f = fold_pixel(accum[sum], accum[sum + 1u], px, params->fold_sums);
-        exact[0] = f.px.sum_r, exact[1] = f.px.sum_g, exact[2] = f.px.sum_b;
-        exact[3] = f.px.sq_r, exact[4] = f.px.sq_g, exact[5] = f.px.sq_b;
-        exact[6] = f.px.counts;
+        for (uint k = 0u; k < EXACT_VEC4_PER_PIXEL; ++k) exact[k] = f.px.w[k];
         if (!f.ok) *(__global uint*)(accum + at.pending) = 1u;  // out of range
         return;
     }

@@ -26,18 +26,10 @@ void main() {
     // Reproducible: the group's float sums into the exact sums (fold_sums.h), nothing traced.
     if (params.fold_sums != 0u) {
         uint exact = params.exact_vec4 + EXACT_VEC4_PER_PIXEL * pixel;
-        ExactPixel px = ExactPixel(accum_exact[exact], accum_exact[exact + 1u],
-                                   accum_exact[exact + 2u], accum_exact[exact + 3u],
-                                   accum_exact[exact + 4u], accum_exact[exact + 5u],
-                                   accum_exact[exact + 6u]);
+        ExactPixel px;
+        for (uint k = 0u; k < EXACT_VEC4_PER_PIXEL; ++k) px.w[k] = accum_exact[exact + k];
         FoldStep f = fold_pixel(accum[sum], accum[sum + 1u], px, params.fold_sums);
-        accum_exact[exact] = f.px.sum_r;
-        accum_exact[exact + 1u] = f.px.sum_g;
-        accum_exact[exact + 2u] = f.px.sum_b;
-        accum_exact[exact + 3u] = f.px.sq_r;
-        accum_exact[exact + 4u] = f.px.sq_g;
-        accum_exact[exact + 5u] = f.px.sq_b;
-        accum_exact[exact + 6u] = f.px.counts;
+        for (uint k = 0u; k < EXACT_VEC4_PER_PIXEL; ++k) accum_exact[exact + k] = f.px.w[k];
         if (!f.ok) accum_words[pending] = 1u;  // out of range
         return;
     }

@@ -174,15 +174,23 @@ TEST_P(DeviceFailure, LostDeviceKeepsWholeGroupsReproducibly) {
 INSTANTIATE_TEST_SUITE_P(Backends, DeviceFailure, ::testing::ValuesIn(test::test_apis()),
                          [](const auto& info) { return info.param; });
 
+// `mcpt render` of 16x16 pixels on `api` whose device reports itself lost at dispatch `after`;
+// *out: the image path.
+test::CliRun lost_render(const std::string& api, int after, const std::string& name,
+                         std::string* out) {
+    *out = testing::TempDir() + "/" + name + "_" + api + ".exr";
+    std::filesystem::remove(*out);
+    return test::run_mcpt(
+        "render --backend " + api + " --width 16 --height 16 --spp 1000000 -q -o " + *out,
+        "MCPT_LOSE_DEVICE_AFTER=" + std::to_string(after));
+}
+
 // The backends' own injection fails like a lost device; `mcpt render` says so, writes the
 // samples taken before and exits non-zero.
 TEST(DeviceFailureCli, RenderWritesTheImageSoFarAndFails) {
     for (const std::string& api : test::test_apis()) {
-        const std::string out = testing::TempDir() + "/lost_cli_" + api + ".exr";
-        std::filesystem::remove(out);
-        const test::CliRun r = test::run_mcpt(
-            "render --backend " + api + " --width 16 --height 16 --spp 1000000 -q -o " + out,
-            "MCPT_LOSE_DEVICE_AFTER=50");
+        std::string out;
+        const test::CliRun r = lost_render(api, 50, "lost_cli", &out);
         EXPECT_NE(r.status, 0) << r.output;
         EXPECT_NE(r.output.find("injected by lose_device_after"), std::string::npos) << r.output;
         EXPECT_NE(r.output.find("rendered before the failure to " + out), std::string::npos)
@@ -196,11 +204,8 @@ TEST(DeviceFailureCli, RenderWritesTheImageSoFarAndFails) {
 // was kept and writes no image (on a GPU the first read-back can come after many dispatches).
 TEST(DeviceFailureCli, RenderSaysWhenNoSampleWasKept) {
     for (const std::string& api : test::test_apis()) {
-        const std::string out = testing::TempDir() + "/lost_first_" + api + ".exr";
-        std::filesystem::remove(out);
-        const test::CliRun r = test::run_mcpt(
-            "render --backend " + api + " --width 16 --height 16 --spp 1000000 -q -o " + out,
-            "MCPT_LOSE_DEVICE_AFTER=1");
+        std::string out;
+        const test::CliRun r = lost_render(api, 1, "lost_first", &out);
         EXPECT_NE(r.status, 0) << r.output;
         EXPECT_NE(r.output.find("injected by lose_device_after"), std::string::npos) << r.output;
         EXPECT_NE(r.output.find("no samples were kept"), std::string::npos) << r.output;

@@ -113,16 +113,16 @@ TEST(FoldSums, PixelFoldAddsOrStoresAndCounts) {
     f = gpu::fold_pixel(glm::vec4(0.25f, 0.f, 0.f, 1.f), glm::vec4(0.0625f, 0.f, 0.f, 4e9f), f.px,
                         FOLD_ADD);
     ASSERT_TRUE(f.ok);
-    EXPECT_DOUBLE_EQ(from_exact(from_words(f.px.sum_r)), 1.75);
-    EXPECT_DOUBLE_EQ(from_exact(from_words(f.px.sum_g)), -2.0);
-    EXPECT_DOUBLE_EQ(from_exact(from_words(f.px.sq_r)), 2.3125);
-    EXPECT_EQ(f.px.counts.x, 4u);  // non-finite samples
-    const uint64_t rays = f.px.counts.z | uint64_t(f.px.counts.w) << 32;
+    EXPECT_DOUBLE_EQ(from_exact(from_words(f.px.w[0])), 1.75);
+    EXPECT_DOUBLE_EQ(from_exact(from_words(f.px.w[1])), -2.0);
+    EXPECT_DOUBLE_EQ(from_exact(from_words(f.px.w[3])), 2.3125);
+    EXPECT_EQ(f.px.w[6].x, 4u);  // non-finite samples
+    const uint64_t rays = f.px.w[6].z | uint64_t(f.px.w[6].w) << 32;
     EXPECT_EQ(rays, 8000000000u);  // the count carried into its high word
     // FOLD_STORE forgets what was there; a sum out of range is reported.
     f = gpu::fold_pixel(glm::vec4(1.f, 0.f, 0.f, 0.f), glm::vec4(0.f), f.px, FOLD_STORE);
-    EXPECT_DOUBLE_EQ(from_exact(from_words(f.px.sum_r)), 1.0);
-    EXPECT_EQ(f.px.counts, glm::uvec4(0u));
+    EXPECT_DOUBLE_EQ(from_exact(from_words(f.px.w[0])), 1.0);
+    EXPECT_EQ(f.px.w[6], glm::uvec4(0u));
     EXPECT_FALSE(
         gpu::fold_pixel(glm::vec4(0.f), glm::vec4(3e38f, 0.f, 0.f, 0.f), zero, FOLD_ADD).ok);
 }

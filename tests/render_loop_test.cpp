@@ -46,12 +46,12 @@ class FakeBackend final : public Backend {
         for (uint32_t i = p.pixel_offset; i < p.pixel_offset + p.pixel_count; ++i) {
             glm::uvec4* e = &exact_.at(size_t(i) * EXACT_VEC4_PER_PIXEL);
             const float* a = &accum_[8 * size_t(i)];
-            const gpu::ExactPixel px{e[0], e[1], e[2], e[3], e[4], e[5], e[6]};
+            gpu::ExactPixel px;
+            std::copy(e, e + EXACT_VEC4_PER_PIXEL, px.w);
             const gpu::FoldStep f =
                 gpu::fold_pixel(glm::vec4(a[0], a[1], a[2], a[3]),
                                 glm::vec4(a[4], a[5], a[6], a[7]), px, p.fold_sums);
-            e[0] = f.px.sum_r, e[1] = f.px.sum_g, e[2] = f.px.sum_b;
-            e[3] = f.px.sq_r, e[4] = f.px.sq_g, e[5] = f.px.sq_b, e[6] = f.px.counts;
+            std::copy(f.px.w, f.px.w + EXACT_VEC4_PER_PIXEL, e);
             out_of_range |= f.ok ? 0u : 1u;
         }
         return out_of_range;

@@ -7,6 +7,7 @@
 #define MCPT_GPU_FOLD_SUMS_H
 
 #include "lang.h"
+#include "sampling.h"
 #include "shared_types.h"
 
 MCPT_NAMESPACE_BEGIN
@@ -99,10 +100,10 @@ MCPT_FN uvec4 counts_add(uvec4 c, float nonfinite, float rays) {
     return s;
 }
 
-// A pixel's exact sums (EXACT_VEC4_PER_PIXEL uvec4, shared_types.h).
+// A pixel's exact sums (EXACT_VEC4_PER_PIXEL uvec4, shared_types.h): the sums (rgb), the
+// squares (rgb), then the counts.
 MCPT_STRUCT(ExactPixel) {
-    uvec4 sum_r, sum_g, sum_b, sq_r, sq_g, sq_b;
-    uvec4 counts;  // non-finite samples, rays: 64 bits each
+    uvec4 w[EXACT_VEC4_PER_PIXEL];
 };
 
 MCPT_STRUCT(FoldStep) {
@@ -113,32 +114,21 @@ MCPT_STRUCT(FoldStep) {
 // One pixel's float sums of a whole group (the accumulation buffer's two vec4) added to its
 // exact sums (FOLD_ADD), or taking their place (FOLD_STORE).
 MCPT_FN FoldStep fold_pixel(vec4 sum, vec4 sum_sq, ExactPixel px, uint mode) {
-    if (mode == FOLD_STORE) {
-        px.sum_r = px.sum_g = px.sum_b = UV4(0u, 0u, 0u, 0u);
-        px.sq_r = px.sq_g = px.sq_b = UV4(0u, 0u, 0u, 0u);
-        px.counts = UV4(0u, 0u, 0u, 0u);
-    }
+    uvec4 zero = UV4(0u, 0u, 0u, 0u);
+    bool store = mode == FOLD_STORE;
+    vec3 s = V3(sum.x, sum.y, sum.z), q = V3(sum_sq.x, sum_sq.y, sum_sq.z);
     FoldStep f;
-    ExactTerm t = exact_accumulate(px.sum_r, sum.x);
-    f.px.sum_r = t.w;
-    f.ok = t.ok;
-    t = exact_accumulate(px.sum_g, sum.y);
-    f.px.sum_g = t.w;
-    f.ok = f.ok && t.ok;
-    t = exact_accumulate(px.sum_b, sum.z);
-    f.px.sum_b = t.w;
-    f.ok = f.ok && t.ok;
-    t = exact_accumulate(px.sq_r, sum_sq.x);
-    f.px.sq_r = t.w;
-    f.ok = f.ok && t.ok;
-    t = exact_accumulate(px.sq_g, sum_sq.y);
-    f.px.sq_g = t.w;
-    f.ok = f.ok && t.ok;
-    t = exact_accumulate(px.sq_b, sum_sq.z);
-    f.px.sq_b = t.w;
-    f.ok = f.ok && t.ok;
+    f.ok = true;
+    for (uint c = 0u; c < 3u; ++c) {
+        ExactTerm t = exact_accumulate(store ? zero : px.w[c], vec3_at(s, c));
+        f.px.w[c] = t.w;
+        f.ok = f.ok && t.ok;
+        t = exact_accumulate(store ? zero : px.w[3u + c], vec3_at(q, c));
+        f.px.w[3u + c] = t.w;
+        f.ok = f.ok && t.ok;
+    }
     // Counts: non-finite samples (sum.w) and rays (sum_sq.w).
-    f.px.counts = counts_add(px.counts, sum.w, sum_sq.w);
+    f.px.w[6] = counts_add(store ? zero : px.w[6], sum.w, sum_sq.w);
     return f;
 }
 
