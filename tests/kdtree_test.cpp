@@ -741,6 +741,75 @@ TEST(KdTreeTraversal, DeviceTraversalMatchesBruteForce) {
     }
 }
 
+// Two-level nodes (widen_kdtree) give the binary tree's hits bit for bit: the same leaves in
+// the same order, each with the segment the binary traversal gives it.
+TEST(KdTreeTraversal, TwoLevelNodesGiveTheBinaryTreesHits) {
+    size_t binary_visits = 0, wide_visits = 0, binary_tests = 0, wide_tests = 0, widened = 0;
+    for (const NamedMesh& m : test_meshes()) {
+        std::vector<gpu::GpuTriangle> g;
+        for (const Triangle& t : m.tris)
+            g.push_back(
+                {t.v0.x, t.v0.y, t.v0.z, t.v1.x, t.v1.y, t.v1.z, t.v2.x, t.v2.y, t.v2.z, 0u});
+        const std::vector<TestRay> rays = test_rays(m.tris, 13);
+        for (TreeKind kind : {TreeKind::Sah, TreeKind::Median, TreeKind::None}) {
+            for (int depth : depths_for(kind)) {
+                const std::string what = label(m.name, kind, depth);
+                const KdTree tree = build_kdtree(m.tris, options(kind, depth));
+                const KdTree wide = widen_kdtree(tree);
+                ASSERT_EQ(wide.wide, (tree.nodes[0].flags & 3u) != KD_LEAF) << what;
+                if (!wide.wide) continue;
+                ++widened;
+                ASSERT_LE(wide.stack_size(), KD_STACK_SIZE) << what;
+                EXPECT_EQ(wide.wide_depth, uint32_t(tree.stats.max_depth + 1) / 2) << what;
+                for (const TestRay& r : rays) {
+                    gpu::Ray ray;
+                    ray.o = r.o, ray.d = r.d, ray.tmax = 3.0e38f;
+                    const gpu::Hit a = cpu_trace_tree(tree, g, ray);
+                    const gpu::Hit b = cpu_trace_tree(wide, g, ray);
+                    ASSERT_EQ(b.status, 0u) << what << ": stack overflow";
+                    ASSERT_EQ(a.prim, b.prim) << what << ": " << describe_ray(r);
+                    ASSERT_EQ(std::memcmp(&a.t, &b.t, 4), 0) << what << ": " << describe_ray(r);
+                    ASSERT_EQ(std::memcmp(&a.b1, &b.b1, 4), 0) << what;
+                    ASSERT_EQ(std::memcmp(&a.b2, &b.b2, 4), 0) << what;
+                    binary_visits += a.node_visits, wide_visits += b.node_visits;
+                    binary_tests += a.tri_tests, wide_tests += b.tri_tests;
+                }
+            }
+        }
+    }
+    EXPECT_GT(widened, 10u);
+    // Half the levels, less the empty leaves: about half the visits. The same triangle tests
+    // but where a deferred far half's child starts before the half (the split's slack): the
+    // binary traversal passes that half once the hit is nearer, the two-level one tests it.
+    EXPECT_LT(double(wide_visits), 0.7 * double(binary_visits));
+    EXPECT_GE(wide_tests, binary_tests);
+    EXPECT_LT(double(wide_tests), 1.01 * double(binary_tests));
+}
+
+// The comparison above catches a wrong two-level node: planes of the two halves swapped.
+TEST(KdTreeTraversal, TwoLevelNodesWithSwappedPlanesAreCaught) {
+    const std::vector<Triangle> tris = blob(10);
+    std::vector<gpu::GpuTriangle> g;
+    for (const Triangle& t : tris)
+        g.push_back({t.v0.x, t.v0.y, t.v0.z, t.v1.x, t.v1.y, t.v1.z, t.v2.x, t.v2.y, t.v2.z, 0u});
+    const KdTree tree = build_kdtree(tris, options(TreeKind::Sah, -1));
+    KdTree wide = widen_kdtree(tree);
+    ASSERT_TRUE(wide.wide);
+    for (size_t i = 0; i + 3 < wide.nodes.size(); i += 4) {
+        if ((wide.nodes[i].flags & 3u) == KD_LEAF) break;  // the leaves after the nodes
+        const uint32_t direct = KD_WIDE_DIRECT_BELOW | KD_WIDE_DIRECT_ABOVE;
+        if ((wide.nodes[i].flags & direct) == 0)
+            std::swap(wide.nodes[i + 1].split_or_offset, wide.nodes[i + 1].flags);
+    }
+    size_t differ = 0;
+    for (const TestRay& r : test_rays(tris, 14)) {
+        gpu::Ray ray;
+        ray.o = r.o, ray.d = r.d, ray.tmax = 3.0e38f;
+        differ += cpu_trace_tree(tree, g, ray).prim != cpu_trace_tree(wide, g, ray).prim;
+    }
+    EXPECT_GT(differ, 0u);
+}
+
 // Work per ray on a 49k-triangle bumpy sphere, a stand-in for the 47,794-triangle dragon
 // (the target there: at most 12 triangle tests per ray; this mesh measures about 11).
 TEST(KdTreeQuality, FewTriangleTestsPerRayOnALargeMesh) {
