@@ -93,8 +93,7 @@ class OpenClBackend final : public Backend {
     }
 
     void load(const GpuScene& scene, int width, int height, bool exact_sums) override {
-        build(scene.stack_size, compile_features(options_, scene),
-              (scene.params.scene_flags & SCENE_KD_WIDE) != 0);
+        build(scene.stack_size, compile_features(options_, scene));
         // Check every buffer against the device limits before allocating.
         check_device_limits(scene, width, height, dev_.info, description());
         const AccumLayout layout =
@@ -209,13 +208,12 @@ class OpenClBackend final : public Backend {
         return active;
     }
 
-    void build(uint32_t stack_size, uint32_t features, bool wide) {
+    void build(uint32_t stack_size, uint32_t features) {
         std::string opts = "-cl-std=CL1.2 -DKD_STACK_SIZE=" + std::to_string(stack_size) +
                            "u -DMCPT_FEATURES=" + std::to_string(features) + "u";
         if (options_.fast_math) opts += " -cl-fast-relaxed-math";
         if (dev_.info.type == "gpu") opts += " -DMCPT_TRIANGLE_WORDS";  // scene_access.h
         if (dev_.info.type == "cpu") opts += " -DMCPT_KD_LEAF_LOOP";    // traverse.h
-        if (wide) opts += " -DMCPT_KD_WIDE";                            // two-level nodes
         opts += " -DMCPT_KD_MAILBOX";                                   // traverse.h
         // NVIDIA's compiler takes inline PTX (sampler.h: one instruction for a bit reversal).
         // Left alone it gives the kernel 109-147 registers (its Vulkan driver: 80-96); at most

@@ -55,7 +55,6 @@ struct VulkanBackend::Impl {
     uint32_t max_groups = 1;
     uint32_t built_stack = 0, built_features = 0;
     bool built_texels = false;
-    bool built_wide = false;
     BackendOptions options;
     uint32_t dispatches = 0;  // counted for options.lose_device_after
     double compile_seconds = 0;
@@ -230,23 +229,22 @@ struct VulkanBackend::Impl {
         pixels = 0;
     }
 
-    void build(uint32_t stack_size, uint32_t features, bool texels, bool wide) {
+    void build(uint32_t stack_size, uint32_t features, bool texels) {
         if (pipeline && stack_size == built_stack && features == built_features &&
-            texels == built_texels && wide == built_wide)
+            texels == built_texels)
             return;
         const vk::DeviceFns& f = dev->fn();
         if (pipeline) f.vkDestroyPipeline(dev->handle(), pipeline, nullptr);
         pipeline = VK_NULL_HANDLE;
         const auto t0 = std::chrono::steady_clock::now();
         // Specialization: id 0 = KD_STACK_SIZE, id 1 = local_size_x, id 2 = MCPT_FEATURES,
-        // ids 3 and 4 = KD_NODE_STEPS and KD_TRI_STEPS, id 5 = KD_WIDE (two-level nodes).
+        // ids 3 and 4 = KD_NODE_STEPS and KD_TRI_STEPS.
         const KdSteps steps = kd_steps(pd.info);
-        const uint32_t values[6] = {stack_size,  local,           features,
-                                    steps.nodes, steps.triangles, wide ? 1u : 0u};
-        const VkSpecializationMapEntry entries[6] = {{0, 0, 4},  {1, 4, 4},  {2, 8, 4},
-                                                     {3, 12, 4}, {4, 16, 4}, {5, 20, 4}};
+        const uint32_t values[5] = {stack_size, local, features, steps.nodes, steps.triangles};
+        const VkSpecializationMapEntry entries[5] = {
+            {0, 0, 4}, {1, 4, 4}, {2, 8, 4}, {3, 12, 4}, {4, 16, 4}};
         VkSpecializationInfo spec{};
-        spec.mapEntryCount = 6;
+        spec.mapEntryCount = 5;
         spec.pMapEntries = entries;
         spec.dataSize = sizeof(values);
         spec.pData = values;
@@ -267,7 +265,6 @@ struct VulkanBackend::Impl {
         built_stack = stack_size;
         built_features = features;
         built_texels = texels;
-        built_wide = wide;
 
         // Save the cache if the driver's data changed.
         if (cold) return;
@@ -319,8 +316,7 @@ struct VulkanBackend::Impl {
         scene_texels = prefer_texels() && fits;
 
         // Pipeline for this scene's stack depth and features, and how it reads the scene.
-        build(scene.stack_size, compile_features(options, scene), scene_texels,
-              (scene.params.scene_flags & SCENE_KD_WIDE) != 0);
+        build(scene.stack_size, compile_features(options, scene), scene_texels);
         accum = dev->create_buffer(accum_bytes,
                                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
                                        VK_BUFFER_USAGE_TRANSFER_SRC_BIT |

@@ -26,7 +26,6 @@ gpu::Hit cpu_trace_tree(const KdTree& tree, const std::vector<gpu::GpuTriangle>&
     gpu::GpuParams p{};
     p.num_triangles = uint32_t(triangles.size());
     p.num_nodes = uint32_t(tree.nodes.size());
-    p.scene_flags = tree.wide ? SCENE_KD_WIDE : 0u;
     p.scene_min_x = tree.bounds.min.x, p.scene_max_x = tree.bounds.max.x;
     p.scene_min_y = tree.bounds.min.y, p.scene_max_y = tree.bounds.max.y;
     p.scene_min_z = tree.bounds.min.z, p.scene_max_z = tree.bounds.max.z;

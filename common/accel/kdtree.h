@@ -57,24 +57,13 @@ struct KdTree {
     TreeStats stats;
     TreeKind kind = TreeKind::None;      // the tree built (never Auto)
     std::string auto_choice;             // TreeKind::Auto: what it chose and why
-    // Two-level nodes (widen_kdtree): nodes hold 32-byte nodes of three split planes and four
-    // children, then the leaves, as 8-byte units (shared_types.h: KD_WIDE_*).
-    bool wide = false;
-    uint32_t wide_depth = 0;  // two-level nodes on the longest root-to-leaf path
-    // Traversal stack entries needed: max_depth + 1 (never smaller than 1); two-level nodes
-    // defer up to three children each.
-    uint32_t stack_size() const {
-        return wide ? 3u * wide_depth : static_cast<uint32_t>(stats.max_depth) + 1;
-    }
+    // Traversal stack entries needed: max_depth + 1 (never smaller than 1).
+    uint32_t stack_size() const { return static_cast<uint32_t>(stats.max_depth) + 1; }
 };
 
 // Builds the tree. TreeKind::None gives a single leaf holding every triangle, so the same
 // traversal code runs without a tree.
 KdTree build_kdtree(const std::vector<Triangle>& triangles, const TreeOptions& options);
-
-// The same tree with two k-d levels per node (shared_types.h: KD_WIDE_*): one traversal step
-// decides what two did. A tree whose root is a leaf stays as it is (wide = false).
-KdTree widen_kdtree(const KdTree& binary);
 
 // Expected cost of one ray through a tree, from surface areas (the SAH's own model, without
 // early termination): node visits and triangle tests of a ray crossing the scene bounds.

@@ -30,9 +30,6 @@ layout(std140, binding = BINDING_PARAMS) uniform ParamsBlock { GpuParams params;
 // The shared buffers of shared_types.h, each declared once per element type (aliases).
 layout(std430, binding = BINDING_TREE) readonly buffer NodesBlock { KdNode nodes[]; };
 layout(std430, binding = BINDING_TREE) readonly buffer TreeWordsBlock { uint tree_words[]; };
-layout(std430, binding = BINDING_TREE) readonly buffer TreeQuadsBlock {
-    uvec4 tree_quads[];
-};
 // Triangles as 8-byte words (triangle_from_words).
 layout(std430, binding = BINDING_TRIANGLES) readonly buffer TriBlock { uvec2 triangle_words[]; };
 layout(std430, binding = BINDING_SHADING) readonly buffer SphereBlock { GpuSphere spheres[]; };
@@ -48,9 +45,6 @@ layout(binding = BINDING_SHADING_TEXELS) uniform usamplerBuffer shading_quads;
 KdNode load_node(uint i) {
     uvec2 w = texelFetch(tree_texels, int(i)).xy;
     return KdNode(w.x, w.y);
-}
-uvec4 load_node_pair(uint i) {
-    return uvec4(texelFetch(tree_texels, int(i)).xy, texelFetch(tree_texels, int(i + 1u)).xy);
 }
 uint load_leaf_index(uint i) {
     uvec2 w = texelFetch(tree_texels, int(params.num_nodes + (i >> 1u))).xy;
@@ -77,7 +71,6 @@ GpuLight load_light(uint i) {
     return GpuLight(a.x, a.y, uintBitsToFloat(a.z), uintBitsToFloat(a.w));
 }
 #define NODE(i) load_node(i)
-#define NODE_PAIR(i) load_node_pair(i)
 #define LEAF_INDEX(i) load_leaf_index(i)
 // Word pair w of the triangle buffer: half of a 16-byte texel.
 uvec2 triangle_word(uint w) {
@@ -90,7 +83,6 @@ uvec2 triangle_word(uint w) {
 #define LIGHT(i) load_light(i)
 #else
 #define NODE(i) nodes[i]
-#define NODE_PAIR(i) tree_quads[(i) >> 1u]
 #define LEAF_INDEX(i) tree_words[2u * params.num_nodes + (i)]
 #define TRIANGLE_WORD(w) triangle_words[w]
 #define SPHERE(i) spheres[i]
@@ -103,8 +95,6 @@ layout(constant_id = 0) const uint KD_STACK_SIZE = 64u;
 layout(constant_id = 2) const uint MCPT_FEATURES = FEATURE_ALL;
 layout(constant_id = 3) const uint KD_NODE_STEPS = 1u;  // traverse.h
 layout(constant_id = 4) const uint KD_TRI_STEPS = 1u;
-layout(constant_id = 5) const uint KD_WIDE = 0u;  // two-level nodes (SCENE_KD_WIDE)
-#define KD_WIDE_TREE (KD_WIDE != 0u)
 #define SCENE_PARAMS_
 #define SCENE_ARGS_
 #define PARAM(x) params.x
@@ -164,14 +154,6 @@ layout(std430, binding = BINDING_SHADING) readonly buffer Vec4Block { vec4 shadi
 #define PARAM(x) params->x
 #define NODE(i) nodes[i]
 #define LEAF_INDEX(i) leaf_indices[i]
-// Units i and i + 1 of the tree (i even: 16-byte aligned), as four words.
-#if defined(MCPT_OPENCL)
-#define NODE_PAIR(i) (((__global const uint4*)nodes)[(i) >> 1u])
-#else
-#define NODE_PAIR(i)                                                               \
-    UV4(nodes[i].split_or_offset, nodes[i].flags, nodes[(i) + 1u].split_or_offset, \
-        nodes[(i) + 1u].flags)
-#endif
 #define SPHERE(i) spheres[i]
 #define MATERIAL(i) materials[i]
 #define LIGHT(i) lights[i]
@@ -209,15 +191,6 @@ MCPT_FN GpuTriangle load_triangle(__global const GpuTriangle* triangles, uint i)
 #endif
 #ifndef KD_TRI_STEPS
 #define KD_TRI_STEPS 1u  // triangles per traversal iteration (traverse.h)
-#endif
-// Two-level nodes: OpenCL builds for such trees pass -DMCPT_KD_WIDE; the C++ build reads the
-// scene's flag.
-#if defined(MCPT_CPP)
-#define KD_WIDE_TREE ((PARAM(scene_flags) & SCENE_KD_WIDE) != 0u)
-#elif defined(MCPT_KD_WIDE)
-#define KD_WIDE_TREE 1
-#else
-#define KD_WIDE_TREE 0
 #endif
 #endif
 

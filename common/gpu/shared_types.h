@@ -55,17 +55,6 @@ MCPT_NAMESPACE_BEGIN
 
 // k-d node layout (pbrt): axis in the low 2 bits of `flags`, 3 = leaf; below child implicit.
 #define KD_LEAF 3u
-// Two-level nodes (GpuParams.scene_flags & SCENE_KD_WIDE; widen_kdtree): four 8-byte units,
-//   (split 0, axes), (split 1, split 2), (child 0, child 1), (child 2, child 3);
-// split 0 divides the node into its below and above halves, split 1 the below half into
-// children 0 and 1, split 2 the above half into children 2 and 3. axes: axis k in bits 2k;
-// KD_WIDE_DIRECT_BELOW (ABOVE): that half is child 0 (2) alone, with no split. A child is the
-// unit of a two-level node, KD_WIDE_LEAF_BIT | the unit of a leaf (the binary layout's leaf
-// node, after every two-level node), or KD_WIDE_EMPTY.
-#define KD_WIDE_DIRECT_BELOW 64u
-#define KD_WIDE_DIRECT_ABOVE 128u
-#define KD_WIDE_LEAF_BIT 0x80000000u
-#define KD_WIDE_EMPTY 0xffffffffu
 
 // Binding slots, shared by the OpenCL kernel argument order and the Vulkan descriptor set.
 // Scene arrays share buffers so the shader binds 4 storage buffers, the minimum every Vulkan
@@ -233,11 +222,9 @@ MCPT_STRUCT(GpuParams) {
     uint pad_params0;  // std140: a multiple of 16 bytes
 };
 // GpuParams.scene_flags: the triangle buffer holds GpuTriangleAttributes after the triangles;
-// some material has an alpha mask (the traversal reads materials only then); the tree has
-// two-level nodes.
+// some material has an alpha mask (the traversal reads materials only then).
 #define SCENE_VERTEX_DATA 1u
 #define SCENE_ALPHA_MASK 2u
-#define SCENE_KD_WIDE 4u  // the tree buffer holds two-level nodes (KD_WIDE_*)
 
 // Accumulation buffer: two vec4 per pixel (every pixel, or the window's state_slots pixels
 // from state_base when accum_window is set).

@@ -93,85 +93,6 @@ MCPT_FN LeafHit leaf_triangle_hit(SCENE_PARAMS_ Ray ray, WoopRay wr, uint tri, u
     return r;
 }
 
-// Where a split plane cuts a ray's segment [tmin, tmax]: the side the ray starts on, and the
-// parts before the plane (near: [tmin, near_max]) and after it (far: [far_min, tmax]).
-MCPT_STRUCT(KdCut) {
-    bool below_first, near, far;
-    float near_max, far_min;
-};
-
-MCPT_FN KdCut kd_cut(Ray ray, vec3 inv_d, float split, uint axis, float tmin, float tmax) {
-    KdCut c;
-    float o_a = vec3_at(ray.o, axis);
-    float d_a = vec3_at(ray.d, axis);
-    float t_plane = (split - o_a) * vec3_at(inv_d, axis);
-    bool in_plane = t_plane != t_plane;  // NaN: ray lies in the split plane
-    c.below_first = (o_a < split) || (o_a == split && d_a <= 0.0f);
-    c.near = true;
-    c.far = true;
-    c.near_max = tmax;
-    c.far_min = tmin;
-    if (!in_plane && (t_plane > tmax * (1.0f + KD_SLACK) || t_plane <= 0.0f)) {
-        c.far = false;
-    } else if (!in_plane && t_plane < tmin * (1.0f - KD_SLACK)) {
-        c.near = false;
-    } else {
-        c.near_max = in_plane ? tmax : t_plane * (1.0f + KD_SLACK);
-        c.far_min = (in_plane ? tmin : t_plane) * (1.0f - KD_SLACK);
-    }
-    return c;
-}
-
-// The children of one half (h: 0 below, 1 above) of a two-level node (q0, q1: its units) that
-// the ray's segment [lo, hi] of that half meets, near first; KD_WIDE_EMPTY where none.
-MCPT_STRUCT(KdHalf) {
-    uint near_child, far_child;
-    float near_min, near_max, far_min, far_max;
-};
-
-MCPT_FN KdHalf kd_wide_half(Ray ray, vec3 inv_d, uvec4 q0, uvec4 q1, uint h, bool meets, float lo,
-                            float hi) {
-    uint lo_child = h == 0u ? q1.x : q1.z;
-    uint hi_child = h == 0u ? q1.y : q1.w;
-    KdCut c = kd_cut(ray, inv_d, uint_as_float(h == 0u ? q0.z : q0.w), (q0.y >> (2u * h + 2u)) & 3u,
-                     lo, hi);
-    if ((q0.y & (h == 0u ? KD_WIDE_DIRECT_BELOW : KD_WIDE_DIRECT_ABOVE)) != 0u) {
-        // A leaf (or nothing) with no split.
-        c.below_first = true;
-        c.near = true;
-        c.far = false;
-        c.near_max = hi;
-    }
-    KdHalf r;
-    r.near_child = meets && c.near ? (c.below_first ? lo_child : hi_child) : KD_WIDE_EMPTY;
-    r.far_child = meets && c.far ? (c.below_first ? hi_child : lo_child) : KD_WIDE_EMPTY;
-    r.near_min = lo;
-    r.near_max = c.near_max;
-    r.far_min = c.far_min;
-    r.far_max = hi;
-    return r;
-}
-
-// Two-level nodes: child c with segment [lo, hi] becomes the next node, the one before it
-// (farther along the ray) deferred on the stack.
-#define KD_WIDE_DEFER(c, lo, hi)                   \
-    if ((c) != KD_WIDE_EMPTY) {                    \
-        if (have_next) {                           \
-            if (sp >= KD_STACK_SIZE) {             \
-                hit.status = TRACE_STACK_OVERFLOW; \
-                return hit;                        \
-            }                                      \
-            stack_node[sp] = next;                 \
-            stack_tmin[sp] = next_min;             \
-            stack_tmax[sp] = next_max;             \
-            sp += 1u;                              \
-        }                                          \
-        have_next = true;                          \
-        next = (c);                                \
-        next_min = (lo);                           \
-        next_max = (hi);                           \
-    }
-
 // Nearest hit with t < ray.tmax, ignoring triangle `skip`; with any_hit, the first hit found.
 MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
     Hit hit;
@@ -265,68 +186,44 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
 #ifdef MCPT_COUNTERS
             hit.node_visits += 1u;
 #endif
-            if (KD_WIDE_TREE && (node & KD_WIDE_LEAF_BIT) == 0u) {
-                // Two-level node: its children the segment meets, far ones deferred, from
-                // the far half's far child to the near half's near child.
-                uvec4 q0 = NODE_PAIR(node), q1 = NODE_PAIR(node + 2u);
-                KdCut root = kd_cut(ray, inv_d, uint_as_float(q0.x), q0.y & 3u, tmin, tmax);
-                uint near_half = root.below_first ? 0u : 1u;
-                KdHalf far_h =
-                    kd_wide_half(ray, inv_d, q0, q1, 1u - near_half, root.far, root.far_min, tmax);
-                KdHalf near_h =
-                    kd_wide_half(ray, inv_d, q0, q1, near_half, root.near, tmin, root.near_max);
-                bool have_next = false;
-                uint next = 0u;
-                float next_min = 0.0f, next_max = 0.0f;
-                KD_WIDE_DEFER(far_h.far_child, far_h.far_min, far_h.far_max)
-                KD_WIDE_DEFER(far_h.near_child, far_h.near_min, far_h.near_max)
-                KD_WIDE_DEFER(near_h.far_child, near_h.far_min, near_h.far_max)
-                KD_WIDE_DEFER(near_h.near_child, near_h.near_min, near_h.near_max)
-                if (have_next) {
-                    node = next;
-                    tmin = next_min;
-                    tmax = next_max;
-                    continue;
-                }
-            } else {
-                KdNode n = NODE(KD_WIDE_TREE ? node & ~KD_WIDE_LEAF_BIT : node);
-                uint axis = n.flags & 3u;
-                if (axis != KD_LEAF) {
-                    // Interior: order the children along the ray.
-                    float split = uint_as_float(n.split_or_offset);
-                    float o_a = vec3_at(ray.o, axis);
-                    float d_a = vec3_at(ray.d, axis);
-                    float t_plane = (split - o_a) * vec3_at(inv_d, axis);
-                    bool below_first = (o_a < split) || (o_a == split && d_a <= 0.0f);
-                    uint above = n.flags >> 2u;
-                    uint first = below_first ? node + 1u : above;
-                    uint second = below_first ? above : node + 1u;
-                    bool in_plane = t_plane != t_plane;  // NaN: ray lies in the split plane
-                    if (!in_plane && (t_plane > tmax * (1.0f + KD_SLACK) || t_plane <= 0.0f)) {
-                        node = first;
-                    } else if (!in_plane && t_plane < tmin * (1.0f - KD_SLACK)) {
-                        node = second;
-                    } else {
-                        // Both: defer the far child.
-                        if (sp >= KD_STACK_SIZE) {
-                            hit.status = TRACE_STACK_OVERFLOW;
-                            return hit;
-                        }
-                        float t_split = in_plane ? tmin : t_plane;
-                        stack_node[sp] = second;
-                        stack_tmin[sp] = t_split * (1.0f - KD_SLACK);
-                        stack_tmax[sp] = tmax;
-                        sp += 1u;
-                        node = first;
-                        tmax = in_plane ? tmax : t_plane * (1.0f + KD_SLACK);
+            KdNode n = NODE(node);
+            uint axis = n.flags & 3u;
+            if (axis != KD_LEAF) {
+                // Interior: order the children along the ray.
+                float split = uint_as_float(n.split_or_offset);
+                float o_a = vec3_at(ray.o, axis);
+                float d_a = vec3_at(ray.d, axis);
+                float t_plane = (split - o_a) * vec3_at(inv_d, axis);
+                bool below_first = (o_a < split) || (o_a == split && d_a <= 0.0f);
+                uint above = n.flags >> 2u;
+                uint first = below_first ? node + 1u : above;
+                uint second = below_first ? above : node + 1u;
+                bool in_plane = t_plane != t_plane;  // NaN: ray lies in the split plane
+                if (!in_plane && (t_plane > tmax * (1.0f + KD_SLACK) || t_plane <= 0.0f)) {
+                    node = first;
+                } else if (!in_plane && t_plane < tmin * (1.0f - KD_SLACK)) {
+                    node = second;
+                } else {
+                    // Both: defer the far child.
+                    if (sp >= KD_STACK_SIZE) {
+                        hit.status = TRACE_STACK_OVERFLOW;
+                        return hit;
                     }
-                    continue;
+                    float t_split = in_plane ? tmin : t_plane;
+                    stack_node[sp] = second;
+                    stack_tmin[sp] = t_split * (1.0f - KD_SLACK);
+                    stack_tmax[sp] = tmax;
+                    sp += 1u;
+                    node = first;
+                    tmax = in_plane ? tmax : t_plane * (1.0f + KD_SLACK);
                 }
-                // Leaf: its triangles, in the next iterations (before the next node's visit)
-                // or in a loop here.
-                KD_NODE_STEPS_LEAF;
-                tri_left = n.flags >> 2u;
-                tri_next = n.split_or_offset;
+                continue;
+            }
+            // Leaf: its triangles, in the next iterations (before the next node's visit)
+            // or in a loop here.
+            KD_NODE_STEPS_LEAF;
+            tri_left = n.flags >> 2u;
+            tri_next = n.split_or_offset;
 #if defined(MCPT_KD_LEAF_LOOP)
             for (; tri_left > 0u; --tri_left) {
                 float nearest = hit.t;
@@ -338,7 +235,6 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
                 tri_next += 1u;
             }
 #endif
-            }
         }
         // Next deferred node. Pop on past nodes that start beyond the hit rather than stop
         // at the first: a ray lying in a split plane defers the far child with the near

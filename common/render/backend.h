@@ -68,9 +68,6 @@ struct KdSteps {
     uint32_t nodes = 1, triangles = 1;
 };
 KdSteps kd_steps(const DeviceInfo& device);
-// Whether the k-d tree goes to this device as two-level nodes (widen_kdtree);
-// $MCPT_KD_WIDE (0 or 1) overrides it, for measurements.
-bool kd_wide_nodes(const DeviceInfo& device);
 
 class Backend {
   public:

@@ -272,7 +272,6 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
     p.scene_flags = g.attributes.empty() ? 0u : SCENE_VERTEX_DATA;
     for (const gpu::GpuMaterial& m : g.materials)
         if (m.alpha_cutoff > 0.f) p.scene_flags |= SCENE_ALPHA_MASK;
-    if (tree.wide) p.scene_flags |= SCENE_KD_WIDE;
     p.texels_word = SHADING_LIGHTS_WORD(p.num_spheres, p.num_materials) + 4u * p.num_lights +
                     4u * p.num_textures;
     p.light_power_total = float(total);

@@ -24,8 +24,7 @@ GpuScene prepare_scene(const Scene& scene, const DeviceInfo& device, TreeOptions
     if (width <= 0 || height <= 0 || width > 16384 || height > 16384)
         throw Error("image size must be between 1x1 and 16384x16384");
     tree.auto_model = tree_cost_model(device);
-    KdTree kd = build_kdtree(scene.triangles, tree);
-    if (kd_wide_nodes(device)) kd = widen_kdtree(kd);
+    const KdTree kd = build_kdtree(scene.triangles, tree);
     GpuScene g = pack_scene(scene, kd);
     // An environment map the shading buffer cannot hold is halved until it fits (lighting
     // keeps its mean; only its finest detail goes), with a warning: a phone still renders the

@@ -107,12 +107,4 @@ KdSteps kd_steps(const DeviceInfo&) {
     return s;
 }
 
-bool kd_wide_nodes(const DeviceInfo&) {
-    const char* e = std::getenv("MCPT_KD_WIDE");
-    if (!e) return false;
-    const std::string v = e;
-    if (v != "0" && v != "1") throw Error("MCPT_KD_WIDE must be 0 or 1, not '" + v + "'");
-    return v == "1";
-}
-
 }  // namespace mcpt
