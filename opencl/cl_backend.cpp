@@ -226,6 +226,7 @@ class OpenClBackend final : public Backend {
         if (steps.nodes != 1 || steps.triangles != 1)
             opts += " -DKD_NODE_STEPS=" + std::to_string(steps.nodes) +
                     "u -DKD_TRI_STEPS=" + std::to_string(steps.triangles) + "u";
+        if (steps.overlap == 0) opts += " -DKD_OVERLAP=0u";
         if (!options_.extra_defines.empty()) opts += " " + options_.extra_defines;
         if (program_() != nullptr && opts == built_options_) return;
         const auto t0 = std::chrono::steady_clock::now();

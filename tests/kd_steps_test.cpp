@@ -1,8 +1,9 @@
 // Node steps and triangles per traversal iteration (KD_NODE_STEPS, KD_TRI_STEPS:
 // common/gpu/traverse.h) change how the loop is cut, not what a ray visits: the plain loop
 // body (one of each), and 1 and 1, 3 and 5 in the steps' loops give the same image, bit for
-// bit, on both APIs (Vulkan: the module for GPUs, the one with the loops). A count out of
-// range is refused.
+// bit, on both APIs (Vulkan: the module for GPUs, the one with the loops). So do overlapped
+// steps (KD_OVERLAP, the default) and plain ones, in both Vulkan modules. A count out of range
+// is refused.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -19,7 +20,8 @@ class KdSteps : public ::testing::TestWithParam<std::string> {};
 
 // A mesh through its k-d tree, 16 samples; nullptr: the variable unset (the default).
 std::vector<float> render_mesh(const std::string& api, const char* nodes, const char* tris,
-                               uint32_t seed = 3) {
+                               uint32_t seed = 3, const char* overlap = nullptr,
+                               const char* reads = "storage") {
     const auto set = [](const char* name, const char* value) {
         if (value)
             setenv(name, value, 1);
@@ -28,8 +30,11 @@ std::vector<float> render_mesh(const std::string& api, const char* nodes, const 
     };
     set("MCPT_KD_NODE_STEPS", nodes);
     set("MCPT_KD_TRI_STEPS", tris);
+    set("MCPT_KD_OVERLAP", overlap);
     BackendOptions o;
-    if (api == "vulkan") o.scene_reads = "storage";  // the module with the steps' loops
+    if (api == "vulkan") o.scene_reads = reads;  // storage: the module with the steps' loops
+    // OpenCL for CPU devices loops over each leaf (no overlap): here the loop GPUs run.
+    if (api == "opencl") o.extra_defines = "-DMCPT_KD_STEP_BY_STEP";
     Session s(test::test_backend(api, o));
     Scene scene = make_bumpy_sphere_scene(24);
     validate_scene(scene);
@@ -41,6 +46,7 @@ std::vector<float> render_mesh(const std::string& api, const char* nodes, const 
     s.render(1e6, 0, 16);
     set("MCPT_KD_NODE_STEPS", nullptr);
     set("MCPT_KD_TRI_STEPS", nullptr);
+    set("MCPT_KD_OVERLAP", nullptr);
     return s.image_rgba32f();
 }
 
@@ -50,6 +56,18 @@ TEST_P(KdSteps, StepsPerIterationGiveTheSameImage) {
     EXPECT_EQ(render_mesh(GetParam(), "3", "5"), defaults);
     // Negative control: another seed is another image.
     EXPECT_NE(render_mesh(GetParam(), nullptr, nullptr, 4), defaults);
+}
+
+TEST_P(KdSteps, OverlappedStepsGiveTheSameImage) {
+    for (const char* reads : {"storage", "texel"}) {
+        if (GetParam() != "vulkan" && std::string(reads) == "texel") continue;
+        const std::vector<float> overlapped =
+            render_mesh(GetParam(), nullptr, nullptr, 3, "1", reads);
+        EXPECT_EQ(render_mesh(GetParam(), nullptr, nullptr, 3, "0", reads), overlapped) << reads;
+        EXPECT_EQ(render_mesh(GetParam(), nullptr, nullptr, 3, nullptr, reads), overlapped)
+            << reads;
+        EXPECT_EQ(render_mesh(GetParam(), "3", "5", 3, "1", reads), overlapped) << reads;
+    }
 }
 
 TEST_P(KdSteps, OutOfRangeIsRefused) {
@@ -62,6 +80,15 @@ TEST_P(KdSteps, OutOfRangeIsRefused) {
             << e.what();
     }
     unsetenv("MCPT_KD_NODE_STEPS");
+    try {
+        render_mesh(GetParam(), nullptr, nullptr, 3, "2");
+        ADD_FAILURE() << "MCPT_KD_OVERLAP=2 accepted";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("MCPT_KD_OVERLAP must be 0 or 1, not '2'"),
+                  std::string::npos)
+            << e.what();
+    }
+    unsetenv("MCPT_KD_OVERLAP");
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, KdSteps, ::testing::ValuesIn(test::test_apis()),

@@ -238,13 +238,14 @@ struct VulkanBackend::Impl {
         pipeline = VK_NULL_HANDLE;
         const auto t0 = std::chrono::steady_clock::now();
         // Specialization: id 0 = KD_STACK_SIZE, id 1 = local_size_x, id 2 = MCPT_FEATURES,
-        // ids 3 and 4 = KD_NODE_STEPS and KD_TRI_STEPS.
+        // ids 3, 4 and 5 = KD_NODE_STEPS, KD_TRI_STEPS and KD_OVERLAP.
         const KdSteps steps = kd_steps(pd.info);
-        const uint32_t values[5] = {stack_size, local, features, steps.nodes, steps.triangles};
-        const VkSpecializationMapEntry entries[5] = {
-            {0, 0, 4}, {1, 4, 4}, {2, 8, 4}, {3, 12, 4}, {4, 16, 4}};
+        const uint32_t values[6] = {stack_size,  local,           features,
+                                    steps.nodes, steps.triangles, steps.overlap};
+        const VkSpecializationMapEntry entries[6] = {{0, 0, 4},  {1, 4, 4},  {2, 8, 4},
+                                                     {3, 12, 4}, {4, 16, 4}, {5, 20, 4}};
         VkSpecializationInfo spec{};
-        spec.mapEntryCount = 5;
+        spec.mapEntryCount = 6;
         spec.pMapEntries = entries;
         spec.dataSize = sizeof(values);
         spec.pData = values;

@@ -22,15 +22,16 @@ gpu::Hit cpu_trace(const GpuScene& s, const gpu::Ray& ray, bool any_hit) {
 }
 
 gpu::Hit cpu_trace_tree(const KdTree& tree, const std::vector<gpu::GpuTriangle>& triangles,
-                        const gpu::Ray& ray) {
+                        const gpu::Ray& ray, bool any_hit, uint32_t scene_flags) {
     gpu::GpuParams p{};
+    p.scene_flags = scene_flags;
     p.num_triangles = uint32_t(triangles.size());
     p.num_nodes = uint32_t(tree.nodes.size());
     p.scene_min_x = tree.bounds.min.x, p.scene_max_x = tree.bounds.max.x;
     p.scene_min_y = tree.bounds.min.y, p.scene_max_y = tree.bounds.max.y;
     p.scene_min_z = tree.bounds.min.z, p.scene_max_z = tree.bounds.max.z;
     return gpu::trace_ray(&p, tree.nodes.data(), tree.leaf_indices.data(), triangles.data(),
-                          nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, ray, false);
+                          nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, ray, any_hit);
 }
 
 gpu::Hit brute_force_hit(const std::vector<gpu::GpuTriangle>& triangles, const gpu::Ray& ray) {

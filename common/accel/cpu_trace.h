@@ -13,10 +13,11 @@ namespace mcpt {
 // Closest (or any) hit of the ray in the packed scene, through the shared trace_ray().
 gpu::Hit cpu_trace(const GpuScene& scene, const gpu::Ray& ray, bool any_hit);
 
-// The closest hit among `triangles` alone through `tree` (built over them), with the shared
-// trace_ray(); status reports a stack overflow instead of throwing.
+// The closest (or any) hit among `triangles` alone through `tree` (built over them), with the
+// shared trace_ray(); status reports a stack overflow instead of throwing. scene_flags:
+// SCENE_KD_OVERLAP traverses with overlapped steps, as the device builds do.
 gpu::Hit cpu_trace_tree(const KdTree& tree, const std::vector<gpu::GpuTriangle>& triangles,
-                        const gpu::Ray& ray);
+                        const gpu::Ray& ray, bool any_hit = false, uint32_t scene_flags = 0);
 
 // The oracle it is checked against (tests, fuzzing): every triangle in index order with the
 // same triangle test, no tree; prim is NO_HIT when the ray misses them all.

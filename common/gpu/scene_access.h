@@ -95,6 +95,7 @@ layout(constant_id = 0) const uint KD_STACK_SIZE = 64u;
 layout(constant_id = 2) const uint MCPT_FEATURES = FEATURE_ALL;
 layout(constant_id = 3) const uint KD_NODE_STEPS = 1u;  // traverse.h
 layout(constant_id = 4) const uint KD_TRI_STEPS = 1u;
+layout(constant_id = 5) const uint KD_OVERLAP = 1u;  // traverse.h
 #define SCENE_PARAMS_
 #define SCENE_ARGS_
 #define PARAM(x) params.x
@@ -191,6 +192,9 @@ MCPT_FN GpuTriangle load_triangle(__global const GpuTriangle* triangles, uint i)
 #endif
 #ifndef KD_TRI_STEPS
 #define KD_TRI_STEPS 1u  // triangles per traversal iteration (traverse.h)
+#endif
+#ifndef KD_OVERLAP
+#define KD_OVERLAP 1u  // overlapped node steps and triangle tests (traverse.h)
 #endif
 #endif
 

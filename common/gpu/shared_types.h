@@ -225,6 +225,7 @@ MCPT_STRUCT(GpuParams) {
 // some material has an alpha mask (the traversal reads materials only then).
 #define SCENE_VERTEX_DATA 1u
 #define SCENE_ALPHA_MASK 2u
+#define SCENE_KD_OVERLAP 4u  // the C++ build only (tests): overlapped traversal steps (traverse.h)
 
 // Accumulation buffer: two vec4 per pixel (every pixel, or the window's state_slots pixels
 // from state_base when accum_window is set).

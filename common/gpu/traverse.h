@@ -1,7 +1,7 @@
 // Closest-hit and any-hit queries: spheres by brute force, triangles through the k-d tree
 // (pbrt-v3 KdTreeAccel traversal, front-to-back with a stack of KD_STACK_SIZE entries, which
-// the host sizes from the built tree's depth; one node or one triangle per loop iteration;
-// a mailbox against repeated triangle tests). docs/traversal.md: what was measured.
+// the host sizes from the built tree's depth; a node step and a triangle test of the current
+// leaf per loop iteration; a mailbox against repeated triangle tests). docs/traversal.md: what was measured.
 #ifndef MCPT_GPU_TRAVERSE_H
 #define MCPT_GPU_TRAVERSE_H
 
@@ -21,12 +21,28 @@ MCPT_NAMESPACE_BEGIN
 // than one. The plain body elsewhere: NVIDIA's OpenCL compiler ran the loops' form 16-18%
 // slower and lavapipe 35% slower at one step, and no step count beat the plain body there
 // (docs/traversal.md).
+// Tests run the GPUs' loop on CPU devices, in place of the loop over each leaf.
+#if defined(MCPT_KD_STEP_BY_STEP)
+#undef MCPT_KD_LEAF_LOOP
+#endif
 #if defined(MCPT_GLSL)
 #if !defined(MCPT_SCENE_TEXELS)
 #define KD_STEP_LOOPS 1
 #endif
 #elif KD_NODE_STEPS > 1u || KD_TRI_STEPS > 1u
 #define KD_STEP_LOOPS 1
+#endif
+// Overlapped steps (KD_OVERLAP, on by default): an iteration that tests a triangle of the
+// current leaf also takes a node step, so a lane's iterations are about its node steps, not
+// its node steps plus its triangle tests (NVIDIA's OpenCL +7 to +10% on the meshes, lavapipe
+// +18 to +27%; docs/traversal.md). The next leaf waits for the current one's triangles, so
+// leaves are tested in the same order and every hit is the same; a node step may visit a node
+// the pending triangles would have culled, which is correct, only wasted. The C++ build
+// overlaps where the scene flag SCENE_KD_OVERLAP asks (tests: its counts describe the tree).
+#if defined(MCPT_CPP)
+#define KD_OVERLAP_STEPS ((PARAM(scene_flags) & SCENE_KD_OVERLAP) != 0u)
+#else
+#define KD_OVERLAP_STEPS (KD_OVERLAP != 0u)
 #endif
 #if defined(KD_STEP_LOOPS)
 // `continue` takes the next step; KD_NODE_STEPS_EXIT ends the steps (as it does after a
@@ -147,9 +163,9 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
     uint sp = 0u;
     uint node = 0u;
     bool finished = false;  // set at the one real exit (see TRACE_INCOMPLETE)
-    // One step per iteration, a node or one triangle of the current leaf: a lane at a leaf
-    // does not hold its warp or SIMD group for the whole leaf (NVIDIA: up to +10% on the
-    // meshes, lavapipe +5 to +15%). Scalar CPU code is faster with an inner loop over the
+    // One step per iteration, a node or one triangle of the current leaf (or both, with
+    // KD_OVERLAP): a lane at a leaf does not hold its warp or SIMD group for the whole leaf
+    // (NVIDIA: up to +10% on the meshes, lavapipe +5 to +15%). Scalar CPU code is faster with an inner loop over the
     // leaf (PoCL: 7-10%), which OpenCL builds for CPU devices take (MCPT_KD_LEAF_LOOP).
     uint tri_next = 0u, tri_left = 0u;
     uvec4 mailbox = UV4(NO_HIT, NO_HIT, NO_HIT, NO_HIT);
@@ -170,11 +186,14 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
             tri_next += 1u;
             tri_left -= 1u;
         }
-            continue;
+            if (!KD_OVERLAP_STEPS) continue;  // else also a node step
         }
         if (done) {
-            finished = true;
-            break;
+            if (tri_left == 0u) {
+                finished = true;
+                break;
+            }
+            continue;
         }
 #endif
         // Up to KD_NODE_STEPS node steps (scene_access.h), each visiting a node or passing
@@ -221,6 +240,10 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
             }
             // Leaf: its triangles, in the next iterations (before the next node's visit)
             // or in a loop here.
+#if !defined(MCPT_KD_LEAF_LOOP)
+            // Overlapped: a leaf waits for the last one's triangles.
+            if (KD_OVERLAP_STEPS && tri_left > 0u) KD_NODE_STEPS_EXIT;
+#endif
             KD_NODE_STEPS_LEAF;
             tri_left = n.flags >> 2u;
             tri_next = n.split_or_offset;

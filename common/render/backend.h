@@ -63,9 +63,12 @@ uint32_t compile_features(const BackendOptions& options, const GpuScene& scene);
 // Node steps and triangles per k-d traversal iteration (KD_NODE_STEPS, KD_TRI_STEPS:
 // common/gpu/traverse.h) for this device; $MCPT_KD_NODE_STEPS and $MCPT_KD_TRI_STEPS (1-32)
 // override them, for measurements (builds with the steps' loops: OpenCL, and Vulkan's
-// module for GPUs, which lavapipe runs with BackendOptions::scene_reads = "storage").
+// module for GPUs, which lavapipe runs with BackendOptions::scene_reads = "storage"); and
+// whether an iteration overlaps a node step with a triangle test (KD_OVERLAP; every build but
+// OpenCL's for CPU devices, which loops over each leaf), $MCPT_KD_OVERLAP (0 or 1).
 struct KdSteps {
     uint32_t nodes = 1, triangles = 1;
+    uint32_t overlap = 1;
 };
 KdSteps kd_steps(const DeviceInfo& device);
 

@@ -100,10 +100,15 @@ uint32_t steps_from_env(const char* name, uint32_t fallback) {
 }  // namespace
 
 KdSteps kd_steps(const DeviceInfo&) {
-    // One of each on every device measured (docs/traversal.md).
+    // One of each, overlapped, on every device measured (docs/traversal.md).
     KdSteps s;
     s.nodes = steps_from_env("MCPT_KD_NODE_STEPS", s.nodes);
     s.triangles = steps_from_env("MCPT_KD_TRI_STEPS", s.triangles);
+    if (const char* e = std::getenv("MCPT_KD_OVERLAP")) {
+        const std::string v = e;
+        if (v != "0" && v != "1") throw Error("MCPT_KD_OVERLAP must be 0 or 1, not '" + v + "'");
+        s.overlap = v == "1" ? 1u : 0u;
+    }
     return s;
 }
 
