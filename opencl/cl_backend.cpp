@@ -182,7 +182,7 @@ class OpenClBackend final : public Backend {
         const cl_uint zero = 0;
         queue_.enqueueFillBuffer(accum_, zero, counter_offset_, sizeof(zero));
         const size_t global = (p.pixel_count + local_ - 1) / local_ * local_;
-        // Profiling only: $MCPT_DUMP_DISPATCH=DIR[:N] writes a dispatch (default N 300) as
+        // Profiling only: $MCPT_DUMP_DISPATCH=DIR[:N] writes a dispatch (default N 60) as
         // scripts/ptx-replay replays it under Nsight Compute.
         // (from dispatch N on, the first as large as any before: a pass's first dispatch, past
         // the first pass's small tiles).
@@ -285,7 +285,7 @@ class OpenClBackend final : public Backend {
         const char* e = std::getenv("MCPT_DUMP_DISPATCH");
         if (!e || !*e) return 0;
         const char* colon = std::strrchr(e, ':');
-        return colon ? std::max(1ull, std::strtoull(colon + 1, nullptr, 10)) : 300;
+        return colon ? std::max(1ull, std::strtoull(colon + 1, nullptr, 10)) : 60;
     }
     // The program (PTX on NVIDIA), the launch size and every buffer argument, before the
     // dispatch, and the accumulation buffer after it (the replay compares against it).
