@@ -70,25 +70,24 @@ TEST_P(KdSteps, OverlappedStepsGiveTheSameImage) {
     }
 }
 
-TEST_P(KdSteps, OutOfRangeIsRefused) {
+// A render with the variables set is refused with `message`; the variables unset after.
+template <class Render>
+void expect_refused(Render render, const std::string& message) {
     try {
-        render_mesh(GetParam(), "0", nullptr);
-        ADD_FAILURE() << "0 node steps accepted";
+        render();
+        ADD_FAILURE() << "accepted; expected: " << message;
     } catch (const Error& e) {
-        EXPECT_NE(std::string(e.what()).find("MCPT_KD_NODE_STEPS must be 1 to 32, not '0'"),
-                  std::string::npos)
-            << e.what();
+        EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
     }
     unsetenv("MCPT_KD_NODE_STEPS");
-    try {
-        render_mesh(GetParam(), nullptr, nullptr, 3, "2");
-        ADD_FAILURE() << "MCPT_KD_OVERLAP=2 accepted";
-    } catch (const Error& e) {
-        EXPECT_NE(std::string(e.what()).find("MCPT_KD_OVERLAP must be 0 or 1, not '2'"),
-                  std::string::npos)
-            << e.what();
-    }
     unsetenv("MCPT_KD_OVERLAP");
+}
+
+TEST_P(KdSteps, OutOfRangeIsRefused) {
+    expect_refused([&] { render_mesh(GetParam(), "0", nullptr); },
+                   "MCPT_KD_NODE_STEPS must be 1 to 32, not '0'");
+    expect_refused([&] { render_mesh(GetParam(), nullptr, nullptr, 3, "2"); },
+                   "MCPT_KD_OVERLAP must be 0 or 1, not '2'");
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, KdSteps, ::testing::ValuesIn(test::test_apis()),

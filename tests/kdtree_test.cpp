@@ -431,6 +431,14 @@ std::vector<int> depths_for(TreeKind kind) {
     return {-1, 0, 1, 4, 12, 40};
 }
 
+// The triangles as the device reads them (material 0).
+std::vector<gpu::GpuTriangle> device_triangles(const std::vector<Triangle>& tris) {
+    std::vector<gpu::GpuTriangle> g;
+    for (const Triangle& t : tris)
+        g.push_back({t.v0.x, t.v0.y, t.v0.z, t.v1.x, t.v1.y, t.v1.z, t.v2.x, t.v2.y, t.v2.z, 0u});
+    return g;
+}
+
 std::string describe_ray(const TestRay& r) {
     char buf[200];
     std::snprintf(buf, sizeof buf, "ray (%.9g, %.9g, %.9g) -> (%.9g, %.9g, %.9g)", r.o.x, r.o.y,
@@ -707,11 +715,7 @@ TEST(KdTreeTraversal, MatchesBruteForce) {
 // from that side (it did, on stairs/sah).
 TEST(KdTreeTraversal, DeviceTraversalMatchesBruteForce) {
     for (const NamedMesh& m : test_meshes()) {
-        std::vector<gpu::GpuTriangle> g;
-        for (const Triangle& t : m.tris) {
-            g.push_back(
-                {t.v0.x, t.v0.y, t.v0.z, t.v1.x, t.v1.y, t.v1.z, t.v2.x, t.v2.y, t.v2.z, 0u});
-        }
+        const std::vector<gpu::GpuTriangle> g = device_triangles(m.tris);
         const std::vector<TestRay> rays = test_rays(m.tris, 12);
         for (TreeKind kind : {TreeKind::Sah, TreeKind::Median, TreeKind::None}) {
             for (int depth : depths_for(kind)) {
@@ -747,10 +751,7 @@ TEST(KdTreeTraversal, DeviceTraversalMatchesBruteForce) {
 TEST(KdTreeTraversal, OverlappedStepsGiveTheSameHits) {
     size_t plain_visits = 0, overlap_visits = 0;
     for (const NamedMesh& m : test_meshes()) {
-        std::vector<gpu::GpuTriangle> g;
-        for (const Triangle& t : m.tris)
-            g.push_back(
-                {t.v0.x, t.v0.y, t.v0.z, t.v1.x, t.v1.y, t.v1.z, t.v2.x, t.v2.y, t.v2.z, 0u});
+        const std::vector<gpu::GpuTriangle> g = device_triangles(m.tris);
         const std::vector<TestRay> rays = test_rays(m.tris, 13);
         for (TreeKind kind : {TreeKind::Sah, TreeKind::Median, TreeKind::None}) {
             for (int depth : depths_for(kind)) {
