@@ -446,6 +446,28 @@ std::string describe_ray(const TestRay& r) {
     return buf;
 }
 
+// Every test mesh, each kind and depth of tree, and rays from test_rays(mesh, seed) as device
+// rays: check(label, device triangles, tree, ray, device ray); stops at the first fatal failure.
+template <class Check>
+void for_each_device_ray(uint32_t seed, Check check) {
+    for (const NamedMesh& m : test_meshes()) {
+        const std::vector<gpu::GpuTriangle> g = device_triangles(m.tris);
+        const std::vector<TestRay> rays = test_rays(m.tris, seed);
+        for (TreeKind kind : {TreeKind::Sah, TreeKind::Median, TreeKind::None}) {
+            for (int depth : depths_for(kind)) {
+                const std::string what = label(m.name, kind, depth);
+                const KdTree tree = build_kdtree(m.tris, options(kind, depth));
+                for (const TestRay& r : rays) {
+                    gpu::Ray ray;
+                    ray.o = r.o, ray.d = r.d, ray.tmax = 3.0e38f;
+                    check(what, g, tree, r, ray);
+                    if (testing::Test::HasFatalFailure()) return;
+                }
+            }
+        }
+    }
+}
+
 // Same hit or miss, same distance; the same triangle unless another one ties at that distance
 // (a ray through a shared edge or vertex).
 void compare_hits(const TestHit& expect, const TestHit& got, const TestRay& r,
@@ -714,35 +736,23 @@ TEST(KdTreeTraversal, MatchesBruteForce) {
 // that stops at the first one starting beyond the hit misses triangles touching the plane
 // from that side (it did, on stairs/sah).
 TEST(KdTreeTraversal, DeviceTraversalMatchesBruteForce) {
-    for (const NamedMesh& m : test_meshes()) {
-        const std::vector<gpu::GpuTriangle> g = device_triangles(m.tris);
-        const std::vector<TestRay> rays = test_rays(m.tris, 12);
-        for (TreeKind kind : {TreeKind::Sah, TreeKind::Median, TreeKind::None}) {
-            for (int depth : depths_for(kind)) {
-                const std::string what = label(m.name, kind, depth);
-                const KdTree tree = build_kdtree(m.tris, options(kind, depth));
-                ASSERT_LE(tree.stack_size(), KD_STACK_SIZE) << what;
-                for (const TestRay& r : rays) {
-                    gpu::Ray ray;
-                    ray.o = r.o, ray.d = r.d, ray.tmax = 3.0e38f;
-                    // Brute force with the same triangle test.
-                    const gpu::Hit b = brute_force_hit(g, ray);
-                    const float best = b.t;
-                    const uint32_t best_tri = b.prim;
-                    const gpu::Hit h = cpu_trace_tree(tree, g, ray);
-                    ASSERT_EQ(h.status, 0u) << what << ": stack overflow";
-                    ASSERT_EQ(h.prim == NO_HIT, best_tri == NO_HIT)
-                        << what << ": ray (" << r.o.x << ", " << r.o.y << ", " << r.o.z << ") -> ("
-                        << r.d.x << ", " << r.d.y << ", " << r.d.z << "), expected " << best_tri
-                        << " at " << best << ", got " << h.prim << " at " << h.t;
-                    if (best_tri == NO_HIT) continue;
-                    ASSERT_NEAR(h.t, best, 1e-6f * best)
-                        << what << ": " << describe_ray(r) << ", triangle " << h.prim
-                        << " instead of " << best_tri;
-                }
-            }
-        }
-    }
+    for_each_device_ray(12, [](const std::string& what, const std::vector<gpu::GpuTriangle>& g,
+                               const KdTree& tree, const TestRay& r, const gpu::Ray& ray) {
+        ASSERT_LE(tree.stack_size(), KD_STACK_SIZE) << what;
+        // Brute force with the same triangle test.
+        const gpu::Hit b = brute_force_hit(g, ray);
+        const float best = b.t;
+        const uint32_t best_tri = b.prim;
+        const gpu::Hit h = cpu_trace_tree(tree, g, ray);
+        ASSERT_EQ(h.status, 0u) << what << ": stack overflow";
+        ASSERT_EQ(h.prim == NO_HIT, best_tri == NO_HIT)
+            << what << ": ray (" << r.o.x << ", " << r.o.y << ", " << r.o.z << ") -> (" << r.d.x
+            << ", " << r.d.y << ", " << r.d.z << "), expected " << best_tri << " at " << best
+            << ", got " << h.prim << " at " << h.t;
+        if (best_tri == NO_HIT) return;
+        ASSERT_NEAR(h.t, best, 1e-6f * best) << what << ": " << describe_ray(r) << ", triangle "
+                                             << h.prim << " instead of " << best_tri;
+    });
 }
 
 // Overlapped steps (traverse.h: KD_OVERLAP, on in the device builds) give every hit of the
@@ -750,33 +760,21 @@ TEST(KdTreeTraversal, DeviceTraversalMatchesBruteForce) {
 // nodes the pending triangles would have culled: more visits, never fewer.
 TEST(KdTreeTraversal, OverlappedStepsGiveTheSameHits) {
     size_t plain_visits = 0, overlap_visits = 0;
-    for (const NamedMesh& m : test_meshes()) {
-        const std::vector<gpu::GpuTriangle> g = device_triangles(m.tris);
-        const std::vector<TestRay> rays = test_rays(m.tris, 13);
-        for (TreeKind kind : {TreeKind::Sah, TreeKind::Median, TreeKind::None}) {
-            for (int depth : depths_for(kind)) {
-                const std::string what = label(m.name, kind, depth);
-                const KdTree tree = build_kdtree(m.tris, options(kind, depth));
-                for (const TestRay& r : rays) {
-                    gpu::Ray ray;
-                    ray.o = r.o, ray.d = r.d, ray.tmax = 3.0e38f;
-                    for (bool any_hit : {false, true}) {
-                        const gpu::Hit a = cpu_trace_tree(tree, g, ray, any_hit);
-                        const gpu::Hit b = cpu_trace_tree(tree, g, ray, any_hit, SCENE_KD_OVERLAP);
-                        const std::string at =
-                            what + ": " + describe_ray(r) + (any_hit ? " (any hit)" : "");
-                        ASSERT_EQ(a.status, b.status) << at;
-                        ASSERT_EQ(a.prim, b.prim) << at;
-                        ASSERT_EQ(std::memcmp(&a.t, &b.t, 4), 0) << at;
-                        ASSERT_EQ(std::memcmp(&a.b1, &b.b1, 4), 0) << at;
-                        ASSERT_EQ(std::memcmp(&a.b2, &b.b2, 4), 0) << at;
-                        ASSERT_GE(b.node_visits, a.node_visits) << at;
-                        plain_visits += a.node_visits, overlap_visits += b.node_visits;
-                    }
-                }
-            }
+    for_each_device_ray(13, [&](const std::string& what, const std::vector<gpu::GpuTriangle>& g,
+                                const KdTree& tree, const TestRay& r, const gpu::Ray& ray) {
+        for (bool any_hit : {false, true}) {
+            const gpu::Hit a = cpu_trace_tree(tree, g, ray, any_hit);
+            const gpu::Hit b = cpu_trace_tree(tree, g, ray, any_hit, SCENE_KD_OVERLAP);
+            const std::string at = what + ": " + describe_ray(r) + (any_hit ? " (any hit)" : "");
+            ASSERT_EQ(a.status, b.status) << at;
+            ASSERT_EQ(a.prim, b.prim) << at;
+            ASSERT_EQ(std::memcmp(&a.t, &b.t, 4), 0) << at;
+            ASSERT_EQ(std::memcmp(&a.b1, &b.b1, 4), 0) << at;
+            ASSERT_EQ(std::memcmp(&a.b2, &b.b2, 4), 0) << at;
+            ASSERT_GE(b.node_visits, a.node_visits) << at;
+            plain_visits += a.node_visits, overlap_visits += b.node_visits;
         }
-    }
+    });
     // The overlapped path ran: some node it visited, the plain loop had culled.
     EXPECT_GT(overlap_visits, plain_visits);
 }
