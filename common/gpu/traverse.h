@@ -1,7 +1,8 @@
 // Closest-hit and any-hit queries: spheres by brute force, triangles through the k-d tree
 // (pbrt-v3 KdTreeAccel traversal, front-to-back with a stack of KD_STACK_SIZE entries, which
 // the host sizes from the built tree's depth; a node step and a triangle test of the current
-// leaf per loop iteration; a mailbox against repeated triangle tests). docs/traversal.md: what was measured.
+// leaf per loop iteration; a mailbox against repeated triangle tests). docs/traversal.md:
+// what was measured.
 #ifndef MCPT_GPU_TRAVERSE_H
 #define MCPT_GPU_TRAVERSE_H
 
@@ -165,8 +166,9 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
     bool finished = false;  // set at the one real exit (see TRACE_INCOMPLETE)
     // One step per iteration, a node or one triangle of the current leaf (or both, with
     // KD_OVERLAP): a lane at a leaf does not hold its warp or SIMD group for the whole leaf
-    // (NVIDIA: up to +10% on the meshes, lavapipe +5 to +15%). Scalar CPU code is faster with an inner loop over the
-    // leaf (PoCL: 7-10%), which OpenCL builds for CPU devices take (MCPT_KD_LEAF_LOOP).
+    // (NVIDIA: up to +10% on the meshes, lavapipe +5 to +15%). Scalar CPU code is faster
+    // with an inner loop over the leaf (PoCL: 7-10%), which OpenCL builds for CPU devices
+    // take (MCPT_KD_LEAF_LOOP).
     uint tri_next = 0u, tri_left = 0u;
     uvec4 mailbox = UV4(NO_HIT, NO_HIT, NO_HIT, NO_HIT);
 #if !defined(MCPT_KD_LEAF_LOOP)
