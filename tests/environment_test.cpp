@@ -23,6 +23,7 @@
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
 #include <ImfOutputFile.h>
+#include <ImfRgbaFile.h>
 #include <half.h>
 #endif
 
@@ -83,6 +84,56 @@ TEST(Environment, RadianceHdr) {
         }
 }
 
+// Radiance .hdr files that stb_image 2.27 would loop on forever (a dump of length 0,
+// CVE-2021-42715) or fill with zeros (cut short): refused as corrupt, at once.
+TEST(Environment, CorruptRadianceHdrIsRefusedNotLoopedOn) {
+    const std::string head = "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 4 +X 64\n";
+    const auto load = [&](const std::string& name, const std::string& body) {
+        const std::string bytes = head + body;
+        return error_of([&] {
+            load_environment_memory(reinterpret_cast<const unsigned char*>(bytes.data()),
+                                    bytes.size(), name);
+        });
+    };
+    const std::string scanline("\x02\x02\x00\x40", 4);
+    // A new-style scanline header, a dump count of 0 and the end of the file (issue 36).
+    EXPECT_NE(load("zero.hdr", scanline + std::string(1, '\0')).find("corrupt"),
+              std::string::npos);
+    // The same with three stray bytes after the count.
+    EXPECT_NE(load("stray.hdr", scanline + std::string("\0abc", 4)).find("dump of length 0"),
+              std::string::npos);
+    // A run past the end of the row, a row that ends early, rows missing.
+    EXPECT_NE(load("run.hdr", scanline + "\xff\x01").find("past the end"), std::string::npos);
+    EXPECT_NE(load("short.hdr", scanline + "\xc0\x01").find("ends in row 0"), std::string::npos);
+    std::string row = scanline;
+    for (int c = 0; c < 4; ++c) row += "\xc0\x01";  // 4 channels, a run of 64 each
+    EXPECT_EQ(load("one_row.hdr", row + row + row + row), "");
+    EXPECT_NE(load("three_rows.hdr", row + row + row).find("ends at row 3"), std::string::npos);
+    // A file written by stb, cut in half; and whole (the control).
+    const std::string path = temp("cut.hdr").string();
+    const std::vector<float> rgb = test_map(32, 16);
+    ASSERT_NE(stbi_write_hdr(path.c_str(), 32, 16, 3, rgb.data()), 0);
+    EXPECT_EQ(error_of([&] { load_environment(path); }), "");
+    fs::resize_file(path, fs::file_size(path) / 2);
+    EXPECT_NE(error_of([&] { load_environment(path); }).find("corrupt"), std::string::npos);
+    // Flat pixels (a width below 8): every byte must be there.
+    const std::string flat = "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 2 +X 4\n";
+    const std::string px("\x80\x80\x80\x81", 4);
+    std::string bytes = flat;
+    for (int i = 0; i < 8; ++i) bytes += px;
+    EXPECT_EQ(error_of([&] {
+                  load_environment_memory(reinterpret_cast<const unsigned char*>(bytes.data()),
+                                          bytes.size(), "flat.hdr");
+              }),
+              "");
+    bytes.resize(bytes.size() - 1);
+    EXPECT_NE(error_of([&] {
+                  load_environment_memory(reinterpret_cast<const unsigned char*>(bytes.data()),
+                                          bytes.size(), "flat.hdr");
+              }).find("ends before its last pixel"),
+              std::string::npos);
+}
+
 #if MCPT_WITH_OPENEXR
 // Blender's studio lights are DWAB-compressed half floats, which tinyexr cannot read.
 TEST(Environment, DwabCompressedExr) {
@@ -118,6 +169,49 @@ TEST(Environment, DwabCompressedExr) {
                 EXPECT_NEAR(env.rgb[size_t((y * w + x) * 3 + c)],
                             planes[size_t(c * w * h + y * w + x)], 0.01)
                     << x << "," << y;
+}
+#endif
+
+#if MCPT_WITH_OPENEXR
+// A grey (Y only) EXR lights as the same grey in R, G and B (a frame buffer maps a channel
+// name to one slice: Y inserted three times filled B alone); luminance-chroma files (Y, RY,
+// BY) come back as their colour.
+TEST(Environment, GreyAndLuminanceChromaExr) {
+    const int w = 16, h = 8;
+    const std::string grey = temp("grey.exr").string();
+    {
+        Imf::Header header(w, h);
+        header.channels().insert("Y", Imf::Channel(Imf::FLOAT));
+        std::vector<float> y(size_t(w) * h, 0.5f);
+        Imf::FrameBuffer fb;
+        fb.insert("Y", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(y.data()), sizeof(float),
+                                  sizeof(float) * w));
+        Imf::OutputFile file(grey.c_str(), header);
+        file.setFrameBuffer(fb);
+        file.writePixels(h);
+    }
+    const std::string rgb = temp("grey_rgb.exr").string();
+    write_image(rgb, w, h, std::vector<float>(size_t(w) * h * 3, 0.5f));
+    const Environment from_y = load_environment(grey), from_rgb = load_environment(rgb);
+    EXPECT_EQ(from_y.rgb, from_rgb.rgb);
+    const double mean = std::accumulate(from_y.rgb.begin(), from_y.rgb.end(), 0.0) /
+                        double(from_y.rgb.size());
+    EXPECT_DOUBLE_EQ(mean, 0.5);
+    // Luminance-chroma: a constant colour, through OpenEXR's RGBA interface.
+    const std::string yc = temp("yc.exr").string();
+    {
+        std::vector<Imf::Rgba> px(size_t(w) * h, Imf::Rgba(0.6f, 0.3f, 0.15f, 1.f));
+        Imf::RgbaOutputFile file(yc.c_str(), w, h, Imf::WRITE_YC);
+        file.setFrameBuffer(px.data(), 1, size_t(w));
+        file.writePixels(h);
+    }
+    const Environment from_yc = load_environment(yc);
+    ASSERT_EQ(from_yc.rgb.size(), size_t(w) * h * 3);
+    for (size_t i = 0; i < from_yc.rgb.size(); i += 3) {
+        EXPECT_NEAR(from_yc.rgb[i], 0.6, 0.01) << i;
+        EXPECT_NEAR(from_yc.rgb[i + 1], 0.3, 0.01) << i;
+        EXPECT_NEAR(from_yc.rgb[i + 2], 0.15, 0.01) << i;
+    }
 }
 #endif
 

@@ -17,6 +17,7 @@
 #include <ImfHeader.h>
 #include <ImfIO.h>
 #include <ImfInputFile.h>
+#include <ImfRgbaFile.h>
 #endif
 
 namespace mcpt {
@@ -57,13 +58,35 @@ std::vector<float> read_openexr(const unsigned char* data, size_t size, const st
         const Imf::ChannelList& channels = file.header().channels();
         const bool rgb =
             channels.findChannel("R") && channels.findChannel("G") && channels.findChannel("B");
-        if (!rgb && !channels.findChannel("Y"))
+        const bool luma = channels.findChannel("Y") != nullptr;
+        const bool chroma = channels.findChannel("RY") || channels.findChannel("BY");
+        if (!rgb && !luma)
             throw Error("environment map " + name + ": no R, G and B (or Y) channels");
         width = int(w), height = int(h);
         const size_t n = size_t(w) * size_t(h);
-        std::vector<float> planes(3 * n);
+        std::vector<float> out(3 * n);
+        if (!rgb && chroma) {
+            // Luminance-chroma (Y, RY, BY; chroma subsampled, half floats): OpenEXR's RGBA
+            // interface converts it back to RGB.
+            if (!channels.findChannel("RY") || !channels.findChannel("BY"))
+                throw Error("environment map " + name +
+                            ": luminance-chroma with only one of RY and BY");
+            MemoryStream again(data, size, name);
+            Imf::RgbaInputFile yc(again);
+            std::vector<Imf::Rgba> px(n);
+            yc.setFrameBuffer(px.data() - (int64_t(dw.min.x) + int64_t(dw.min.y) * w), 1,
+                              size_t(w));
+            yc.readPixels(dw.min.y, dw.max.y);
+            for (size_t i = 0; i < n; ++i)
+                out[3 * i] = px[i].r, out[3 * i + 1] = px[i].g, out[3 * i + 2] = px[i].b;
+            return out;
+        }
+        // R, G and B as planes; a grey (Y only) map fills one plane, copied to all three (a
+        // frame buffer maps each channel name to one slice).
+        const int planes_read = rgb ? 3 : 1;
+        std::vector<float> planes(size_t(planes_read) * n);
         Imf::FrameBuffer fb;
-        for (int k = 0; k < 3; ++k) {
+        for (int k = 0; k < planes_read; ++k) {
             // The slice's origin is pixel (0, 0), which the data window may not contain.
             char* base = reinterpret_cast<char*>(planes.data() + size_t(k) * n) -
                          (int64_t(dw.min.x) + int64_t(dw.min.y) * w) * int64_t(sizeof(float));
@@ -72,9 +95,9 @@ std::vector<float> read_openexr(const unsigned char* data, size_t size, const st
         }
         file.setFrameBuffer(fb);
         file.readPixels(dw.min.y, dw.max.y);
-        std::vector<float> out(3 * n);
         for (size_t i = 0; i < n; ++i)
-            for (size_t k = 0; k < 3; ++k) out[3 * i + k] = planes[k * n + i];
+            for (size_t k = 0; k < 3; ++k)
+                out[3 * i + k] = planes[(rgb ? k : 0) * n + i];
         return out;
     } catch (const Error&) {
         throw;
@@ -105,6 +128,65 @@ Environment checked(std::vector<float> rgb, int width, int height, const std::st
     return env;
 }
 
+// A Radiance .hdr walked as stb_image will read it, before it does: Debian's stb_image 2.27
+// loops forever on a dump of length 0 (CVE-2021-42715) and fills a file that ends early with
+// zeros. Throws "corrupt" naming the row; what passes, stb decodes within the bytes given.
+void check_radiance(const unsigned char* data, size_t size, const std::string& name, int width,
+                    int height) {
+    const auto corrupt = [&](const std::string& why) {
+        return Error("environment map " + name + ": corrupt Radiance .hdr (" + why + ")");
+    };
+    size_t at = 0;
+    // Header lines (stb's tokens end at '\n') up to an empty one, then the resolution line.
+    const auto line = [&](std::string& out) {
+        out.clear();
+        while (at < size && data[at] != '\n') {
+            if (out.size() < 1024) out.push_back(char(data[at]));
+            ++at;
+        }
+        if (at >= size) throw corrupt("the header does not end");
+        ++at;
+    };
+    std::string text;
+    line(text);  // #?RADIANCE
+    do line(text);
+    while (!text.empty());
+    line(text);  // the resolution (width and height as stb read them)
+    const uint64_t w = uint64_t(width), h = uint64_t(height), flat = 4 * w * h;
+    // Flat RGBE pixels: stb reads them so when the width rules run-length encoding out.
+    if (w < 8 || w >= 32768) {
+        if (size - at < flat) throw corrupt("ends before its last pixel");
+        return;
+    }
+    for (uint64_t row = 0; row < h; ++row) {
+        const std::string where = "row " + std::to_string(row);
+        if (size - at < 4) throw corrupt("ends at " + where);
+        const unsigned char* r = data + at;
+        if (r[0] != 2 || r[1] != 2 || (r[2] & 0x80)) {
+            // Not run-length encoded: stb then reads every pixel flat, from the first row.
+            if (row != 0) throw corrupt(where + " is not run-length encoded as those before");
+            if (size - at < flat) throw corrupt("ends before its last pixel");
+            return;
+        }
+        if ((uint64_t(r[2]) << 8 | r[3]) != w) throw corrupt(where + " has another width");
+        at += 4;
+        // Four channels, each a sequence of runs (count > 128: count - 128 copies of one byte)
+        // and dumps (count bytes), together exactly the width.
+        for (int channel = 0; channel < 4; ++channel)
+            for (uint64_t x = 0; x < w;) {
+                if (at >= size) throw corrupt("ends in " + where);
+                uint64_t count = data[at++];
+                const bool run = count > 128;
+                if (run) count -= 128;
+                if (count == 0) throw corrupt("a dump of length 0 in " + where);
+                if (count > w - x) throw corrupt("a run past the end of " + where);
+                const uint64_t bytes = run ? 1 : count;
+                if (size - at < bytes) throw corrupt("ends in " + where);
+                at += bytes, x += count;
+            }
+    }
+}
+
 bool starts_with(const unsigned char* data, size_t size, const char* magic) {
     const size_t n = std::strlen(magic);
     return size >= n && std::memcmp(data, magic, n) == 0;
@@ -133,6 +215,7 @@ Environment load_environment_memory(const unsigned char* data, size_t size,
             throw Error("environment map " + name + ": " + stbi_failure_reason());
         if (w < 1 || h < 1 || w > kMaxEnvironmentWidth || h > kMaxEnvironmentWidth / 2)
             return checked({}, w, h, name);  // throws the size error
+        check_radiance(data, size, name, w, h);
         float* px = stbi_loadf_from_memory(data, int(size), &w, &h, &channels, 3);
         if (!px) throw Error("environment map " + name + ": " + stbi_failure_reason());
         std::vector<float> rgb(px, px + size_t(w) * size_t(h) * 3);
