@@ -51,6 +51,18 @@ TEST(Cli, SceneWithoutLight) {
     expect_error("render " + path + " -q", "no light");
 }
 
+// An environment scale that takes a finite texel past float: refused, naming the overflow
+// (it was multiplied in float, and an Inf texel reached the device); the control renders.
+TEST(Cli, EnvironmentScaleOverflowIsNamed) {
+    const std::string out =
+        (std::filesystem::temp_directory_path() / "mcpt_cli_env_scale.exr").string();
+    const std::string args = "render cornell --background 1e30,1e30,1e30 --spp 1 --width 8 "
+                             "--height 8 -q -o " + out;
+    expect_error(args + " --env-scale 1e10", "beyond single precision");
+    const CliRun r = run_mcpt(args + " --env-scale 1e5");
+    EXPECT_EQ(r.status, 0) << r.output;
+}
+
 TEST(Cli, BadOptionsAreRejected) {
     // Bad input: exit status 1, as documented (CLI11's own codes are 105 and up).
     EXPECT_EQ(run_mcpt("render --tree octree").status, 1);

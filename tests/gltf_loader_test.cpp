@@ -744,6 +744,9 @@ TEST(GltfLoader, BadPunctualLights) {
                           {"spot", {{"innerConeAngle", 0.6}, {"outerConeAngle", 0.5}}}})
                   .find("light 's': spot cone angles"),
               std::string::npos);
+    // Finite in double, beyond float once in W/sr (1e42 / 683): named, not left to become Inf.
+    EXPECT_NE(with_light({{"type", "point"}, {"intensity", 1e42}}).find("overflows single"),
+              std::string::npos);
     EXPECT_EQ(with_light({{"type", "point"}, {"intensity", 10}}), "");
 }
 

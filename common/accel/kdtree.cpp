@@ -42,6 +42,7 @@
 #include <thread>
 
 #include "common/error.h"
+#include "common/io/host_cpus.h"
 
 namespace mcpt {
 
@@ -756,6 +757,7 @@ KdTree build_kdtree(const std::vector<Triangle>& triangles, const TreeOptions& o
         tree.bounds.extend(t.v0), tree.bounds.extend(t.v1), tree.bounds.extend(t.v2);
     }
     const size_t n = triangles.size();
+    int threads = 1;
     if (options.kind == TreeKind::None || n == 0) {
         // One leaf holding every triangle (or none).
         tree.leaf_indices.resize(n);
@@ -774,9 +776,7 @@ KdTree build_kdtree(const std::vector<Triangle>& triangles, const TreeOptions& o
         }
         const Box root{{tree.bounds.min.x, tree.bounds.min.y, tree.bounds.min.z},
                        {tree.bounds.max.x, tree.bounds.max.y, tree.bounds.max.z}};
-        const int threads = options.threads > 0
-                                ? options.threads
-                                : int(std::max(1u, std::thread::hardware_concurrency()));
+        threads = options.threads > 0 ? options.threads : int(usable_cpus());
         if (options.kind == TreeKind::Median) {
             const MedianRule rule(triangles, options.max_depth < 0 ? 3 : options.max_depth);
             Engine(triangles, rule, threads).run(std::move(refs), root, tree);
@@ -789,6 +789,7 @@ KdTree build_kdtree(const std::vector<Triangle>& triangles, const TreeOptions& o
         }
     }
     fill_stats(tree);
+    tree.stats.threads = threads;
     tree.stats.build_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return tree;
@@ -802,11 +803,11 @@ std::string describe(const TreeStats& s, size_t triangle_count) {
                   "  k-d tree: %zu nodes, %zu leaves (%zu empty), depth %d\n"
                   "  references: %zu (%.2f per triangle, %.2f per non-empty leaf)\n"
                   "  memory: %.2f %s nodes + leaf indices (%.1f bytes per triangle)\n"
-                  "  build: %.3f s\n",
+                  "  build: %.3f s on %d thread%s\n",
                   s.nodes, s.leaves, s.empty_leaves, s.max_depth, s.references,
                   double(s.references) / per_tri, s.mean_leaf_size,
                   double(s.bytes) / (large ? 1024.0 * 1024.0 : 1024.0), large ? "MiB" : "KiB",
-                  double(s.bytes) / per_tri, s.build_seconds);
+                  double(s.bytes) / per_tri, s.build_seconds, s.threads, s.threads == 1 ? "" : "s");
     return buf;
 }
 

@@ -37,7 +37,7 @@ struct TreeOptions {
     float traversal_cost = 1.f;
     float empty_bonus = 0.5f;
     int max_leaf_prims = 1;     // SAH: a node this small becomes a leaf
-    int threads = 0;            // 0: hardware concurrency
+    int threads = 0;            // 0: the CPUs this process may use (usable_cpus())
     TreeCostModel auto_model = kSimtCostModel;  // TreeKind::Auto: the device's costs
 };
 
@@ -47,6 +47,7 @@ struct TreeStats {
     double mean_leaf_size = 0;   // triangle references per non-empty leaf
     size_t references = 0;       // entries of the leaf index array
     double build_seconds = 0;
+    int threads = 0;             // the build's threads
     size_t bytes = 0;            // nodes + leaf indices
 };
 

@@ -1,6 +1,7 @@
 #include "common/render/gpu_scene.h"
 
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
 #include <cstring>
 #include <numeric>
@@ -56,7 +57,7 @@ double environment_weights(const Environment& env, std::vector<double>& weights)
         const double texel_sr = (2 * M_PI / double(w)) * (M_PI / double(h)) * sin_theta;
         for (size_t x = 0; x < w; ++x) {
             const float* c = &env.rgb[3 * (y * w + x)];
-            weights[y * w + x] = double(env_luminance(c[0], c[1], c[2])) * sin_theta;
+            weights[y * w + x] = env_luminance(c[0], c[1], c[2]) * sin_theta;
             integral += (double(c[0]) + double(c[1]) + double(c[2])) / 3 * texel_sr;
         }
     }
@@ -104,8 +105,17 @@ void pack_punctual_and_environment(const Scene& scene, const std::vector<double>
     for (size_t i = 0; i < w * h; ++i) {
         const float* c = &env.rgb[3 * i];
         const double pdf = sum > 0 ? env_weights[i] / sum * double(w * h) : 0.0;
-        for (float v : {c[0] * env.scale, c[1] * env.scale, c[2] * env.scale, float(pdf)})
-            g.texels.push_back(word(v));
+        // Scaled in double: a finite scale must not make a texel infinite unnoticed.
+        for (int k = 0; k < 3; ++k) {
+            const double v = double(c[k]) * double(env.scale);
+            if (!(v <= double(FLT_MAX)))
+                throw Error("environment map " + env.name + " scaled by " +
+                            std::to_string(env.scale) + ": a texel of " + std::to_string(c[k]) +
+                            " becomes " + std::to_string(v) +
+                            ", beyond single precision (3.4e38); lower --env-scale");
+            g.texels.push_back(word(float(v)));
+        }
+        g.texels.push_back(word(float(pdf)));
     }
     // The rows by their total weight, then each row's columns by theirs.
     std::vector<gpu::GpuLight> table;

@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "common/error.h"
+#include "common/io/host_cpus.h"
 #include "common/render/adaptive.h"
 #include "common/render/device_limits.h"
 
@@ -56,7 +57,7 @@ namespace {
 template <typename Fn>
 void for_pixel_ranges(size_t npix, const Fn& fn) {
     const size_t parts =
-        std::clamp<size_t>(npix >> 18, 1, std::max(1u, std::thread::hardware_concurrency()));
+        std::clamp<size_t>(npix >> 18, 1, size_t(usable_cpus()));
     std::vector<std::thread> threads;
     for (size_t t = 1; t < parts; ++t)
         threads.emplace_back(fn, npix * t / parts, npix * (t + 1) / parts);

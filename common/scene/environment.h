@@ -34,9 +34,10 @@ uint64_t environment_device_bytes(int width, int height);
 // a 2x1 map does not fit.
 int shrink_environment(Environment& env, uint64_t max_bytes);
 
-// Luminance (Rec. 709) of a texel: what the sampling weights follow.
-inline float env_luminance(float r, float g, float b) {
-    return 0.2126f * r + 0.7152f * g + 0.0722f * b;
+// Luminance (Rec. 709) of a texel: what the sampling weights follow (in double: texels near
+// the float limit stay finite).
+inline double env_luminance(float r, float g, float b) {
+    return 0.2126 * double(r) + 0.7152 * double(g) + 0.0722 * double(b);
 }
 
 }  // namespace mcpt

@@ -37,6 +37,7 @@
 #include <tiny_gltf.h>
 
 #include <algorithm>
+#include <cfloat>
 #include <cctype>
 #include <cmath>
 #include <cstring>
@@ -732,7 +733,12 @@ void GltfLoader::add_light(int light, const glm::dmat4& world, int node) {
     if (!finite_nonnegative(color.x) || !finite_nonnegative(color.y) ||
         !finite_nonnegative(color.z) || !finite_nonnegative(l.intensity))
         fail(label + ": color and intensity must be finite and >= 0");
-    p.intensity = glm::vec3(color * (l.intensity / kLumensPerWatt));
+    // In double, then checked: a finite intensity can exceed single precision.
+    const glm::dvec3 watts = color * (l.intensity / kLumensPerWatt);
+    if (!(std::max({watts.x, watts.y, watts.z}) <= double(FLT_MAX)))
+        fail(label + ": color x intensity (" + std::to_string(std::max({watts.x, watts.y, watts.z})) +
+             " W/sr) overflows single precision (3.4e38)");
+    p.intensity = glm::vec3(watts);
     if (!finite_nonnegative(l.range)) fail(label + ": range must be finite and > 0");
     p.range = p.kind == PunctualKind::Directional ? 0.f : float(l.range);
     if (p.kind == PunctualKind::Spot) {
