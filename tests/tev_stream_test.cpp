@@ -435,6 +435,55 @@ TEST(TevStream, WarnsOnceAndRetriesOnceASecondWhileUnreachable) {
     EXPECT_EQ(warnings[0], "tev at 127.0.0.1:" + std::to_string(port) + " not reachable, retrying");
 }
 
+// A peer that reads 2 KiB every 0.1 s (progress, never a 2 s stall; a 192 KiB tile in 10 s)
+// holds a message's send at most a few seconds: the stream gives the connection up and
+// connects again.
+TEST(TevStream, PeerThatTricklesIsGivenUp) {
+    const int listener = socket(AF_INET, SOCK_STREAM, 0);
+    ASSERT_GE(listener, 0);
+    const int small = 4096;
+    setsockopt(listener, SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ASSERT_EQ(bind(listener, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+    ASSERT_EQ(listen(listener, 4), 0);
+    socklen_t len = sizeof addr;
+    getsockname(listener, reinterpret_cast<sockaddr*>(&addr), &len);
+    std::atomic<bool> stop{false};
+    std::atomic<int> accepted{0};
+    std::thread peer([&] {
+        std::vector<int> fds;
+        while (!stop) {
+            pollfd p{listener, POLLIN, 0};
+            if (poll(&p, 1, 10) > 0) {
+                const int fd = accept(listener, nullptr, nullptr);
+                if (fd >= 0) fds.push_back(fd), ++accepted;
+            }
+            static auto last = Clock::now();
+            if (Clock::now() - last < std::chrono::milliseconds(100)) continue;
+            last = Clock::now();
+            for (int fd : fds) {
+                char bytes[2048];
+                (void)recv(fd, bytes, sizeof bytes, MSG_DONTWAIT);
+            }
+        }
+        for (int fd : fds) close(fd);
+    });
+    {
+        TevStream stream("127.0.0.1:" + std::to_string(ntohs(addr.sin_port)), "trickle");
+        stream.post(1024, 1024, std::vector<float>(size_t(3) << 20, 0.5f));
+        const auto start = Clock::now();
+        while (stream.stats().connections < 2 && Clock::now() - start < std::chrono::seconds(15))
+            std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        EXPECT_GE(stream.stats().connections, 2u) << "the trickling peer held the stream";
+        EXPECT_LT(std::chrono::duration<double>(Clock::now() - start).count(), 10.0);
+    }
+    stop = true;
+    peer.join();
+    close(listener);
+}
+
 TEST(TevStream, MalformedAddressFailsBeforeRendering) {
     const std::string out = temp("never.exr").string();
     const std::pair<const char*, const char*> cases[] = {

@@ -23,6 +23,9 @@ constexpr auto kRoundInterval = 250ms;  // between rounds of tiles
 constexpr auto kRetryInterval = 1s;     // between connection attempts
 constexpr auto kConnectTimeout = 500ms;
 constexpr auto kStallTimeout = 2s;  // a send that makes no progress for this long fails
+// A message (a tile: 192 KiB) not sent in this long fails, however it trickles: a peer that
+// reads a byte at a time must not hold the stream.
+constexpr auto kMessageTimeout = 4s;
 constexpr uint8_t kCreateImage = 4, kUpdateImage = 6;  // tev's IpcPacket types (v3 update)
 const char* const kChannels[3] = {"R", "G", "B"};
 
@@ -258,6 +261,7 @@ bool TevStream::peer_closed() const {
 bool TevStream::send_all(const std::vector<unsigned char>& msg, Clock::time_point deadline) {
     size_t done = 0;
     auto progress = Clock::now();
+    deadline = std::min(deadline, progress + kMessageTimeout);
     while (done < msg.size()) {
         if (stop_) return false;
         const ssize_t n = send(fd_, msg.data() + done, msg.size() - done, MSG_NOSIGNAL);
