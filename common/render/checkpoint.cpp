@@ -7,6 +7,7 @@
 
 #include "common/error.h"
 #include "common/io/atomic_file.h"
+#include "common/io/host_memory.h"
 
 namespace mcpt {
 
@@ -14,6 +15,8 @@ namespace {
 
 constexpr char kMagic[8] = {'M', 'C', 'P', 'T', 'C', 'K', 'P', 'T'};
 constexpr uint32_t kFormat = 2;
+// The largest fingerprint a checkpoint may hold (they are a few hundred bytes).
+constexpr uint32_t kMaxFingerprintBytes = 1u << 16;
 constexpr uint64_t kFnvBasis = 0xcbf29ce484222325ull, kFnvPrime = 0x100000001b3ull;
 
 uint64_t fnv1a(const void* data, size_t size, uint64_t h = kFnvBasis) {
@@ -117,6 +120,8 @@ void write_checkpoint(const std::string& path, const Fingerprint& fingerprint,
     w.bytes.append(kMagic, sizeof kMagic);
     w.put(kFormat);
     const std::string text = encode(fingerprint);
+    if (text.size() > kMaxFingerprintBytes)
+        throw Error("cannot write checkpoint '" + path + "': its fingerprint is over 64 KiB");
     w.put(uint32_t(text.size()));
     w.bytes += text;
     w.put(uint32_t(r.width)), w.put(uint32_t(r.height));
@@ -137,35 +142,38 @@ void write_checkpoint(const std::string& path, const Fingerprint& fingerprint,
 }
 
 namespace {
-RenderResult read_checkpoint_file(const std::string& path, const Fingerprint* expected,
-                                  Fingerprint* written) {
+
+// Reads a checkpoint from `in` (`size` bytes): the header first, checked against the size it
+// implies, then exactly the arrays it announces, with the checksum over every byte before it.
+// With `header_only` the arrays are not read (their size is still checked).
+RenderResult parse(std::istream& in, uint64_t size, const std::string& name,
+                   const Fingerprint* expected, Fingerprint* written, bool header_only) {
     const auto fail = [&](const std::string& why) {
-        return Error("checkpoint '" + path + "' refused: " + why);
+        return Error("checkpoint '" + name + "' refused: " + why);
     };
-    std::error_code ec;
-    if (!std::filesystem::is_regular_file(path, ec)) throw fail("not a regular file");
-    const uint64_t size = std::filesystem::file_size(path, ec);
-    if (ec) throw fail("cannot read its size");
-    // Sums of at most 16384 x 16384 pixels (7 doubles and 6 exact sums each), a fingerprint.
-    if (size > uint64_t(16384) * 16384 * (56 + 6 * sizeof(ExactSum)) + (1u << 20))
-        throw fail("larger than any checkpoint");
-    std::string bytes(size, '\0');
-    {
-        std::ifstream f(path, std::ios::binary);
-        if (!f.read(bytes.data(), std::streamsize(size))) throw fail("cannot read it");
-    }
-    Reader in{bytes};
+    uint64_t hash = kFnvBasis, at = 0;
+    // The next n bytes (within the size), added to the checksum.
+    const auto take = [&](void* out, uint64_t n) {
+        if (size - at < n) throw fail("truncated");
+        if (!in.read(static_cast<char*>(out), std::streamsize(n))) throw fail("cannot read it");
+        hash = fnv1a(out, size_t(n), hash);
+        at += n;
+    };
     char magic[8];
+    if (size < sizeof magic) throw fail("not an mcpt checkpoint");
+    take(magic, 8);
+    if (std::memcmp(magic, kMagic, 8) != 0) throw fail("not an mcpt checkpoint");
     uint32_t format = 0, text_size = 0;
-    if (!in.take(magic, 8) || std::memcmp(magic, kMagic, 8) != 0)
-        throw fail("not an mcpt checkpoint");
-    if (!in.take(&format, 4) || !in.take(&text_size, 4) || bytes.size() - in.at < text_size)
-        throw fail("truncated");
+    take(&format, 4);
     if (format != kFormat)
         throw fail("format " + std::to_string(format) + ", this mcpt reads format " +
                    std::to_string(kFormat));
-    const Fingerprint saved = decode(bytes.substr(in.at, text_size));
-    in.at += text_size;
+    take(&text_size, 4);
+    if (text_size > kMaxFingerprintBytes)
+        throw fail("corrupted (a fingerprint of " + std::to_string(text_size) + " bytes)");
+    std::string text(text_size, '\0');
+    take(text.data(), text_size);
+    const Fingerprint saved = decode(text);
     if (written) *written = saved;
     // What it was written for, key by key (the version first).
     for (size_t i = 0; expected && i < expected->size(); ++i) {
@@ -175,45 +183,70 @@ RenderResult read_checkpoint_file(const std::string& path, const Fingerprint* ex
             if (k == key) was = v;
         if (was != now) throw fail(difference(key, was, now));
     }
-    // The sums: sizes from the header, then the checksum over everything before it.
-    uint32_t width = 0, height = 0;
+    // The sums' header; the arrays' size it implies must be what the file holds.
+    uint32_t width = 0, height = 0, exact = 0;
     uint64_t spp = 0, nonfinite_total = 0, first = 0;
-    uint32_t exact = 0;
     RenderResult r;
-    if (!in.take(&width, 4) || !in.take(&height, 4) || !in.take(&spp, 8) ||
-        !in.take(&nonfinite_total, 8) || !in.take(&r.rays, 8) || !in.take(&r.seconds, 8) ||
-        !in.take(&first, 8) || !in.take(&exact, 4))
-        throw fail("truncated");
+    take(&width, 4), take(&height, 4), take(&spp, 8), take(&nonfinite_total, 8);
+    take(&r.rays, 8), take(&r.seconds, 8), take(&first, 8), take(&exact, 4);
     if (exact > 1) throw fail("corrupted (sums kind " + std::to_string(exact) + ")");
     if (width == 0 || height == 0 || width > 16384 || height > 16384)
         throw fail("corrupted (image size " + std::to_string(width) + "x" + std::to_string(height) +
                    ")");
+    if (first > UINT64_MAX - spp) throw fail("corrupted (samples past 2^64)");
     const uint64_t n = uint64_t(width) * height;
-    if (bytes.size() - in.at != 7 * n * sizeof(double) + exact * 6 * n * sizeof(ExactSum) + 8)
-        throw fail("truncated");
+    const uint64_t arrays = 7 * n * sizeof(double) + exact * 6 * n * sizeof(ExactSum);
+    if (size - at < arrays + 8) throw fail("truncated");
+    if (size - at > arrays + 8)
+        throw fail("corrupted (" + std::to_string(size - at - arrays - 8) +
+                   " bytes after its end)");
     r.width = int(width), r.height = int(height), r.spp = spp, r.first = first;
     r.nonfinite_total = nonfinite_total;
+    if (header_only) return r;
+    if (arrays > host_memory_available())
+        throw fail("its sums need " + human_bytes(arrays) + ", " +
+                   human_bytes(host_memory_available()) + " of memory are available");
     r.sum.resize(3 * n), r.sum_sq.resize(3 * n), r.nonfinite.resize(n);
-    in.take(r.sum.data(), 3 * n * sizeof(double));
-    in.take(r.sum_sq.data(), 3 * n * sizeof(double));
-    in.take(r.nonfinite.data(), n * sizeof(double));
+    take(r.sum.data(), 3 * n * sizeof(double));
+    take(r.sum_sq.data(), 3 * n * sizeof(double));
+    take(r.nonfinite.data(), n * sizeof(double));
     r.exact.resize(exact * 6 * n);
-    in.take(r.exact.data(), r.exact.size() * sizeof(ExactSum));
+    take(r.exact.data(), r.exact.size() * sizeof(ExactSum));
+    const uint64_t computed = hash;
     uint64_t checksum = 0;
-    in.take(&checksum, 8);
-    if (checksum != fnv1a(bytes.data(), bytes.size() - 8))
-        throw fail("corrupted (checksum mismatch)");
+    take(&checksum, 8);
+    if (checksum != computed) throw fail("corrupted (checksum mismatch)");
     return r;
+}
+
+RenderResult read_checkpoint_file(const std::string& path, const Fingerprint* expected,
+                                  Fingerprint* written, bool header_only) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec))
+        throw Error("checkpoint '" + path + "' refused: not a regular file");
+    const uint64_t size = std::filesystem::file_size(path, ec);
+    std::ifstream f(path, std::ios::binary);
+    if (ec || !f) throw Error("checkpoint '" + path + "' refused: cannot read it");
+    return parse(f, size, path, expected, written, header_only);
 }
 
 }  // namespace
 
 RenderResult read_checkpoint(const std::string& path, const Fingerprint& expected) {
-    return read_checkpoint_file(path, &expected, nullptr);
+    return read_checkpoint_file(path, &expected, nullptr, false);
 }
 
 RenderResult read_checkpoint(const std::string& path, Fingerprint& written) {
-    return read_checkpoint_file(path, nullptr, &written);
+    return read_checkpoint_file(path, nullptr, &written, false);
+}
+
+RenderResult read_checkpoint_header(const std::string& path, Fingerprint& written) {
+    return read_checkpoint_file(path, nullptr, &written, true);
+}
+
+RenderResult read_checkpoint_memory(const void* data, size_t size, Fingerprint& written) {
+    std::istringstream in(std::string(static_cast<const char*>(data), size));
+    return parse(in, size, "(memory)", nullptr, &written, false);
 }
 
 }  // namespace mcpt

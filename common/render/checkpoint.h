@@ -29,5 +29,12 @@ void write_checkpoint(const std::string& path, const Fingerprint& fingerprint,
 RenderResult read_checkpoint(const std::string& path, const Fingerprint& expected);
 // Reads a checkpoint whatever it was written for; `written` receives its fingerprint.
 RenderResult read_checkpoint(const std::string& path, Fingerprint& written);
+// Its fingerprint and header alone (size, samples, first, rays, seconds; no sums): read and
+// checked against the file's size, the arrays not read.
+RenderResult read_checkpoint_header(const std::string& path, Fingerprint& written);
+// From memory (the fuzz target), as read_checkpoint(path, written).
+RenderResult read_checkpoint_memory(const void* data, size_t size, Fingerprint& written);
+// Every checkpoint is read header first (at most 64 KiB of fingerprint), then exactly
+// the arrays the header implies: a file of another size is refused before they are read.
 
 }  // namespace mcpt

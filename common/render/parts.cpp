@@ -47,36 +47,63 @@ void parse_part(const std::string& text, uint32_t& index, uint32_t& count) {
 
 MergeResult merge_parts(const std::vector<std::string>& paths, bool allow_missing) {
     if (paths.empty()) throw Error("no parts to merge");
+    // First every part's header (fingerprint, size, range), checked; then the sums, one part
+    // at a time, added in sample order: memory for the image and one part, whatever their
+    // number.
     struct Part {
         std::string path;
         Fingerprint f;
-        RenderResult sums;
+        RenderResult head;            // no arrays
         uint64_t first = 0, end = 0;  // the range it was given
     };
     std::vector<Part> parts;
     MergeResult m;
     for (const std::string& path : paths) {
         Part p{path, {}, {}, 0, 0};
-        p.sums = read_checkpoint(path, p.f);
+        p.head = read_checkpoint_header(path, p.f);
         unsigned long long first = 0, end = 0, job = 0;
+        char tail = 0;
         const std::string samples = value_of(p.f, "samples");
-        if (std::sscanf(samples.c_str(), "%llu-%llu of %llu", &first, &end, &job) != 3)
+        if (std::sscanf(samples.c_str(), "%llu-%llu of %llu%c", &first, &end, &job, &tail) != 3)
             throw Error("'" + path + "' is not a part of a render in parts (render --part I/N)");
+        if (!(first < end && end <= job))
+            throw Error("'" + path + "' is corrupted: its part " + samples +
+                        " does not lie within its job");
         p.first = first, p.end = end;
-        if (p.sums.first != p.first || p.sums.first + p.sums.spp > p.end)
+        // (No wrap: spp is compared with the room left in the part.)
+        if (p.head.first != p.first || p.head.spp > p.end - p.first)
             throw Error("'" + path + "' is corrupted: its samples lie outside its part");
-        // One job: every key but the device (and the part's own range) the same as the first.
+        // One job: every key but the device (and the part's own range) the same as the
+        // first's, both ways (a key missing from either is a difference).
         if (!parts.empty()) {
             const Part& a = parts.front();
-            for (const auto& [key, value] : p.f) {
-                if (key == "device" || key == "samples") continue;
-                if (value_of(a.f, key) != value)
-                    throw Error("'" + path + "' belongs to another job than '" + a.path +
-                                "': " + key + " " + value + " (there: " + value_of(a.f, key) + ")");
-            }
+            const auto differs = [&](const Fingerprint& x, const Fingerprint& y) {
+                for (const auto& [key, value] : x) {
+                    if (key == "device" || key == "samples") continue;
+                    bool found = false;
+                    for (const auto& [k, v] : y) found = found || (k == key && v == value);
+                    if (!found) return key;
+                }
+                return std::string();
+            };
+            std::string key = differs(p.f, a.f);
+            if (key.empty()) key = differs(a.f, p.f);
+            const auto shown = [&](const Fingerprint& f) {
+                for (const auto& [k, v] : f)
+                    if (k == key) return v;
+                return std::string("(missing)");
+            };
+            if (!key.empty())
+                throw Error("'" + path + "' belongs to another job than '" + a.path + "': " + key +
+                            " " + shown(p.f) + " (there: " + shown(a.f) + ")");
             if (job != m.job_spp)
                 throw Error("'" + path + "' is a part of a job of " + std::to_string(job) +
                             " spp, '" + a.path + "' of " + std::to_string(m.job_spp));
+            if (p.head.width != a.head.width || p.head.height != a.head.height)
+                throw Error("'" + path + "' is corrupted: its image is " +
+                            std::to_string(p.head.width) + "x" + std::to_string(p.head.height) +
+                            ", '" + a.path + "' " + std::to_string(a.head.width) + "x" +
+                            std::to_string(a.head.height));
         }
         m.job_spp = job;
         const std::string device = value_of(p.f, "device");
@@ -94,24 +121,20 @@ MergeResult merge_parts(const std::vector<std::string>& paths, bool allow_missin
         gaps += "  missing: samples " + std::to_string(from) + "-" + std::to_string(to) + "\n";
     };
     for (size_t i = 0; i < parts.size(); ++i) {
-        Part& p = parts[i];
+        const Part& p = parts[i];
         if (i > 0 && p.first < covered)
             throw Error("'" + p.path + "' overlaps '" + parts[i - 1].path + "': samples " +
                         std::to_string(p.first) + "-" + std::to_string(p.end) + " and " +
                         std::to_string(parts[i - 1].first) + "-" +
                         std::to_string(parts[i - 1].end));
         if (p.first > covered) gap(covered, p.first);
-        const uint64_t done = p.sums.first + p.sums.spp;
+        const uint64_t done = p.head.first + p.head.spp;
         m.report +=
             "  " + p.path + ": samples " + std::to_string(p.first) + "-" + std::to_string(done) +
             (done < p.end ? " of " + std::to_string(p.first) + "-" + std::to_string(p.end) : "") +
             "\n";
         if (done < p.end) gap(done, p.end);
         covered = p.end;
-        // Added as if adjacent: the sums do not depend on where a sample range sits.
-        if (p.sums.spp == 0) continue;
-        p.sums.first = m.sums.first + m.sums.spp;
-        add_sums(m.sums, p.sums);
     }
     if (covered < m.job_spp) gap(covered, m.job_spp);
     m.report += gaps;
@@ -119,6 +142,19 @@ MergeResult merge_parts(const std::vector<std::string>& paths, bool allow_missin
         throw Error("the parts miss " + std::to_string(m.missing_spp) + " of " +
                     std::to_string(m.job_spp) + " samples per pixel:\n" + gaps +
                     "(--allow-missing merges what is there)");
+    // The sums, one part at a time (each read again whole, checksum included, and checked to
+    // be the part whose header was read).
+    for (const Part& p : parts) {
+        if (p.head.spp == 0) continue;
+        Fingerprint again;
+        RenderResult sums = read_checkpoint(p.path, again);
+        if (again != p.f || sums.first != p.head.first || sums.spp != p.head.spp ||
+            sums.width != p.head.width || sums.height != p.head.height)
+            throw Error("'" + p.path + "' changed while it was merged");
+        // Added as if adjacent: the sums do not depend on where a sample range sits.
+        sums.first = m.sums.first + m.sums.spp;
+        add_sums(m.sums, sums);
+    }
     if (m.sums.spp == 0) throw Error("the parts hold no samples");
     m.sums.first = 0;
     m.sums.materialize();

@@ -196,11 +196,54 @@ def exr(width, height, rgb):
 
 def image_files():
     pixels = [0.0, 0.5, 1.0, 2.0, 1e-40, 65504.0, 0.25, 0.125, 3.0, 0.01, 0.7, 0.9]
-    write("corpus", "image", "read_2x2.exr", b"\0" + exr(2, 2, pixels))
-    write("corpus", "image", "read_3x1.exr", b"\2" + exr(3, 1, pixels[:9]))
+    # (No .exr extension: .gitignore leaves those out.)
+    write("corpus", "image", "read_2x2", b"\0" + exr(2, 2, pixels))
+    write("corpus", "image", "read_3x1", b"\2" + exr(3, 1, pixels[:9]))
     block = struct.pack("<12f", *pixels[:11], float("nan"))
     write("corpus", "image", "write_2x2", b"\1" + bytes([1, 1]) + block)
     write("corpus", "image", "write_5x3", b"\3" + bytes([4, 2]) + struct.pack("<3f", float("inf"), -1.0, 0.5) * 15)
+
+
+def hdr(width, height, rows):
+    """A Radiance .hdr: the header, then `rows` (bytes) as they are."""
+    return b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y %d +X %d\n" % (height, width) + rows
+
+
+def environment_files():
+    pixels = [0.0, 0.5, 1.0, 2.0, 1e-3, 6.0e4, 0.25, 0.125, 3.0, 0.01, 0.7, 0.9]
+    write("corpus", "environment", "rgb_2x2_exr", exr(2, 2, pixels))
+    # Run-length encoded rows of 8: per channel a run of 5 and a dump of 3.
+    row = b"\2\2\0\x08" + (b"\x85\x80" + b"\x03\x81\x82\x83") * 4
+    write("corpus", "environment", "rle_8x2.hdr", hdr(8, 2, row * 2))
+    write("corpus", "environment", "flat_4x2.hdr", hdr(4, 2, b"\x80\x40\x20\x81" * 8))
+    # The hang of issue 36: a dump of length 0, then the end of the file (and stray bytes).
+    write("regressions", "environment", "rle_zero_dump.hdr", hdr(64, 4, b"\2\2\0\x40\0"))
+    write("regressions", "environment", "rle_zero_dump_stray.hdr", hdr(64, 4, b"\2\2\0\x40\0abc"))
+
+
+def fnv1a(data, h=0xcbf29ce484222325):
+    for b in data:
+        h = ((h ^ b) * 0x100000001b3) & 0xFFFFFFFFFFFFFFFF
+    return h
+
+
+def checkpoint(width, height, spp, first=0, exact=False, text="mcpt=seed\nsamples=all\n"):
+    """A checkpoint (common/render/checkpoint.cpp's format 2) of constant sums."""
+    n = width * height
+    body = b"MCPTCKPT" + struct.pack("<II", 2, len(text)) + text.encode()
+    body += struct.pack("<IIQQddQI", width, height, spp, 0, float(n * spp), 0.5, first, int(exact))
+    body += struct.pack("<%dd" % (3 * n), *([0.5 * spp] * (3 * n)))
+    body += struct.pack("<%dd" % (3 * n), *([0.25 * spp] * (3 * n)))
+    body += struct.pack("<%dd" % n, *([0.0] * n))
+    if exact:
+        body += (struct.pack("<Q", 1 << 40) + b"\0" * 8) * (6 * n)
+    return body + struct.pack("<Q", fnv1a(body))
+
+
+def checkpoint_files():
+    write("corpus", "checkpoint", "sums_3x2", checkpoint(3, 2, 16))
+    write("corpus", "checkpoint", "exact_2x2", checkpoint(2, 2, 16, exact=True))
+    write("corpus", "checkpoint", "part_1x1", checkpoint(1, 1, 64, 64, text="samples=64-128 of 128\n"))
 
 
 if __name__ == "__main__":
@@ -209,3 +252,5 @@ if __name__ == "__main__":
     gltf_files()
     kdtree_files()
     image_files()
+    environment_files()
+    checkpoint_files()
