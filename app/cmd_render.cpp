@@ -49,6 +49,7 @@ struct RenderArgs {
     double checkpoint_every = 30;  // seconds between checkpoints
     std::string part;              // "I/N": this run renders part I of N of the samples
     double chunk_seconds = 0.5;    // several devices: a chunk's duration
+    double rank_timeout = 30;      // mpirun: the least time a rank is given to answer
     std::string display_server;    // "HOST:PORT": stream the image to tev
     LightingArgs lighting;
 };
@@ -115,7 +116,12 @@ void run_render(const RenderArgs& a) {
         mpi_serve(session);
         return;
     }
-    for (auto& w : mpi_remote_workers()) session.add_worker(std::move(w));
+    RankJob rank_job;
+    rank_job.width = a.width, rank_job.height = a.height;
+    rank_job.exact = s.reproducible;
+    rank_job.timeout_floor_s = a.rank_timeout;
+    for (auto& w : mpi_remote_workers(session.fingerprint(), rank_job))
+        session.add_worker(std::move(w));
     session.commit();
     for (const std::string& w : session.prepared().warnings)
         std::cerr << "mcpt: warning: " << w << "\n";
@@ -352,6 +358,12 @@ void add_render_command(CLI::App& app) {
     sub->add_option("--chunk-seconds", args->chunk_seconds,
                     "Several devices: the duration of a chunk of samples handed to one")
         ->check(CLI::Range(0.01, 3600.0))
+        ->capture_default_str();
+    sub->add_option("--rank-timeout", args->rank_timeout,
+                    "Under mpirun: the least time a rank is given to deliver a chunk or its "
+                    "sums (each chunk's deadline is the larger of this and 10x its time at the "
+                    "rank's measured speed); a rank that misses it ends the job, named")
+        ->check(CLI::Range(0.01, 1e6))
         ->capture_default_str();
     sub->add_option("--display-server", args->display_server,
                     "Stream the image to tev as it renders (tev's TCP protocol)")

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "common/render/checkpoint.h"
 #include "common/render/coordinator.h"
 #include "common/render/session.h"
 
@@ -28,8 +29,20 @@ void mpi_finish();
 // (modulo the GPUs there), else its first device.
 std::string rank_device(const std::string& backend, const MpiJob& job);
 
-// Rank 0: a worker for each other rank (blocks until each said which device it has).
-std::vector<std::unique_ptr<Worker>> mpi_remote_workers();
+// What rank 0 checks every other rank's messages against.
+struct RankJob {
+    int width = 0, height = 0;
+    bool exact = false;             // reproducible: exact sums
+    double timeout_floor_s = 30;    // the least time a rank is given to answer (--rank-timeout)
+};
+
+// Rank 0: a worker for each other rank, once each said which device it has and that it was
+// started for this job (`job_fingerprint`, the device aside; a mismatch is an error naming
+// the rank and what differs). Each worker validates what its rank sends against `job` and
+// gives each chunk a deadline: the larger of the floor and ten times its expected time at
+// the rank's measured speed; a rank that misses it (hung, stopped) ends the job, named.
+std::vector<std::unique_ptr<Worker>> mpi_remote_workers(const Fingerprint& job_fingerprint,
+                                                        const RankJob& job);
 
 // Ranks above 0: renders the chunks rank 0 hands out on `session` until it says stop; a
 // failure goes to rank 0 with its message.

@@ -5,6 +5,7 @@
 // checkpoint resumes with another number of ranks to the same file.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <filesystem>
 #include <string>
 
@@ -163,7 +164,7 @@ TEST(ScaleOut, MpiRankKilledIsNamedAndTheCheckpointResumesOnOtherRanks) {
     // Rank 2 dies (SIGKILL) when handed its first chunk after the first round (which rank 0
     // has collected and checkpointed by then).
     const test::CliRun killed =
-        mpirun(3, args, "-x MCPT_MPI_KILL_RANK=2 -x MCPT_MPI_KILL_AFTER_ROUNDS=1");
+        mpirun(3, args, "-x MCPT_MPI_FAULT_RANK=2 -x MCPT_MPI_FAULT_AFTER_ROUNDS=1");
     EXPECT_NE(killed.status, 0) << killed.output;
     EXPECT_NE(killed.output.find("rank 2"), std::string::npos) << killed.output;
     ASSERT_TRUE(fs::exists(ckpt)) << "no checkpoint before the kill\n" << killed.output;
@@ -173,6 +174,73 @@ TEST(ScaleOut, MpiRankKilledIsNamedAndTheCheckpointResumesOnOtherRanks) {
     ASSERT_EQ(resumed.status, 0) << resumed.output;
     EXPECT_NE(resumed.output.find("resumed from"), std::string::npos) << resumed.output;
     EXPECT_TRUE(test::read_file(out.string()) == one) << resumed.output;
+#endif
+}
+
+#if MCPT_WITH_MPI
+// MPMD: rank 0 runs `args0`, rank 1 `args1` (each with its own environment in `env1`).
+test::CliRun mpirun_two(const std::string& args0, const std::string& args1,
+                        const std::string& env1 = "") {
+    return test::run_command(
+        "env OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun --oversubscribe "
+        "-np 1 " +
+        std::string(MCPT_BINARY) + " " + args0 + " : -np 1 " + env1 + " " + MCPT_BINARY + " " +
+        args1);
+}
+#endif
+
+// A rank started for another job (another seed, other lighting, another scene) is refused at
+// the start, naming the rank and what differs; its sums were added silently before.
+TEST(ScaleOut, MpiRankOfAnotherJobIsRefused) {
+#if !MCPT_WITH_MPI
+    GTEST_SKIP() << "built without MPI (libopenmpi-dev)";
+#else
+    const std::string out = " -o " + temp("mpi_other_job.exr").string();
+    struct Case {
+        std::string rank1, says;
+    };
+    for (const Case& c : {Case{job(64, 4), "another job: seed 4 (rank 0: 3)"},
+                          Case{job(64) + " --background 0.5,0.5,0.5", "another job: scene"},
+                          Case{job(64) + " --max-depth 3", "another job: max_depth 3"}}) {
+        const test::CliRun r = mpirun_two(job(64) + out, c.rank1 + out);
+        EXPECT_NE(r.status, 0) << c.rank1 << "\n" << r.output;
+        EXPECT_NE(r.output.find("rank 1 ("), std::string::npos) << r.output;
+        EXPECT_NE(r.output.find(c.says), std::string::npos) << c.rank1 << "\n" << r.output;
+    }
+    // Control: the same job on both ranks renders.
+    const test::CliRun same = mpirun_two(job(64) + out, job(64) + out);
+    EXPECT_EQ(same.status, 0) << same.output;
+#endif
+}
+
+// A rank that stops answering (SIGSTOP: hung, not dead) ends the job at its chunk's deadline,
+// named, with the rounds before written; one that sends sums of another image size is
+// refused before anything is allocated from them.
+TEST(ScaleOut, MpiRankHungOrLyingIsNamedAndTheRoundsBeforeKept) {
+#if !MCPT_WITH_MPI
+    GTEST_SKIP() << "built without MPI (libopenmpi-dev)";
+#else
+    const fs::path out = temp("mpi_hung.exr");
+    fs::remove(out);
+    const std::string args = job(100000) + " --rank-timeout 2 -o " + out.string();
+    const auto start = std::chrono::steady_clock::now();
+    const test::CliRun hung = mpirun_two(
+        args, args, "-x MCPT_MPI_FAULT_RANK=1 -x MCPT_MPI_FAULT_AFTER_ROUNDS=1 -x MCPT_MPI_FAULT=stop");
+    EXPECT_NE(hung.status, 0) << hung.output;
+    EXPECT_NE(hung.output.find("(rank 1)): did not deliver samples"), std::string::npos) << hung.output;
+    EXPECT_NE(hung.output.find("hung or stopped"), std::string::npos) << hung.output;
+    EXPECT_NE(hung.output.find("rendered before the failure"), std::string::npos) << hung.output;
+    EXPECT_TRUE(fs::exists(out)) << hung.output;
+    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+              120.0);
+    const test::CliRun lying = mpirun_two(
+        args, args,
+        "-x MCPT_MPI_FAULT_RANK=1 -x MCPT_MPI_FAULT_AFTER_ROUNDS=1 -x MCPT_MPI_FAULT=bad-size");
+    EXPECT_NE(lying.status, 0) << lying.output;
+    EXPECT_NE(lying.output.find("rank 1 (" ), std::string::npos) << lying.output;
+    EXPECT_NE(lying.output.find("do not fit the job: 65x48 pixels, the image is 64x48"),
+              std::string::npos)
+        << lying.output;
 #endif
 }
 

@@ -1,5 +1,6 @@
 #include "common/render/checkpoint.h"
 
+#include <algorithm>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -25,7 +26,7 @@ uint64_t fnv1a(const void* data, size_t size, uint64_t h = kFnvBasis) {
     return h;
 }
 
-// Appends plain values and arrays to a byte string, and reads them back in order.
+// Appends plain values and arrays to a byte string.
 struct Writer {
     std::string bytes;
     template <typename T>
@@ -37,24 +38,15 @@ struct Writer {
     }
 };
 
-struct Reader {
-    const std::string& bytes;
-    size_t at = 0;
-    bool take(void* out, size_t n) {
-        if (bytes.size() - at < n) return false;
-        std::memcpy(out, bytes.data() + at, n);
-        at += n;
-        return true;
-    }
-};
+}  // namespace
 
-std::string encode(const Fingerprint& f) {
+std::string encode_fingerprint(const Fingerprint& f) {
     std::string text;
     for (const auto& [key, value] : f) text += key + "=" + value + "\n";
     return text;
 }
 
-Fingerprint decode(const std::string& text) {
+Fingerprint decode_fingerprint(const std::string& text) {
     Fingerprint f;
     std::istringstream lines(text);
     for (std::string line; std::getline(lines, line);) {
@@ -64,6 +56,24 @@ Fingerprint decode(const std::string& text) {
     }
     return f;
 }
+
+std::string fingerprint_value(const Fingerprint& f, const std::string& key) {
+    for (const auto& [k, v] : f)
+        if (k == key) return v;
+    return "(missing)";
+}
+
+std::string fingerprint_difference(const Fingerprint& a, const Fingerprint& b,
+                                   const std::vector<std::string>& ignored) {
+    for (const Fingerprint* x : {&a, &b})
+        for (const auto& [key, value] : *x) {
+            if (std::find(ignored.begin(), ignored.end(), key) != ignored.end()) continue;
+            if (fingerprint_value(x == &a ? b : a, key) != value) return key;
+        }
+    return "";
+}
+
+namespace {
 
 // How a saved value differs from the current one, in words.
 std::string difference(const std::string& key, const std::string& saved, const std::string& now) {
@@ -119,7 +129,7 @@ void write_checkpoint(const std::string& path, const Fingerprint& fingerprint,
     Writer w;
     w.bytes.append(kMagic, sizeof kMagic);
     w.put(kFormat);
-    const std::string text = encode(fingerprint);
+    const std::string text = encode_fingerprint(fingerprint);
     if (text.size() > kMaxFingerprintBytes)
         throw Error("cannot write checkpoint '" + path + "': its fingerprint is over 64 KiB");
     w.put(uint32_t(text.size()));
@@ -173,7 +183,7 @@ RenderResult parse(std::istream& in, uint64_t size, const std::string& name,
         throw fail("corrupted (a fingerprint of " + std::to_string(text_size) + " bytes)");
     std::string text(text_size, '\0');
     take(text.data(), text_size);
-    const Fingerprint saved = decode(text);
+    const Fingerprint saved = decode_fingerprint(text);
     if (written) *written = saved;
     // What it was written for, key by key (the version first).
     for (size_t i = 0; expected && i < expected->size(); ++i) {

@@ -14,6 +14,16 @@ namespace mcpt {
 
 using Fingerprint = std::vector<std::pair<std::string, std::string>>;
 
+// "key=value" lines, and back (lines without '=' are skipped).
+std::string encode_fingerprint(const Fingerprint& f);
+Fingerprint decode_fingerprint(const std::string& text);
+// The first key whose value differs between a and b, either way (a key missing from one is a
+// difference), `ignored` keys aside; empty when they agree.
+std::string fingerprint_difference(const Fingerprint& a, const Fingerprint& b,
+                                   const std::vector<std::string>& ignored = {});
+// A key's value, or "(missing)".
+std::string fingerprint_value(const Fingerprint& f, const std::string& key);
+
 // 64-bit FNV-1a of everything in the scene that reaches the image: geometry, materials,
 // camera, bounce hint.
 uint64_t scene_hash(const Scene& scene);

@@ -8,14 +8,6 @@
 
 namespace mcpt {
 
-namespace {
-std::string value_of(const Fingerprint& f, const std::string& key) {
-    for (const auto& [k, v] : f)
-        if (k == key) return v;
-    return "";
-}
-}  // namespace
-
 SamplePart part_range(uint64_t job_spp, uint32_t index, uint32_t count, uint32_t granule) {
     granule = std::max(1u, granule);
     if (count == 0 || index >= count) throw Error("a part is numbered 1 to the number of parts");
@@ -63,7 +55,7 @@ MergeResult merge_parts(const std::vector<std::string>& paths, bool allow_missin
         p.head = read_checkpoint_header(path, p.f);
         unsigned long long first = 0, end = 0, job = 0;
         char tail = 0;
-        const std::string samples = value_of(p.f, "samples");
+        const std::string samples = fingerprint_value(p.f, "samples");
         if (std::sscanf(samples.c_str(), "%llu-%llu of %llu%c", &first, &end, &job, &tail) != 3)
             throw Error("'" + path + "' is not a part of a render in parts (render --part I/N)");
         if (!(first < end && end <= job))
@@ -77,25 +69,11 @@ MergeResult merge_parts(const std::vector<std::string>& paths, bool allow_missin
         // first's, both ways (a key missing from either is a difference).
         if (!parts.empty()) {
             const Part& a = parts.front();
-            const auto differs = [&](const Fingerprint& x, const Fingerprint& y) {
-                for (const auto& [key, value] : x) {
-                    if (key == "device" || key == "samples") continue;
-                    bool found = false;
-                    for (const auto& [k, v] : y) found = found || (k == key && v == value);
-                    if (!found) return key;
-                }
-                return std::string();
-            };
-            std::string key = differs(p.f, a.f);
-            if (key.empty()) key = differs(a.f, p.f);
-            const auto shown = [&](const Fingerprint& f) {
-                for (const auto& [k, v] : f)
-                    if (k == key) return v;
-                return std::string("(missing)");
-            };
+            const std::string key = fingerprint_difference(p.f, a.f, {"device", "samples"});
             if (!key.empty())
                 throw Error("'" + path + "' belongs to another job than '" + a.path + "': " + key +
-                            " " + shown(p.f) + " (there: " + shown(a.f) + ")");
+                            " " + fingerprint_value(p.f, key) +
+                            " (there: " + fingerprint_value(a.f, key) + ")");
             if (job != m.job_spp)
                 throw Error("'" + path + "' is a part of a job of " + std::to_string(job) +
                             " spp, '" + a.path + "' of " + std::to_string(m.job_spp));
@@ -106,7 +84,7 @@ MergeResult merge_parts(const std::vector<std::string>& paths, bool allow_missin
                             std::to_string(a.head.height));
         }
         m.job_spp = job;
-        const std::string device = value_of(p.f, "device");
+        const std::string device = fingerprint_value(p.f, "device");
         if (std::find(m.devices.begin(), m.devices.end(), device) == m.devices.end())
             m.devices.push_back(device);
         parts.push_back(std::move(p));

@@ -25,7 +25,7 @@ std::string join(const std::vector<std::string>& names) {
 }
 
 // Everything a checkpoint must match to continue this session's image.
-Fingerprint fingerprint(const Session& session) {
+Fingerprint fingerprint_of(const Session& session) {
     const SessionSettings& s = session.settings();
     char hash[32];
     std::snprintf(hash, sizeof hash, "%016llx", (unsigned long long)scene_hash(session.scene()));
@@ -493,20 +493,24 @@ void Session::save_checkpoint(const std::string& path) {
             "checkpoints keep one sample count for every pixel: an adaptive render "
             "has none to keep");
     if (several()) {
-        write_checkpoint(path, fingerprint(*this), total_);
+        write_checkpoint(path, fingerprint_of(*this), total_);
         return;
     }
     if (!settings_.reproducible) progressive_->flush();
     RenderResult settled = progressive_->settled();  // with the render time of every call
     settled.seconds = result().seconds;
-    write_checkpoint(path, fingerprint(*this), settled);
+    write_checkpoint(path, fingerprint_of(*this), settled);
+}
+
+Fingerprint Session::fingerprint() const {
+    return fingerprint_of(*this);
 }
 
 void Session::resume_checkpoint(const std::string& path) {
     if (!has_scene_) throw Error("no scene loaded");
     if (!lost_.empty()) throw DeviceLost("the device stopped earlier (" + lost_ + ")");
     if (dirty_ || !same(settings_, committed_settings_)) commit();
-    RenderResult saved = read_checkpoint(path, fingerprint(*this));
+    RenderResult saved = read_checkpoint(path, fingerprint_of(*this));
     if (saved.first != part_.first)
         throw Error("checkpoint '" + path + "' holds samples from " + std::to_string(saved.first) +
                     " on, this render starts at " + std::to_string(part_.first));

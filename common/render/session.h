@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "common/render/backend.h"
+#include "common/render/checkpoint.h"
 #include "common/render/coordinator.h"
 #include "common/render/gpu_scene.h"
 #include "common/render/render_loop.h"
@@ -167,6 +168,10 @@ class Session {
     // render() adds to it. Throws mcpt::Error naming what differs (version, scene, an option,
     // the device) or that the file is truncated or corrupted; the session is then unchanged.
     void resume_checkpoint(const std::string& path);
+    // What a checkpoint of this session is written for (version, scene and its lighting,
+    // every setting that changes the image, the devices, the part): what parts of one job
+    // and the ranks of an MPI job must share.
+    Fingerprint fingerprint() const;
 
   private:
     PassStats render_on_devices(double budget_s, double target_error, uint64_t max_spp);
