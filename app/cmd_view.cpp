@@ -1,5 +1,6 @@
 // mcpt view: renders a scene (or A and B side by side) and serves a page on 127.0.0.1 that
-// shows it converging: the image, its error, and for A/B the maps of their difference.
+// shows it converging: the image, its error, and for A/B the maps of their difference. The
+// address it prints carries the run's token, which every request needs (view_access.h).
 #include <chrono>
 #include <csignal>
 #include <cstdio>
@@ -68,9 +69,16 @@ void run_view(const ViewArgs& args) {
         sessions.push_back(std::move(session));
     }
     LiveRender live(std::move(sessions), args.spp);
-    ViewServer server(live, info);
-    const int port = server.bind(args.listen, args.port);
-    std::printf("mcpt view: http://%s:%d/ (Ctrl-C stops)\n", args.listen.c_str(), port);
+    ViewServer server(live, info, args.listen);
+    const int port = server.bind(args.port);
+    if (!ViewAccess::is_loopback(args.listen))
+        std::fprintf(stderr,
+                     "mcpt: warning: --listen %s serves the viewer beyond this machine: whoever "
+                     "can reach port %d and learns the token (it travels unencrypted, over "
+                     "plain HTTP) can watch, pause, reset and download this render. An SSH "
+                     "tunnel to 127.0.0.1 keeps it private (README, mcpt view).\n",
+                     args.listen.c_str(), port);
+    std::printf("mcpt view: %s (Ctrl-C stops)\n", server.url().c_str());
     std::fflush(stdout);
     // Render and serve, each on threads of their own, until Ctrl-C or the time is up.
     live.start();
@@ -137,7 +145,8 @@ void add_view_command(CLI::App& app) {
         ->check(CLI::IsMember({"auto", "sah", "median", "none"}))
         ->capture_default_str();
     sub->add_option("--listen", a->listen,
-                    "Address to serve on (127.0.0.1: this machine only; 0.0.0.0: every network)")
+                    "Address to serve on (127.0.0.1: this machine only; 0.0.0.0: every network, "
+                    "with a warning: the token then travels over plain HTTP)")
         ->capture_default_str();
     sub->add_option("--port", a->port, "Port (0: any free one)")
         ->check(CLI::Range(0, 65535))

@@ -8,6 +8,7 @@
 #include <functional>
 #include <nlohmann/json.hpp>
 
+#include "app/view/guarded_server.h"
 #include "common/error.h"
 #include "common/io/image_io.h"
 #include "view_page.h"  // kViewPageHtml, generated from app/view/view_page.html
@@ -21,6 +22,12 @@ using Json = nlohmann::json;
 // The error curve, thinned to at most this many points per request.
 constexpr size_t kMaxCurvePoints = 400;
 
+// JSON text; strings that are not valid UTF-8 (a scene file's name) with U+FFFD where the
+// bytes are invalid, never an exception.
+std::string dump(const Json& j) {
+    return j.dump(-1, ' ', false, Json::error_handler_t::replace);
+}
+
 // A JSON number, or null for infinity and NaN (JSON has neither).
 Json number(double v) {
     return std::isfinite(v) ? Json(v) : Json(nullptr);
@@ -28,7 +35,7 @@ Json number(double v) {
 
 // Header and data in one body (the format view_server.h describes).
 std::string binary_body(const Json& header, const void* data, size_t bytes) {
-    std::string head = header.dump();
+    std::string head = dump(header);
     head.append((4 - head.size() % 4) % 4, ' ');
     const uint32_t length = uint32_t(head.size());
     std::string body(4 + head.size() + bytes, '\0');
@@ -134,15 +141,36 @@ httplib::Server::Handler guarded(
 
 }  // namespace
 
-ViewServer::ViewServer(LiveRender& live, ViewInfo info)
-    : live_(live), info_(std::move(info)), server_(std::make_unique<httplib::Server>()) {
+ViewServer::ViewServer(LiveRender& live, ViewInfo info, const std::string& listen)
+    : live_(live),
+      info_(std::move(info)),
+      listen_(listen),
+      access_(listen),
+      server_(std::make_unique<GuardedServer>()) {
     httplib::Server& s = *server_;
-    s.set_payload_max_length(1 << 16);  // the API takes no bodies
-    s.Get("/", guarded([](const httplib::Request&, httplib::Response& res) {
+    // Every request: this viewer's Host, the token, no other page's Origin (view_access.h).
+    s.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+        const std::string why = access_.refusal(req);
+        if (why.empty()) return httplib::Server::HandlerResponse::Unhandled;
+        res.status = 403;
+        res.set_content("forbidden: " + why + "\n", "text/plain");
+        return httplib::Server::HandlerResponse::Handled;
+    });
+    s.set_default_headers({{"Cache-Control", "no-store"},
+                           {"X-Content-Type-Options", "nosniff"},
+                           {"X-Frame-Options", "DENY"},
+                           {"Content-Security-Policy", "frame-ancestors 'none'"},
+                           {"Referrer-Policy", "no-referrer"}});
+    // The page; loaded with ?token=, it sets the cookie and sends the browser to "/".
+    s.Get("/", guarded([this](const httplib::Request& req, httplib::Response& res) {
+              if (access_.token_in_query(req)) {
+                  res.set_header("Set-Cookie", access_.set_cookie());
+                  res.set_redirect("/", 303);
+                  return;
+              }
               res.set_content(kViewPageHtml, "text/html; charset=utf-8");
           }));
     s.Get("/api/state", guarded([this](const httplib::Request&, httplib::Response& res) {
-              res.set_header("Cache-Control", "no-store");
               res.set_content(state_json(), "application/json");
           }));
     // A side's next image: a long poll, answered as soon as the image exists (204 after a
@@ -159,7 +187,6 @@ ViewServer::ViewServer(LiveRender& live, ViewInfo info)
                   res.status = 204;
                   return;
               }
-              res.set_header("Cache-Control", "no-store");
               res.set_content(frame_body(*snap), "application/octet-stream");
               ++frames_;
           }));
@@ -185,7 +212,6 @@ ViewServer::ViewServer(LiveRender& live, ViewInfo info)
                               {"pixels", d.same_seed.pixels},
                               {"tolerance", d.same_seed.tolerance},
                               {"max_abs_z", max_z}};
-              res.set_header("Cache-Control", "no-store");
               res.set_content(binary_body(h, v.data(), 4 * v.size()), "application/octet-stream");
           }));
     // One pixel's values on every side (hover): radiance, standard error, samples; the maps.
@@ -222,8 +248,7 @@ ViewServer::ViewServer(LiveRender& live, ViewInfo info)
                                {"z", number(m->maps.z[i])},
                                {"relative", number(m->maps.relative[i])}};
               }
-              res.set_header("Cache-Control", "no-store");
-              res.set_content(j.dump(), "application/json");
+              res.set_content(dump(j), "application/json");
           }));
     // The image as a file: linear EXR or sRGB PNG.
     s.Get("/api/save", guarded([this](const httplib::Request& req, httplib::Response& res) {
@@ -267,16 +292,16 @@ ViewServer::~ViewServer() {
     stop();
 }
 
-int ViewServer::bind(const std::string& host, int port) {
-    if (port == 0) {
-        const int bound = server_->bind_to_any_port(host.c_str());
-        if (bound <= 0) throw Error("cannot listen on " + host + " (any port)");
-        return bound;
-    }
-    if (!server_->bind_to_port(host.c_str(), port))
-        throw Error("cannot listen on " + host + ":" + std::to_string(port) +
-                    " (in use, or not an address of this machine); --port 0 takes a free one");
-    return port;
+int ViewServer::bind(int port) {
+    const int bound = port == 0 ? server_->bind_to_any_port(listen_.c_str())
+                                : (server_->bind_to_port(listen_.c_str(), port) ? port : -1);
+    if (bound <= 0)
+        throw Error("cannot listen on " + listen_ + ":" +
+                    (port == 0 ? std::string("any port") : std::to_string(port)) +
+                    " (in use, or not an address of this machine)" +
+                    (port == 0 ? "" : "; --port 0 takes a free one"));
+    access_.set_port(bound);
+    return bound;
 }
 
 void ViewServer::serve() {
@@ -284,7 +309,9 @@ void ViewServer::serve() {
 }
 
 void ViewServer::stop() {
-    if (server_) server_->stop();
+    if (!server_) return;
+    server_->close_connections();
+    server_->stop();
 }
 
 uint64_t ViewServer::frames_sent() const {
@@ -322,7 +349,7 @@ std::string ViewServer::state_json() {
         sides.push_back(side);
     }
     j["sides"] = sides;
-    return j.dump();
+    return dump(j);
 }
 
 }  // namespace mcpt

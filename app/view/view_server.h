@@ -11,7 +11,8 @@
 //   GET  /api/save?side=S&format=exr|png
 //                               the image as a file
 //   POST /api/pause, /api/resume, /api/reset
-// Anything else is 404: the server serves no files from disk.
+// Anything else is 404: the server serves no files from disk. Every request needs the run's
+// token and this viewer's Host (view_access.h); connections are bounded (guarded_server.h).
 //
 // Frames and maps are binary: a uint32 (little-endian) byte count of a JSON header, the
 // header (padded with spaces to a multiple of 4 bytes), then the data, top row first. Frames,
@@ -22,11 +23,8 @@
 #include <memory>
 #include <string>
 
+#include "app/view/view_access.h"
 #include "common/view/live_render.h"
-
-namespace httplib {
-class Server;
-}
 
 namespace mcpt {
 
@@ -35,12 +33,18 @@ struct ViewInfo {
     std::string sides[2] = {"", ""};  // "A: opencl ..." for A/B runs, else the device
 };
 
+class GuardedServer;
+
 class ViewServer {
   public:
-    ViewServer(LiveRender& live, ViewInfo info);
+    // Serves on `listen` (an address of this machine; its Host names are the ones accepted).
+    ViewServer(LiveRender& live, ViewInfo info, const std::string& listen);
     ~ViewServer();
-    // Binds host:port (port 0: any free one); returns the port. Throws mcpt::Error.
-    int bind(const std::string& host, int port);
+    // Binds the address on `port` (0: any free one); returns the port. A port in use is an
+    // error (no SO_REUSEPORT). Throws mcpt::Error.
+    int bind(int port);
+    // The address to open, with the token.
+    std::string url() const { return access_.url(); }
     // Serves until stop() (from another thread).
     void serve();
     void stop();
@@ -51,7 +55,9 @@ class ViewServer {
     std::string state_json();
     LiveRender& live_;
     ViewInfo info_;
-    std::unique_ptr<httplib::Server> server_;
+    std::string listen_;
+    ViewAccess access_;
+    std::unique_ptr<GuardedServer> server_;
     std::atomic<uint64_t> frames_{0};
 };
 

@@ -1,7 +1,9 @@
 #include "common/view/live_render.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <cstdlib>
 
 #include "common/error.h"
 
@@ -11,8 +13,12 @@ namespace {
 // A render step: long enough that its end (a read-back, the error estimate, a copy of the sums
 // when a viewer asked for one) costs little, short enough for two new images a second.
 constexpr double kStepSeconds = 0.5;
-// Milestones a side keeps while the other has not reached them (the slower side meets them).
+// Milestones a side keeps while the other has not reached them (the slower side meets them):
+// the oldest (the next the other side reaches) and the newest.
 constexpr size_t kMaxMilestones = 8;
+// Points of a side's error curve: at twice this many, every other one is dropped (the first
+// and the last kept), so a long run's curve stays evenly spaced and small.
+constexpr size_t kMaxSeriesPoints = 1024;
 
 // The sums of a result without its exact fixed-point copy (not needed to look at).
 std::shared_ptr<RenderResult> copy_sums(const RenderResult& r) {
@@ -32,6 +38,9 @@ uint64_t next_milestone(uint64_t spp) {
 
 LiveRender::LiveRender(std::vector<std::unique_ptr<Session>> sessions, uint64_t max_spp)
     : max_spp_(max_spp) {
+    // Tests: side B made N times slower (it waits N - 1 times each step's time after it), as
+    // a slower device would be.
+    if (const char* slow = std::getenv("MCPT_VIEW_SLOW_B")) b_slowdown_ = std::max(1.0, std::atof(slow));
     if (sessions.empty() || sessions.size() > 2) throw Error("a live render has one or two sides");
     for (auto& s : sessions) {
         if (!s) throw Error("a live render needs sessions");
@@ -157,6 +166,13 @@ void LiveRender::publish(size_t s, uint64_t generation, double relative_error) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (generation != generation_) return;  // reset meanwhile: these samples are dropped
     side.series.push_back({r.seconds, r.spp, relative_error});
+    if (side.series.size() >= 2 * kMaxSeriesPoints) {
+        std::vector<ErrorPoint>& v = side.series;
+        size_t kept = 0;
+        for (size_t i = 0; i + 1 < v.size(); i += 2) v[kept++] = v[i];
+        v[kept++] = v.back();
+        v.resize(kept);
+    }
     if (snap) {
         snap->serial = ++side.serial;
         side.snapshot = snap;
@@ -177,9 +193,22 @@ void LiveRender::reach_milestone(size_t s, uint64_t spp, uint64_t generation) {
         other.milestones.erase(other.milestones.begin(), std::next(it));
         return;
     }
+    // Over the limit, one between the oldest and the newest goes: the one whose neighbours are
+    // closest (as a ratio), so the kept ones stay spread evenly in log(spp). The oldest stays:
+    // the other side reaches every milestone in turn and meets that one next, then the next
+    // kept (dropping the oldest, a side more than about six times faster dropped every
+    // milestone before the slower one got there, and the maps never appeared).
     auto& mine = sides_[s]->milestones;
     mine[spp] = here;
-    if (mine.size() > kMaxMilestones) mine.erase(mine.begin());
+    if (mine.size() > kMaxMilestones) {
+        auto drop = std::next(mine.begin());
+        double closest = HUGE_VAL;
+        for (auto it = std::next(mine.begin()); std::next(it) != mine.end(); ++it) {
+            const double span = double(std::next(it)->first) / double(std::prev(it)->first);
+            if (span < closest) closest = span, drop = it;
+        }
+        mine.erase(drop);
+    }
 }
 
 void LiveRender::run(size_t s) {
@@ -211,7 +240,13 @@ void LiveRender::run(size_t s) {
                 cap = cap > 0 ? std::min(cap, milestone) : milestone;
             }
             const double step_ms = 1e3 * std::max(kStepSeconds, session.step_seconds());
+            const auto step_start = std::chrono::steady_clock::now();
             const PassStats st = session.render(step_ms, 0, cap);
+            if (s == 1 && b_slowdown_ > 1) {
+                const auto took = std::chrono::steady_clock::now() - step_start;
+                std::unique_lock<std::mutex> lock(mutex_);
+                wake_.wait_for(lock, took * (b_slowdown_ - 1), [&] { return stopping_.load(); });
+            }
             if (session.spp() == 0) continue;
             if (ab && session.spp() == cap) reach_milestone(s, cap, generation);
             publish(s, generation, st.relative_error);

@@ -80,6 +80,8 @@ class LiveRender {
     // poll: it asks once and gets the next image as soon as it exists). Null before the first.
     std::shared_ptr<const LiveSnapshot> next_snapshot(size_t side, uint64_t since,
                                                       double timeout_s);
+    // The error curve: a point per render step, thinned evenly past 2048 points (the first
+    // and the latest always kept).
     std::vector<ErrorPoint> error_series(size_t side) const;
     // A and B: the maps at the highest milestone both reached (null before), computed here on
     // the caller's thread the first time they are asked for.
@@ -111,6 +113,7 @@ class LiveRender {
     std::shared_ptr<const RenderResult> met_[2];  // A and B at the last milestone both reached
     std::shared_ptr<const LiveMaps> maps_;
     std::string failure_;
+    double b_slowdown_ = 1;  // MCPT_VIEW_SLOW_B (tests)
 };
 
 }  // namespace mcpt

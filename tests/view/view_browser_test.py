@@ -104,11 +104,17 @@ def shoot(drv, name):
 size = ["--width", "256", "--height", "256"] if SHOTS else ["--width", "96", "--height", "96"]
 
 # ---- one side: the image converges, the controls work
-proc, port = start_view(MCPT, ["cornell"] + size)
+proc, port, url = start_view(MCPT, ["cornell"] + size)
 drv = browser()
 try:
+    # Without the token: refused. With it (the printed address): the page, the cookie set,
+    # the token gone from the address bar.
     drv.get("http://127.0.0.1:%d/" % port)
-    check("mcpt view" in drv.title, "the page loads")
+    check("mcpt view" not in drv.title and "no valid token" in drv.page_source,
+          "the page without the token is refused")
+    drv.get(url)
+    check("mcpt view" in drv.title, "the page loads from the printed address")
+    check("token" not in drv.current_url, "the token leaves the address bar (%s)" % drv.current_url)
     wait_for(drv, "window.mcptView.framesDrawn >= 1", "the first image")
     first = canvas(drv, "image-0")
     spp1 = int(drv.find_element(By.ID, "spp-0").text)
@@ -169,11 +175,11 @@ finally:
 
 # ---- A and B: OpenCL against Vulkan, then a B whose light is 5% brighter
 def ab(extra, spp):
-    proc, port = start_view(MCPT, ["cornell", "--a", "opencl", "--b", "vulkan", "--spp", str(spp)]
-                            + size + extra)
+    proc, port, url = start_view(MCPT, ["cornell", "--a", "opencl", "--b", "vulkan", "--spp", str(spp)]
+                                 + size + extra)
     drv = browser()
     try:
-        drv.get("http://127.0.0.1:%d/" % port)
+        drv.get(url)
         wait_for(drv, "window.mcptView.mapsSpp >= %d" % spp, "A and B at %d spp" % spp)
         wait_for(drv, "window.mcptView.serial[0] > 0 && window.mcptView.serial[1] > 0 &&"
                       "window.mcptView.frames[0].spp >= %d && window.mcptView.frames[1].spp >= %d"

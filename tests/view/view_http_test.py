@@ -1,14 +1,21 @@
 #!/usr/bin/env python3
 """mcpt view's server without a browser: it serves only its page and API (no file from disk,
-whatever the path), survives clients that hang up mid-frame, and refuses bad addresses.
+whatever the path), survives clients that hang up mid-frame, and refuses bad addresses; it
+answers no one without the run's token, no foreign Host (DNS rebinding), no other page's
+Origin (CSRF); it bounds request heads, bodies and connections before cpp-httplib parses
+them; a second viewer on a port in use fails; a scene name that is not UTF-8 does not break
+the state; an A/B whose B is ten times slower still shows its maps.
 Usage: view_http_test.py MCPT_BINARY"""
 import http.client
 import json
+import os
+import shutil
 import signal
 import socket
 import struct
 import subprocess
 import sys
+import tempfile
 import time
 
 from view_util import start_view, stop_view
@@ -23,20 +30,49 @@ def check(ok, what):
         failures.append(what)
 
 
-def get(port, path):
-    """Status and body of GET path, sent exactly as written (no client-side normalization)."""
+TOKEN = None  # the running viewer's
+
+
+def request(port, path, method="GET", headers=None, token=True, body=None):
+    """Status, body and headers of one request, sent exactly as written (no client-side
+    normalization), with the token in the X-MCPT-Token header unless token is False."""
     conn = http.client.HTTPConnection("127.0.0.1", port, timeout=30)
-    conn.putrequest("GET", path, skip_host=False, skip_accept_encoding=True)
-    conn.endheaders()
+    conn.putrequest(method, path, skip_host=bool(headers and "Host" in headers),
+                    skip_accept_encoding=True)
+    for k, v in (headers or {}).items():
+        conn.putheader(k, v)
+    if token:
+        conn.putheader("X-MCPT-Token", TOKEN)
+    if body is not None:
+        conn.putheader("Content-Length", str(len(body)))
+    conn.endheaders(body)
     r = conn.getresponse()
-    body = r.read()
+    data = r.read()
     conn.close()
-    return r.status, body
+    return r.status, data, r.headers
+
+
+def get(port, path):
+    status, body, _ = request(port, path)
+    return status, body
+
+
+def raw(port, data, wait=15):
+    """Sends bytes as they are; the first line of the answer (b"" when the server closes)."""
+    s = socket.create_connection(("127.0.0.1", port), timeout=wait)
+    try:
+        s.sendall(data)
+        return s.recv(200).split(b"\r\n")[0]
+    except OSError as e:
+        return str(e).encode()
+    finally:
+        s.close()
 
 
 # A 512x512 image: a frame (4 MiB) outlasts the socket buffers, so hanging up mid-frame
 # interrupts the server's write.
-proc, port = start_view(MCPT, ["cornell", "--width", "512", "--height", "512"])
+proc, port, url = start_view(MCPT, ["cornell", "--width", "512", "--height", "512"])
+TOKEN = url.split("token=")[1]
 try:
     status, body = get(port, "/")
     check(status == 200 and b"mcpt view" in body, "the page is served")
@@ -65,6 +101,93 @@ try:
           "a pixel's values are served: %s" % pixel)
     status, body = get(port, "/api/pixel?x=-1&y=99999")
     check(status == 200 and json.loads(body)["sides"] == [None], "a pixel outside: no values")
+    # ---- Who may ask: the token, this viewer's Host, no other page's Origin.
+    evil = {"Origin": "http://evil.example", "Content-Type": "text/plain"}
+    status, _, _ = request(port, "/api/pause", "POST", evil, token=False, body=b"")
+    check(status == 403, "a cross-origin POST without the token is refused (%d)" % status)
+    status, body = get(port, "/api/state")
+    check(status == 200 and json.loads(body)["paused"] is False, "and did not pause the render")
+    status, _, _ = request(port, "/api/pause", "POST", evil, body=b"")
+    check(status == 403, "a POST from another Origin is refused, token or not (%d)" % status)
+    for path in ["/api/state", "/api/save?side=0&format=png", "/"]:
+        status, _, _ = request(port, path, token=False)
+        check(status == 403, "GET %s without the token: 403 (%d)" % (path, status))
+    status, body, _ = request(port, "/api/state", headers={"Host": "evil.example:%d" % port})
+    check(status == 403 and b"scene" not in body, "a foreign Host is refused, token or not (%d)" % status)
+    status, _, _ = request(port, "/api/state", headers={"Host": "127.0.0.1:1"})
+    check(status == 403, "a Host with another port is refused (%d)" % status)
+    status, _, _ = request(port, "/api/state", headers={"Sec-Fetch-Site": "cross-site"})
+    check(status == 403, "a cross-site fetch is refused (%d)" % status)
+    status, _, _ = request(port, "/api/state", token=False, headers={"Cookie": "mcpt_view=" + TOKEN})
+    check(status == 200, "the cookie is a token (%d)" % status)
+    status, _, _ = request(port, "/api/state?token=" + "0" * 32, token=False)
+    check(status == 403, "a wrong token is refused (%d)" % status)
+    status, _, _ = request(port, "/api/resume", "POST", {"Cookie": "mcpt_view=" + TOKEN},
+                           token=False, body=b"")
+    check(status == 403, "a POST with the cookie alone (no Origin) is refused (%d)" % status)
+    status, _, _ = request(port, "/api/resume", "POST", {"Cookie": "mcpt_view=" + TOKEN,
+                           "Origin": "http://127.0.0.1:%d" % port}, token=False, body=b"")
+    check(status == 200, "a POST from the page's own Origin is taken (%d)" % status)
+    status, _, hdrs = request(port, "/?token=" + TOKEN, token=False)
+    cookie = hdrs.get("Set-Cookie", "")
+    check(status == 303 and hdrs.get("Location") == "/" and TOKEN in cookie and
+          "HttpOnly" in cookie and "SameSite=Strict" in cookie,
+          "the printed address sets the cookie and redirects (%d, %s)" % (status, cookie))
+    # ---- Bounds before cpp-httplib parses: head size and lines, bodies, the pace of a head.
+    host = b"Host: 127.0.0.1:%d\r\n" % port
+    many = b"".join(b"X-%d: y\r\n" % i for i in range(100))
+    check(b" 431 " in raw(port, b"GET /api/state HTTP/1.1\r\n" + host + many + b"\r\n"),
+          "100 header lines: 431")
+    check(b" 431 " in raw(port, b"GET /api/state HTTP/1.1\r\n" + host + b"X: " + b"a" * 20000 + b"\r\n\r\n"),
+          "a 20 KB header: 431")
+    chunked = b"POST /api/pause HTTP/1.1\r\n" + host + b"Transfer-Encoding: chunked\r\n\r\n5\r\nhello\r\n0\r\n\r\n"
+    check(b" 501 " in raw(port, chunked), "a chunked body: 501")
+    check(b" 413 " in raw(port, b"POST /api/pause HTTP/1.1\r\n" + host + b"Content-Length: 100000\r\n\r\n"),
+          "a 100 KB body: 413")
+    # A head sent a byte every 0.5 s: cut at 10 s, while others are still answered.
+    slow = socket.create_connection(("127.0.0.1", port), timeout=30)
+    started = time.time()
+    answer = b""
+    for i, byte in enumerate(b"GET /api/state HTTP/1.1\r\n" + host + b"X: " + b"a" * 100):
+        if i == 3:
+            check(get(port, "/api/state")[0] == 200, "others are answered meanwhile")
+        try:
+            slow.send(bytes([byte]))
+        except OSError:
+            break
+        slow.settimeout(0.5)
+        try:
+            answer = slow.recv(100)  # the answer, or b"" when closed: either ends the head
+            break
+        except socket.timeout:
+            continue
+    took = time.time() - started
+    slow.close()
+    check(b" 408 " in answer and 8 < took < 14, "a head sent a byte at a time is cut at 10 s "
+          "(%.1f s: %r)" % (took, answer[:30]))
+    # More connections than threads and queue: the rest are answered 503 at once; afterwards
+    # the server serves again.
+    idle = [socket.create_connection(("127.0.0.1", port), timeout=30) for _ in range(40)]
+    time.sleep(0.5)
+    refused = 0
+    for s in idle:
+        s.settimeout(0.2)
+        try:
+            refused += s.recv(100).startswith(b"HTTP/1.1 503")
+        except socket.timeout:
+            pass
+    for s in idle:
+        s.close()
+    check(refused >= 40 - 24, "connections beyond 8 served and 16 queued get 503 (%d of 40)" % refused)
+    deadline = time.time() + 20
+    while time.time() < deadline and get(port, "/api/state")[0] != 200:
+        time.sleep(0.5)
+    check(get(port, "/api/state")[0] == 200, "and the server answers again")
+    # A second viewer on this port: refused, not bound beside it (no SO_REUSEPORT).
+    r = subprocess.run([MCPT, "view", "--width", "8", "--height", "8", "--time", "3", "--port",
+                        str(port)], capture_output=True, text=True, timeout=120)
+    check(r.returncode == 1 and "cannot listen" in r.stderr,
+          "a second viewer on the same port fails (exit %d)" % r.returncode)
     # Clients that hang up mid-frame (a reset, not a clean close), twenty times.
     for _ in range(20):
         s = socket.create_connection(("127.0.0.1", port), timeout=30)
@@ -103,6 +226,60 @@ r = subprocess.run([MCPT, "view", "--width", "8", "--height", "8", "--time", "5"
                     str(taken)], capture_output=True, text=True, timeout=120)
 check(r.returncode == 1 and "cannot listen" in r.stderr, "refused a port in use")
 blocker.close()
+# --listen beyond loopback: a warning naming the exposure.
+r = subprocess.run([MCPT, "view", "--width", "8", "--height", "8", "--time", "2", "--port", "0",
+                    "--listen", "0.0.0.0"], capture_output=True, text=True, timeout=120)
+check(r.returncode == 0 and "warning: --listen 0.0.0.0" in r.stderr and "token" in r.stderr,
+      "--listen 0.0.0.0 warns (exit %d)" % r.returncode)
+
+# A scene file whose name is not UTF-8: the state is still JSON (the name with U+FFFD).
+folder = tempfile.mkdtemp()
+try:
+    here = os.path.dirname(os.path.abspath(__file__))
+    odd = os.path.join(os.fsencode(folder), b"\xff\xfe-scene.gltf")
+    shutil.copy(os.path.join(here, "..", "data", "emissive_triangle.gltf"), odd)
+    proc, port, url = start_view(MCPT, [os.fsdecode(odd), "--width", "16", "--height", "16"])
+    TOKEN = url.split("token=")[1]
+    try:
+        time.sleep(1)
+        status, body = get(port, "/api/state")
+        ok = status == 200
+        try:
+            state = json.loads(body)
+        except ValueError:
+            ok = False
+        check(ok and "\ufffd" in state["scene"], "a scene name that is not UTF-8 (%d)" % status)
+    finally:
+        stop_view(proc)
+finally:
+    shutil.rmtree(folder)
+
+# A/B with B ten times slower (MCPT_VIEW_SLOW_B): A runs many milestones ahead, and the maps
+# still appear and keep coming (A kept only its 8 newest milestones, none of which B reached).
+env = dict(os.environ, MCPT_VIEW_SLOW_B="10")
+proc, port, url = start_view(MCPT, ["cornell", "--a", "opencl", "--b", "opencl", "--width",
+                                    "24", "--height", "24"], env=env)
+TOKEN = url.split("token=")[1]
+try:
+    deadline, seen = time.time() + 90, []
+    while time.time() < deadline and (len(seen) < 3 or seen[-1] < 256):
+        status, body = get(port, "/api/maps")
+        if status == 200:
+            n = struct.unpack("<I", body[:4])[0]
+            spp = json.loads(body[4:4 + n])["spp"]
+            if not seen or spp > seen[-1]:
+                seen.append(spp)
+        time.sleep(0.5)
+    _, body = get(port, "/api/state")
+    sides = json.loads(body)["sides"]
+    # (Dropping A's oldest milestones, the first maps came only once A's lead fell under six
+    # times, if ever: at 1160 spp in a run here.)
+    check(len(seen) >= 3 and seen[0] <= 64 and seen[-1] >= 256 and
+          sides[0]["spp"] > 4 * sides[1]["spp"],
+          "B ten times slower: maps from the start and again and again, at %s spp (A %d spp, B %d)" %
+          (seen, sides[0]["spp"], sides[1]["spp"]))
+finally:
+    stop_view(proc)
 
 print("%d failed" % len(failures) if failures else "all passed")
 sys.exit(1 if failures else 0)

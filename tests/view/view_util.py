@@ -5,10 +5,11 @@ import subprocess
 import time
 
 
-def start_view(mcpt, args, timeout=180):
-    """Starts `mcpt view ARGS --port 0`; returns the process and its port once it serves."""
+def start_view(mcpt, args, timeout=180, env=None):
+    """Starts `mcpt view ARGS --port 0`; once it serves, returns the process, its port and
+    its address with the token (http://127.0.0.1:PORT/?token=...)."""
     proc = subprocess.Popen([mcpt, "view", "--port", "0"] + args, stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True, bufsize=1)
+                            stderr=subprocess.STDOUT, text=True, bufsize=1, env=env)
     deadline = time.time() + timeout
     lines = []
     while time.time() < deadline:
@@ -16,9 +17,9 @@ def start_view(mcpt, args, timeout=180):
         if not line:
             break
         lines.append(line)
-        m = re.search(r"mcpt view: http://127\.0\.0\.1:(\d+)/", line)
+        m = re.search(r"mcpt view: (http://127\.0\.0\.1:(\d+)/\?token=([0-9a-f]{32}))", line)
         if m:
-            return proc, int(m.group(1))
+            return proc, int(m.group(2)), m.group(1)
     proc.kill()
     raise RuntimeError("mcpt view did not start:\n" + "".join(lines))
 
