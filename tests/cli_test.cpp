@@ -1,5 +1,6 @@
 // The mcpt command line on bad input: a clear message and a non-zero exit, never a crash.
 #include <gtest/gtest.h>
+#include <sched.h>
 
 #include <filesystem>
 #include <fstream>
@@ -61,6 +62,19 @@ TEST(Cli, EnvironmentScaleOverflowIsNamed) {
     expect_error(args + " --env-scale 1e10", "beyond single precision");
     const CliRun r = run_mcpt(args + " --env-scale 1e5");
     EXPECT_EQ(r.status, 0) << r.output;
+}
+
+// Under taskset the k-d build takes the one CPU granted (it took one thread per core of the
+// machine); the tree command says so.
+TEST(Cli, TreeBuildUnderTasksetTakesTheGrantedCpu) {
+    cpu_set_t set;
+    ASSERT_EQ(sched_getaffinity(0, sizeof set, &set), 0);
+    int cpu = 0;
+    while (cpu < CPU_SETSIZE && !CPU_ISSET(cpu, &set)) ++cpu;
+    const CliRun r = mcpt::test::run_command("taskset -c " + std::to_string(cpu) + " " +
+                                             std::string(MCPT_BINARY) + " tree cornell");
+    EXPECT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("on 1 thread\n"), std::string::npos) << r.output;
 }
 
 TEST(Cli, BadOptionsAreRejected) {

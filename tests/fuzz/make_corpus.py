@@ -244,6 +244,11 @@ def checkpoint_files():
     write("corpus", "checkpoint", "sums_3x2", checkpoint(3, 2, 16))
     write("corpus", "checkpoint", "exact_2x2", checkpoint(2, 2, 16, exact=True))
     write("corpus", "checkpoint", "part_1x1", checkpoint(1, 1, 64, 64, text="samples=64-128 of 128\n"))
+    # Issue 36: headers that announced more than the file holds (read whole before).
+    big = checkpoint(1, 1, 16)
+    write("regressions", "checkpoint", "fingerprint_1gib", big[:12] + struct.pack("<I", 1 << 30) + big[16:])
+    at = 16 + len("mcpt=seed\nsamples=all\n")  # width and height follow the fingerprint
+    write("regressions", "checkpoint", "image_16384_squared", big[:at] + struct.pack("<II", 16384, 16384) + big[at + 8:])
 
 
 if __name__ == "__main__":
