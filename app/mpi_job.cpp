@@ -152,9 +152,7 @@ class RankWorker : public Worker {
         const uint64_t stop[2] = {0, 0};
         MPI_Send(stop, 2, MPI_UINT64_T, rank_, kChunk, MPI_COMM_WORLD);
     }
-    std::string name() const override {
-        return device_ + " (" + rank_name(rank_) + ")";
-    }
+    std::string name() const override { return device_ + " (" + rank_name(rank_) + ")"; }
     std::string device_name() const override { return device_; }
     void render(const Chunk& chunk) override {
         {
@@ -187,8 +185,8 @@ class RankWorker : public Worker {
         const uint64_t handed = round_spp_;
         round_spp_ = 0;
         const size_t n = size_t(job_.width) * size_t(job_.height);
-        const size_t arrays = job_.exact ? 6 * n * sizeof(ExactSum) + n * sizeof(double)
-                                         : 7 * n * sizeof(double);
+        const size_t arrays =
+            job_.exact ? 6 * n * sizeof(ExactSum) + n * sizeof(double) : 7 * n * sizeof(double);
         // The floor, and the arrays at 50 MB/s at least.
         const double allowed = job_.timeout_floor_s + double(arrays) / 50e6;
         const auto deadline = Clock::now() + to_duration(allowed);
@@ -214,13 +212,15 @@ class RankWorker : public Worker {
             throw Error(who(true) + "sent sums that do not fit the job: " + what);
         };
         if (h.width != uint64_t(job_.width) || h.height != uint64_t(job_.height))
-            bad(std::to_string(h.width) + "x" + std::to_string(h.height) + " pixels, the image is " +
-                std::to_string(job_.width) + "x" + std::to_string(job_.height));
+            bad(std::to_string(h.width) + "x" + std::to_string(h.height) +
+                " pixels, the image is " + std::to_string(job_.width) + "x" +
+                std::to_string(job_.height));
         if (h.spp > handed)
             bad(std::to_string(h.spp) + " samples per pixel, " + std::to_string(handed) +
                 " were handed to it");
         if (h.spp > 0 && h.exact != (job_.exact ? 1u : 0u))
-            bad(h.exact ? "exact sums in a job without them" : "no exact sums in a reproducible job");
+            bad(h.exact ? "exact sums in a job without them"
+                        : "no exact sums in a reproducible job");
         if (!(h.rays >= 0 && h.rays < 1e30 && h.seconds >= 0 && h.seconds < 1e12) ||
             h.nonfinite_total > h.spp * n)
             bad("counts out of range");
@@ -252,8 +252,7 @@ class RankWorker : public Worker {
         return named ? rank_name(rank_) + " (" + device_ + ") " : "";
     }
     // The rank did not answer in time: it is hung or stopped; the job ends naming it.
-    [[noreturn]] void hung(const std::string& what, double allowed, double expected,
-                           bool named) {
+    [[noreturn]] void hung(const std::string& what, double allowed, double expected, bool named) {
         stopped_ = true;
         char text[160];
         std::snprintf(text, sizeof text,
@@ -264,9 +263,8 @@ class RankWorker : public Worker {
     }
     [[noreturn]] void unexpected(const MPI_Status& st, const std::string& what, bool named) {
         stopped_ = true;
-        throw Error(who(named) + "sent a message of tag " +
-                    std::to_string(st.MPI_TAG) + " and " + std::to_string(count_of(st)) +
-                    " bytes where " + what + " was due");
+        throw Error(who(named) + "sent a message of tag " + std::to_string(st.MPI_TAG) + " and " +
+                    std::to_string(count_of(st)) + " bytes where " + what + " was due");
     }
     // Arrays in pieces (the lock held), each of exactly the size due.
     void receive(void* data, size_t bytes, Clock::time_point deadline, double allowed) {
@@ -363,9 +361,9 @@ std::vector<std::unique_ptr<Worker>> mpi_remote_workers(const Fingerprint& job_f
         // Each rank says which device it opened and what job it was started for, or why it
         // could not (ranks compile their kernels first: ten times the floor for that).
         MPI_Status st;
-        if (!wait_for(rank, Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                               std::chrono::duration<double>(
-                                                   10 * job.timeout_floor_s)),
+        if (!wait_for(rank,
+                      Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                         std::chrono::duration<double>(10 * job.timeout_floor_s)),
                       st))
             throw Error(rank_name(rank) + " did not report its device within " +
                         std::to_string(int(10 * job.timeout_floor_s)) + " s: hung or stopped");
@@ -382,8 +380,8 @@ std::vector<std::unique_ptr<Worker>> mpi_remote_workers(const Fingerprint& job_f
         const std::string key = fingerprint_difference(job_fingerprint, theirs, {"device"});
         if (!key.empty())
             throw Error(rank_name(rank) + " (" + device + ") was started for another job: " + key +
-                        " " + fingerprint_value(theirs, key) + " (rank 0: " +
-                        fingerprint_value(job_fingerprint, key) + ")" +
+                        " " + fingerprint_value(theirs, key) +
+                        " (rank 0: " + fingerprint_value(job_fingerprint, key) + ")" +
                         (key == "scene" ? "; the scene's hash covers its lighting (--env, "
                                           "--background)"
                                         : ""));
@@ -444,9 +442,12 @@ void mpi_serve(Session& session) {
         MPI_Recv(range, 2, MPI_UINT64_T, 0, kChunk, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
         if (range[1] == 0) return;
         if (fault.after_rounds >= 0 && rounds >= fault.after_rounds) {
-            if (fault.kind == "stop") std::raise(SIGSTOP);
-            else if (fault.kind == "bad-size") bad_size = true;
-            else std::raise(SIGKILL);
+            if (fault.kind == "stop")
+                std::raise(SIGSTOP);
+            else if (fault.kind == "bad-size")
+                bad_size = true;
+            else
+                std::raise(SIGKILL);
         }
         try {
             if (range[0] >= range[1]) throw Error("rank 0 handed out an empty chunk");

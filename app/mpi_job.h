@@ -32,8 +32,8 @@ std::string rank_device(const std::string& backend, const MpiJob& job);
 // What rank 0 checks every other rank's messages against.
 struct RankJob {
     int width = 0, height = 0;
-    bool exact = false;             // reproducible: exact sums
-    double timeout_floor_s = 30;    // the least time a rank is given to answer (--rank-timeout)
+    bool exact = false;           // reproducible: exact sums
+    double timeout_floor_s = 30;  // the least time a rank is given to answer (--rank-timeout)
 };
 
 // Rank 0: a worker for each other rank, once each said which device it has and that it was

@@ -80,11 +80,11 @@ TEST(CheckpointFile, HostileFilesAreRefusedFromTheHeader) {
     { std::ofstream(sparse, std::ios::binary) << ""; }
     fs::resize_file(sparse, uint64_t(40) << 30);
     const auto start = std::chrono::steady_clock::now();
-    EXPECT_NE(error_of([&] { read_checkpoint(sparse.string(), job("all")); })
-                  .find("not an mcpt checkpoint"),
+    EXPECT_NE(error_of([&] {
+                  read_checkpoint(sparse.string(), job("all"));
+              }).find("not an mcpt checkpoint"),
               std::string::npos);
-    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
-              5.0);
+    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 5.0);
     fs::remove(sparse);
     // A whole file with bytes after it, and one whose header announces a larger image.
     const fs::path path = temp("valid.ckpt");

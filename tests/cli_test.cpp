@@ -57,8 +57,10 @@ TEST(Cli, SceneWithoutLight) {
 TEST(Cli, EnvironmentScaleOverflowIsNamed) {
     const std::string out =
         (std::filesystem::temp_directory_path() / "mcpt_cli_env_scale.exr").string();
-    const std::string args = "render cornell --background 1e30,1e30,1e30 --spp 1 --width 8 "
-                             "--height 8 -q -o " + out;
+    const std::string args =
+        "render cornell --background 1e30,1e30,1e30 --spp 1 --width 8 "
+        "--height 8 -q -o " +
+        out;
     expect_error(args + " --env-scale 1e10", "beyond single precision");
     const CliRun r = run_mcpt(args + " --env-scale 1e5");
     EXPECT_EQ(r.status, 0) << r.output;

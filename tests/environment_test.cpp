@@ -97,8 +97,7 @@ TEST(Environment, CorruptRadianceHdrIsRefusedNotLoopedOn) {
     };
     const std::string scanline("\x02\x02\x00\x40", 4);
     // A new-style scanline header, a dump count of 0 and the end of the file (issue 36).
-    EXPECT_NE(load("zero.hdr", scanline + std::string(1, '\0')).find("corrupt"),
-              std::string::npos);
+    EXPECT_NE(load("zero.hdr", scanline + std::string(1, '\0')).find("corrupt"), std::string::npos);
     // The same with three stray bytes after the count.
     EXPECT_NE(load("stray.hdr", scanline + std::string("\0abc", 4)).find("dump of length 0"),
               std::string::npos);
@@ -194,8 +193,8 @@ TEST(Environment, GreyAndLuminanceChromaExr) {
     write_image(rgb, w, h, std::vector<float>(size_t(w) * h * 3, 0.5f));
     const Environment from_y = load_environment(grey), from_rgb = load_environment(rgb);
     EXPECT_EQ(from_y.rgb, from_rgb.rgb);
-    const double mean = std::accumulate(from_y.rgb.begin(), from_y.rgb.end(), 0.0) /
-                        double(from_y.rgb.size());
+    const double mean =
+        std::accumulate(from_y.rgb.begin(), from_y.rgb.end(), 0.0) / double(from_y.rgb.size());
     EXPECT_DOUBLE_EQ(mean, 0.5);
     // Luminance-chroma: a constant colour, through OpenEXR's RGBA interface.
     const std::string yc = temp("yc.exr").string();

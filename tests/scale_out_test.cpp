@@ -225,9 +225,11 @@ TEST(ScaleOut, MpiRankHungOrLyingIsNamedAndTheRoundsBeforeKept) {
     const std::string args = job(100000) + " --rank-timeout 2 -o " + out.string();
     const auto start = std::chrono::steady_clock::now();
     const test::CliRun hung = mpirun_two(
-        args, args, "-x MCPT_MPI_FAULT_RANK=1 -x MCPT_MPI_FAULT_AFTER_ROUNDS=1 -x MCPT_MPI_FAULT=stop");
+        args, args,
+        "-x MCPT_MPI_FAULT_RANK=1 -x MCPT_MPI_FAULT_AFTER_ROUNDS=1 -x MCPT_MPI_FAULT=stop");
     EXPECT_NE(hung.status, 0) << hung.output;
-    EXPECT_NE(hung.output.find("(rank 1)): did not deliver samples"), std::string::npos) << hung.output;
+    EXPECT_NE(hung.output.find("(rank 1)): did not deliver samples"), std::string::npos)
+        << hung.output;
     EXPECT_NE(hung.output.find("hung or stopped"), std::string::npos) << hung.output;
     EXPECT_NE(hung.output.find("rendered before the failure"), std::string::npos) << hung.output;
     EXPECT_TRUE(fs::exists(out)) << hung.output;
@@ -237,7 +239,7 @@ TEST(ScaleOut, MpiRankHungOrLyingIsNamedAndTheRoundsBeforeKept) {
         args, args,
         "-x MCPT_MPI_FAULT_RANK=1 -x MCPT_MPI_FAULT_AFTER_ROUNDS=1 -x MCPT_MPI_FAULT=bad-size");
     EXPECT_NE(lying.status, 0) << lying.output;
-    EXPECT_NE(lying.output.find("rank 1 (" ), std::string::npos) << lying.output;
+    EXPECT_NE(lying.output.find("rank 1 ("), std::string::npos) << lying.output;
     EXPECT_NE(lying.output.find("do not fit the job: 65x48 pixels, the image is 64x48"),
               std::string::npos)
         << lying.output;

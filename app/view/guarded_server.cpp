@@ -3,6 +3,7 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <poll.h>
+#include <strings.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -11,7 +12,6 @@
 #include <condition_variable>
 #include <cstdlib>
 #include <cstring>
-#include <strings.h>
 #include <deque>
 #include <functional>
 #include <mutex>
@@ -100,8 +100,8 @@ class GuardedStream : public httplib::Stream {
             const size_t end = buf_.find("\n\r\n", from);
             if (end != std::string::npos && end + 3 - pos_ <= limits_.head_bytes) {
                 head_size = end + 3 - pos_;
-                const size_t lines =
-                    size_t(std::count(buf_.begin() + long(pos_), buf_.begin() + long(end + 3), '\n'));
+                const size_t lines = size_t(
+                    std::count(buf_.begin() + long(pos_), buf_.begin() + long(end + 3), '\n'));
                 if (lines > limits_.head_lines + 2) return Head::TooManyLines;  // + request, end
                 budget_ = head_size;
                 return Head::Ready;
@@ -166,10 +166,10 @@ class GuardedStream : public httplib::Stream {
     // A response written by the guard itself (the request refused before httplib saw it).
     void refuse(int status, const char* reason, const std::string& text) {
         const std::string body = text + "\n";
-        const std::string msg = "HTTP/1.1 " + std::to_string(status) + " " + reason +
-                                "\r\nContent-Type: text/plain\r\nContent-Length: " +
-                                std::to_string(body.size()) + "\r\nConnection: close\r\n\r\n" +
-                                body;
+        const std::string msg =
+            "HTTP/1.1 " + std::to_string(status) + " " + reason +
+            "\r\nContent-Type: text/plain\r\nContent-Length: " + std::to_string(body.size()) +
+            "\r\nConnection: close\r\n\r\n" + body;
         write(msg.data(), msg.size());
     }
 
@@ -300,22 +300,24 @@ bool GuardedServer::process_and_close_socket(socket_t sock) {
         const std::string head = stream.head(head_size);
         const std::string length = header_value(head, "Content-Length");
         if (!header_value(head, "Transfer-Encoding").empty()) {
-            stream.refuse(501, "Not Implemented", "no request bodies in chunks (Transfer-Encoding)");
+            stream.refuse(501, "Not Implemented",
+                          "no request bodies in chunks (Transfer-Encoding)");
             return finish(false);
         }
         char* tail = nullptr;
-        const unsigned long long body = length.empty() ? 0 : std::strtoull(length.c_str(), &tail, 10);
+        const unsigned long long body =
+            length.empty() ? 0 : std::strtoull(length.c_str(), &tail, 10);
         if (!length.empty() && (tail == length.c_str() || *tail != '\0' || length[0] == '-' ||
                                 body > limits_.body_bytes)) {
-            stream.refuse(413, "Payload Too Large",
-                          "request bodies of at most " + std::to_string(limits_.body_bytes) +
-                              " bytes");
+            stream.refuse(
+                413, "Payload Too Large",
+                "request bodies of at most " + std::to_string(limits_.body_bytes) + " bytes");
             return finish(false);
         }
         stream.allow_body(size_t(body));
         bool closed = false;
-        const bool ok = process_request(stream, n + 1 == limits_.requests_per_connection, closed,
-                                        nullptr);
+        const bool ok =
+            process_request(stream, n + 1 == limits_.requests_per_connection, closed, nullptr);
         stream.next_request();
         if (!ok || closed) break;
     }

@@ -19,14 +19,14 @@
 namespace mcpt {
 
 struct GuardLimits {
-    size_t threads = 8;          // connections served at once
-    size_t queued = 16;          // accepted and waiting for a thread; beyond: 503
-    size_t head_bytes = 16384;   // request line and headers
+    size_t threads = 8;         // connections served at once
+    size_t queued = 16;         // accepted and waiting for a thread; beyond: 503
+    size_t head_bytes = 16384;  // request line and headers
     size_t head_lines = 64;
-    size_t body_bytes = 4096;    // Content-Length; chunked bodies are refused
+    size_t body_bytes = 4096;  // Content-Length; chunked bodies are refused
     int requests_per_connection = 100;
-    std::chrono::milliseconds head_timeout{10000};  // a whole request head
-    std::chrono::milliseconds idle_timeout{5000};   // keep-alive: the next request's first byte
+    std::chrono::milliseconds head_timeout{10000};   // a whole request head
+    std::chrono::milliseconds idle_timeout{5000};    // keep-alive: the next request's first byte
     std::chrono::milliseconds write_timeout{30000};  // a whole response
 };
 

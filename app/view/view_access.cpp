@@ -53,7 +53,8 @@ bool split_authority(const std::string& authority, std::string& name, int& port)
     if (colon != std::string::npos) {
         const std::string digits = authority.substr(colon + 1);
         if (digits.empty() || digits.size() > 5 ||
-            !std::all_of(digits.begin(), digits.end(), [](unsigned char c) { return std::isdigit(c); }))
+            !std::all_of(digits.begin(), digits.end(),
+                         [](unsigned char c) { return std::isdigit(c); }))
             return false;
         port = std::stoi(digits);
     }

@@ -32,23 +32,23 @@ constexpr TreeCostModel kScalarCostModel{"scalar", 0.2, 1.0};
 
 struct TreeOptions {
     TreeKind kind = TreeKind::Sah;
-    int max_depth = -1;         // -1: 8 + 1.3 log2 N for SAH; the median tree needs a depth
-    float isect_cost = 80.f;    // pbrt-v3 KdTreeAccel costs
+    int max_depth = -1;       // -1: 8 + 1.3 log2 N for SAH; the median tree needs a depth
+    float isect_cost = 80.f;  // pbrt-v3 KdTreeAccel costs
     float traversal_cost = 1.f;
     float empty_bonus = 0.5f;
-    int max_leaf_prims = 1;     // SAH: a node this small becomes a leaf
-    int threads = 0;            // 0: the CPUs this process may use (usable_cpus())
+    int max_leaf_prims = 1;                     // SAH: a node this small becomes a leaf
+    int threads = 0;                            // 0: the CPUs this process may use (usable_cpus())
     TreeCostModel auto_model = kSimtCostModel;  // TreeKind::Auto: the device's costs
 };
 
 struct TreeStats {
     size_t nodes = 0, leaves = 0, empty_leaves = 0;
-    int max_depth = 0;           // deepest leaf (root = 0)
-    double mean_leaf_size = 0;   // triangle references per non-empty leaf
-    size_t references = 0;       // entries of the leaf index array
+    int max_depth = 0;          // deepest leaf (root = 0)
+    double mean_leaf_size = 0;  // triangle references per non-empty leaf
+    size_t references = 0;      // entries of the leaf index array
     double build_seconds = 0;
-    int threads = 0;             // the build's threads
-    size_t bytes = 0;            // nodes + leaf indices
+    int threads = 0;   // the build's threads
+    size_t bytes = 0;  // nodes + leaf indices
 };
 
 struct KdTree {
@@ -56,8 +56,8 @@ struct KdTree {
     std::vector<uint32_t> leaf_indices;  // triangle indices referenced by leaves
     Bounds bounds;                       // of all triangles (may be empty)
     TreeStats stats;
-    TreeKind kind = TreeKind::None;      // the tree built (never Auto)
-    std::string auto_choice;             // TreeKind::Auto: what it chose and why
+    TreeKind kind = TreeKind::None;  // the tree built (never Auto)
+    std::string auto_choice;         // TreeKind::Auto: what it chose and why
     // Traversal stack entries needed: max_depth + 1 (never smaller than 1).
     uint32_t stack_size() const { return static_cast<uint32_t>(stats.max_depth) + 1; }
 };

@@ -22,7 +22,8 @@ unsigned affinity_cpus() {
     if (!set) return 0;
     const size_t bytes = CPU_ALLOC_SIZE(kMaxCpus);
     CPU_ZERO_S(bytes, set);
-    const unsigned n = sched_getaffinity(0, bytes, set) == 0 ? unsigned(CPU_COUNT_S(bytes, set)) : 0;
+    const unsigned n =
+        sched_getaffinity(0, bytes, set) == 0 ? unsigned(CPU_COUNT_S(bytes, set)) : 0;
     CPU_FREE(set);
     return n;
 }

@@ -56,8 +56,7 @@ namespace {
 // a gigabyte, added and converted at the memory's speed, not one core's.
 template <typename Fn>
 void for_pixel_ranges(size_t npix, const Fn& fn) {
-    const size_t parts =
-        std::clamp<size_t>(npix >> 18, 1, size_t(usable_cpus()));
+    const size_t parts = std::clamp<size_t>(npix >> 18, 1, size_t(usable_cpus()));
     std::vector<std::thread> threads;
     for (size_t t = 1; t < parts; ++t)
         threads.emplace_back(fn, npix * t / parts, npix * (t + 1) / parts);

@@ -96,8 +96,7 @@ std::vector<float> read_openexr(const unsigned char* data, size_t size, const st
         file.setFrameBuffer(fb);
         file.readPixels(dw.min.y, dw.max.y);
         for (size_t i = 0; i < n; ++i)
-            for (size_t k = 0; k < 3; ++k)
-                out[3 * i + k] = planes[(rgb ? k : 0) * n + i];
+            for (size_t k = 0; k < 3; ++k) out[3 * i + k] = planes[(rgb ? k : 0) * n + i];
         return out;
     } catch (const Error&) {
         throw;

@@ -37,8 +37,8 @@
 #include <tiny_gltf.h>
 
 #include <algorithm>
-#include <cfloat>
 #include <cctype>
+#include <cfloat>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -736,7 +736,8 @@ void GltfLoader::add_light(int light, const glm::dmat4& world, int node) {
     // In double, then checked: a finite intensity can exceed single precision.
     const glm::dvec3 watts = color * (l.intensity / kLumensPerWatt);
     if (!(std::max({watts.x, watts.y, watts.z}) <= double(FLT_MAX)))
-        fail(label + ": color x intensity (" + std::to_string(std::max({watts.x, watts.y, watts.z})) +
+        fail(label + ": color x intensity (" +
+             std::to_string(std::max({watts.x, watts.y, watts.z})) +
              " W/sr) overflows single precision (3.4e38)");
     p.intensity = glm::vec3(watts);
     if (!finite_nonnegative(l.range)) fail(label + ": range must be finite and > 0");

@@ -40,7 +40,8 @@ LiveRender::LiveRender(std::vector<std::unique_ptr<Session>> sessions, uint64_t 
     : max_spp_(max_spp) {
     // Tests: side B made N times slower (it waits N - 1 times each step's time after it), as
     // a slower device would be.
-    if (const char* slow = std::getenv("MCPT_VIEW_SLOW_B")) b_slowdown_ = std::max(1.0, std::atof(slow));
+    if (const char* slow = std::getenv("MCPT_VIEW_SLOW_B"))
+        b_slowdown_ = std::max(1.0, std::atof(slow));
     if (sessions.empty() || sessions.size() > 2) throw Error("a live render has one or two sides");
     for (auto& s : sessions) {
         if (!s) throw Error("a live render needs sessions");
