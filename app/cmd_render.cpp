@@ -50,6 +50,7 @@ struct RenderArgs {
     std::string part;              // "I/N": this run renders part I of N of the samples
     double chunk_seconds = 0.5;    // several devices: a chunk's duration
     double rank_timeout = 30;      // mpirun: the least time a rank is given to answer
+    std::string reduction = "tree";  // mpirun: how a round's sums reach rank 0
     std::string display_server;    // "HOST:PORT": stream the image to tev
     LightingArgs lighting;
 };
@@ -113,13 +114,14 @@ void run_render(const RenderArgs& a) {
     }
     // Ranks above 0 render what rank 0 hands out, and write nothing.
     if (mpi.rank > 0) {
-        mpi_serve(session);
+        mpi_serve(session, a.reduction == "flat");
         return;
     }
     RankJob rank_job;
     rank_job.width = a.width, rank_job.height = a.height;
     rank_job.exact = s.reproducible;
     rank_job.timeout_floor_s = a.rank_timeout;
+    rank_job.flat_reduction = a.reduction == "flat";
     for (auto& w : mpi_remote_workers(session.fingerprint(), rank_job))
         session.add_worker(std::move(w));
     session.commit();
@@ -364,6 +366,11 @@ void add_render_command(CLI::App& app) {
                     "sums (each chunk's deadline is the larger of this and 10x its time at the "
                     "rank's measured speed); a rank that misses it ends the job, named")
         ->check(CLI::Range(0.01, 1e6))
+        ->capture_default_str();
+    sub->add_option("--reduction", args->reduction,
+                    "Under mpirun: a round's sums reach rank 0 up a binomial tree (log2 N "
+                    "steps), or flat (rank 0 adds every rank's in turn; to compare)")
+        ->check(CLI::IsMember({"tree", "flat"}))
         ->capture_default_str();
     sub->add_option("--display-server", args->display_server,
                     "Stream the image to tev as it renders (tev's TCP protocol)")

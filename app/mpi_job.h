@@ -34,18 +34,21 @@ struct RankJob {
     int width = 0, height = 0;
     bool exact = false;           // reproducible: exact sums
     double timeout_floor_s = 30;  // the least time a rank is given to answer (--rank-timeout)
+    bool flat_reduction = false;  // --reduction flat: rank 0 adds every rank's sums in turn
 };
 
 // Rank 0: a worker for each other rank, once each said which device it has and that it was
 // started for this job (`job_fingerprint`, the device aside; a mismatch is an error naming
 // the rank and what differs). Each worker validates what its rank sends against `job` and
 // gives each chunk a deadline: the larger of the floor and ten times its expected time at
-// the rank's measured speed; a rank that misses it (hung, stopped) ends the job, named.
+// the rank's measured speed; a rank that misses it (hung, stopped) ends the job, named. A
+// round's sums come up a binomial tree (mpi_wire.h): rank 0 receives log2(N) messages, each
+// checked against what the ranks it holds were handed, by the floor plus a transfer time.
 std::vector<std::unique_ptr<Worker>> mpi_remote_workers(const Fingerprint& job_fingerprint,
                                                         const RankJob& job);
 
 // Ranks above 0: renders the chunks rank 0 hands out on `session` until it says stop; a
-// failure goes to rank 0 with its message.
-void mpi_serve(Session& session);
+// failure goes to rank 0 with its message. `flat_reduction` as rank 0's (checked).
+void mpi_serve(Session& session, bool flat_reduction);
 
 }  // namespace mcpt

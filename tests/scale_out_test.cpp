@@ -140,7 +140,8 @@ TEST(ScaleOut, MpiRanksWriteOneRanksFile) {
     GTEST_SKIP() << "built without MPI (libopenmpi-dev)";
 #else
     const std::string one = one_device();
-    for (const int ranks : {1, 3}) {
+    // 1 to 8 ranks: trees of every shape (a rank with one child, with two, a lone leaf).
+    for (const int ranks : {1, 2, 3, 5, 8}) {
         const fs::path out = temp("mpi" + std::to_string(ranks) + ".exr");
         const test::CliRun r = mpirun(ranks, job() + " --reproducible -o " + out.string());
         ASSERT_EQ(r.status, 0) << r.output;

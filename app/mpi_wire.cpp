@@ -1,0 +1,189 @@
+#include "app/mpi_wire.h"
+
+#ifdef MCPT_WITH_MPI
+#include <algorithm>
+#include <thread>
+
+#include "common/error.h"
+
+namespace mcpt::wire {
+
+namespace {
+
+// Arrays in pieces below MPI's int count.
+constexpr size_t kPiece = size_t(1) << 30;
+
+struct ResultHeader {
+    uint64_t first, spp, nonfinite_total, exact, width, height;
+    double rays, seconds;
+};
+
+void send_bytes(const void* data, size_t bytes, int to) {
+    const char* p = static_cast<const char*>(data);
+    for (size_t at = 0; at < bytes; at += kPiece)
+        MPI_Send(p + at, int(std::min(kPiece, bytes - at)), MPI_BYTE, to, kResult, MPI_COMM_WORLD);
+}
+
+}  // namespace
+
+std::mutex& lock() {
+    static std::mutex m;
+    return m;
+}
+
+std::string rank_name(int rank) {
+    return "rank " + std::to_string(rank);
+}
+
+bool wait_for(int rank, Clock::time_point deadline, MPI_Status& st) {
+    for (;;) {
+        {
+            std::lock_guard<std::mutex> hold(lock());
+            int flag = 0;
+            MPI_Iprobe(rank, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st);
+            if (flag) return true;
+        }
+        if (Clock::now() >= deadline) return false;
+        std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+}
+
+int count_of(const MPI_Status& st) {
+    int n = 0;
+    MPI_Get_count(&st, MPI_BYTE, &n);
+    return n;
+}
+
+std::string receive_text(int rank, const MPI_Status& st) {
+    const int n = count_of(st);
+    if (n < 0 || n > kMaxText)
+        throw Error(rank_name(rank) + " sent a message of " + std::to_string(n) +
+                    " bytes where at most " + std::to_string(kMaxText) + " are taken");
+    std::string text(size_t(std::max(n, 1)), '\0');
+    MPI_Recv(text.data(), n, MPI_BYTE, rank, st.MPI_TAG, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    text.resize(size_t(n));
+    return text;
+}
+
+void throw_rank_error(int rank, const MPI_Status& st) {
+    std::string why = receive_text(rank, st);
+    const bool lost = !why.empty() && why[0] == 1;
+    if (!why.empty()) why.erase(0, 1);
+    if (lost) throw DeviceLost(why);
+    throw Error(why);
+}
+
+void send_error(const std::exception& e, bool lost) {
+    const std::string why = std::string(1, lost ? '\1' : '\0') + e.what();
+    MPI_Send(why.data(), int(std::min<size_t>(why.size(), kMaxText)), MPI_BYTE, 0, kError,
+             MPI_COMM_WORLD);
+}
+
+void send_sums(const RenderResult& r, int to, bool bad_size) {
+    const ResultHeader h{r.first,
+                         r.spp,
+                         r.nonfinite_total,
+                         r.exact.empty() ? 0u : 1u,
+                         uint64_t(r.width) + (bad_size ? 1u : 0u),
+                         uint64_t(r.height),
+                         r.rays,
+                         r.seconds};
+    MPI_Send(&h, sizeof h, MPI_BYTE, to, kResult, MPI_COMM_WORLD);
+    if (r.spp == 0) return;
+    if (!r.exact.empty()) {
+        send_bytes(r.exact.data(), r.exact.size() * sizeof(ExactSum), to);
+    } else {
+        send_bytes(r.sum.data(), r.sum.size() * sizeof(double), to);
+        send_bytes(r.sum_sq.data(), r.sum_sq.size() * sizeof(double), to);
+    }
+    send_bytes(r.nonfinite.data(), r.nonfinite.size() * sizeof(double), to);
+}
+
+bool receive_sums(int from, const SumsShape& shape, uint64_t max_spp, Clock::time_point deadline,
+                  const std::string& who, RenderResult& out) {
+    const auto unexpected = [&](const MPI_Status& st, const char* what) {
+        return Error(who + " sent a message of tag " + std::to_string(st.MPI_TAG) + " and " +
+                     std::to_string(count_of(st)) + " bytes where " + what + " was due");
+    };
+    const auto bad = [&](const std::string& what) {
+        return Error(who + " sent sums that do not fit the job: " + what);
+    };
+    // The header: exactly its size, this job's image and kind of sums, no more samples than
+    // were handed out to the ranks it speaks for.
+    MPI_Status st;
+    if (!wait_for(from, deadline, st)) return false;
+    std::lock_guard<std::mutex> hold(lock());
+    if (st.MPI_TAG == kError) throw_rank_error(from, st);
+    if (st.MPI_TAG != kResult || count_of(st) != int(sizeof(ResultHeader)))
+        throw unexpected(st, "the round's sums");
+    ResultHeader h{};
+    MPI_Recv(&h, sizeof h, MPI_BYTE, from, kResult, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    const uint64_t n = uint64_t(shape.width) * uint64_t(shape.height);
+    // (A rank that rendered nothing this round holds no image: 0x0.)
+    const bool empty = h.spp == 0 && h.width == 0 && h.height == 0;
+    if (!empty && (h.width != uint64_t(shape.width) || h.height != uint64_t(shape.height)))
+        throw bad(std::to_string(h.width) + "x" + std::to_string(h.height) +
+                  " pixels, the image is " + std::to_string(shape.width) + "x" +
+                  std::to_string(shape.height));
+    if (h.spp > max_spp)
+        throw bad(std::to_string(h.spp) + " samples per pixel, " + std::to_string(max_spp) +
+                  " were handed out");
+    if (h.spp > 0 && h.exact != (shape.exact ? 1u : 0u))
+        throw bad(h.exact ? "exact sums in a job without them"
+                          : "no exact sums in a reproducible job");
+    if (!(h.rays >= 0 && h.rays < 1e30 && h.seconds >= 0 && h.seconds < 1e12) ||
+        (h.spp > 0 && h.nonfinite_total / h.spp > n))
+        throw bad("counts out of range");
+    out = RenderResult{};
+    out.width = shape.width, out.height = shape.height;
+    if (h.spp == 0) return true;
+    out.first = h.first, out.spp = h.spp, out.nonfinite_total = h.nonfinite_total;
+    out.rays = h.rays, out.seconds = h.seconds;
+    out.sum.resize(3 * n), out.sum_sq.resize(3 * n), out.nonfinite.resize(n);
+    out.exact.resize(shape.exact ? 6 * n : 0);
+    // The arrays, each piece of exactly the size due.
+    const auto receive = [&](void* data, size_t bytes) {
+        char* p = static_cast<char*>(data);
+        for (size_t at = 0; at < bytes; at += kPiece) {
+            const int piece = int(std::min(kPiece, bytes - at));
+            int flag = 0;
+            while (MPI_Iprobe(from, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st), !flag) {
+                if (Clock::now() >= deadline) return false;
+                std::this_thread::sleep_for(std::chrono::microseconds(200));
+            }
+            if (st.MPI_TAG != kResult || count_of(st) != piece)
+                throw unexpected(st, "the round's sums");
+            MPI_Recv(p + at, piece, MPI_BYTE, from, kResult, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        }
+        return true;
+    };
+    if (shape.exact) {
+        if (!receive(out.exact.data(), out.exact.size() * sizeof(ExactSum))) return false;
+    } else {
+        if (!receive(out.sum.data(), out.sum.size() * sizeof(double))) return false;
+        if (!receive(out.sum_sq.data(), out.sum_sq.size() * sizeof(double))) return false;
+    }
+    return receive(out.nonfinite.data(), out.nonfinite.size() * sizeof(double));
+}
+
+int tree_parent(int rank, bool flat) {
+    return flat ? 0 : rank - (rank & -rank);
+}
+
+std::vector<int> tree_children(int rank, int size, bool flat) {
+    std::vector<int> children;
+    if (flat) {
+        for (int r = 1; rank == 0 && r < size; ++r) children.push_back(r);
+        return children;
+    }
+    for (int bit = 1; rank + bit < size && (rank == 0 || bit < (rank & -rank)); bit <<= 1)
+        children.push_back(rank + bit);
+    return children;
+}
+
+int tree_end(int child, int size, bool flat) {
+    return flat ? child + 1 : std::min(size, child + (child & -child));
+}
+
+}  // namespace mcpt::wire
+#endif
