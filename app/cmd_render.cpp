@@ -45,13 +45,13 @@ struct RenderArgs {
     double target_error = 0;  // stop once the mean relative standard error is below this
     bool reproducible = false;
     bool adaptive = false;
-    std::string checkpoint;        // resume from / save to this file
-    double checkpoint_every = 30;  // seconds between checkpoints
-    std::string part;              // "I/N": this run renders part I of N of the samples
-    double chunk_seconds = 0.5;    // several devices: a chunk's duration
-    double rank_timeout = 30;      // mpirun: the least time a rank is given to answer
+    std::string checkpoint;          // resume from / save to this file
+    double checkpoint_every = 30;    // seconds between checkpoints
+    std::string part;                // "I/N": this run renders part I of N of the samples
+    double chunk_seconds = 0.5;      // several devices: a chunk's duration
+    double rank_timeout = 30;        // mpirun: the least time a rank is given to answer
     std::string reduction = "tree";  // mpirun: how a round's sums reach rank 0
-    std::string display_server;    // "HOST:PORT": stream the image to tev
+    std::string display_server;      // "HOST:PORT": stream the image to tev
     LightingArgs lighting;
 };
 
@@ -364,7 +364,8 @@ void add_render_command(CLI::App& app) {
     sub->add_option("--rank-timeout", args->rank_timeout,
                     "Under mpirun: the least time a rank is given to deliver a chunk or its "
                     "sums (each chunk's deadline is the larger of this and 10x its time at the "
-                    "rank's measured speed); a rank that misses it ends the job, named")
+                    "rank's measured speed; a rank's first chunk 10x this); a rank that misses "
+                    "it ends the job, named")
         ->check(CLI::Range(0.01, 1e6))
         ->capture_default_str();
     sub->add_option("--reduction", args->reduction,

@@ -12,7 +12,6 @@
 #include "common/error.h"
 #include "common/render/device_registry.h"
 
-
 namespace mcpt {
 
 namespace {
@@ -94,11 +93,11 @@ struct RankGroup {
             const int end = tree_end(child, size, job.flat_reduction);
             uint64_t spp = 0;
             for (int r = child; r < end; ++r) spp += handed[size_t(r)];
-            const std::string who =
-                end - child == 1 ? rank_name(child) + " (" + devices[size_t(child)] + ")"
-                                 : "ranks " + std::to_string(child) + "-" +
-                                       std::to_string(end - 1) + " (added up by rank " +
-                                       std::to_string(child) + ")";
+            const std::string who = end - child == 1
+                                        ? rank_name(child) + " (" + devices[size_t(child)] + ")"
+                                        : "ranks " + std::to_string(child) + "-" +
+                                              std::to_string(end - 1) + " (added up by rank " +
+                                              std::to_string(child) + ")";
             RenderResult part;
             if (!receive_sums(child, shape, spp, deadline, who, part)) {
                 char text[160];
@@ -133,20 +132,23 @@ class RankWorker : public Worker {
             MPI_Send(range, 2, MPI_UINT64_T, rank_, kChunk, MPI_COMM_WORLD);
         }
         // A deadline from this rank's measured speed: ten times the chunk's expected time,
-        // and never less than the job's floor (the first chunk has no measurement).
+        // and never less than the job's floor. The first chunk has no measurement (and may
+        // warm a device up): ten times the floor.
         const double samples = double(chunk.end - chunk.first);
         const double expected = rate_ > 0 ? samples / rate_ : 0;
-        const double allowed = std::max(group_->job.timeout_floor_s, 10 * expected);
+        const double floor = group_->job.timeout_floor_s;
+        const double allowed = rate_ > 0 ? std::max(floor, 10 * expected) : 10 * floor;
         const auto start = Clock::now();
         MPI_Status st;
         if (!wait_for(rank_, start + seconds(allowed), st)) {
             stopped_ = true;
-            char text[200];
+            char text[200], why[80] = "its first chunk: no speed measured yet";
+            if (rate_ > 0)
+                std::snprintf(why, sizeof why, "expected %.2f s at its measured speed", expected);
             std::snprintf(text, sizeof text,
-                          "did not deliver samples %llu-%llu within %.1f s (expected %.2f s at "
-                          "its measured speed): hung or stopped",
+                          "did not deliver samples %llu-%llu within %.1f s (%s): hung or stopped",
                           (unsigned long long)chunk.first, (unsigned long long)chunk.end, allowed,
-                          expected);
+                          why);
             throw Error(text);
         }
         std::lock_guard<std::mutex> hold(lock());
@@ -307,8 +309,8 @@ void mpi_serve(Session& session, bool flat_reduction) {
                                   session.settings().reproducible};
             for (int child : tree_children(g_job.rank, g_job.size, flat_reduction)) {
                 RenderResult part;
-                receive_sums(child, shape, UINT64_MAX, Clock::time_point::max(),
-                             rank_name(child), part);
+                receive_sums(child, shape, UINT64_MAX, Clock::time_point::max(), rank_name(child),
+                             part);
                 if (part.spp > 0) accumulate_sums(mine, part);
             }
             send_sums(mine, tree_parent(g_job.rank, flat_reduction), bad_size);

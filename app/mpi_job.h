@@ -41,7 +41,8 @@ struct RankJob {
 // started for this job (`job_fingerprint`, the device aside; a mismatch is an error naming
 // the rank and what differs). Each worker validates what its rank sends against `job` and
 // gives each chunk a deadline: the larger of the floor and ten times its expected time at
-// the rank's measured speed; a rank that misses it (hung, stopped) ends the job, named. A
+// the rank's measured speed (its first chunk: ten times the floor); a rank that misses it
+// (hung, stopped) ends the job, named. A
 // round's sums come up a binomial tree (mpi_wire.h): rank 0 receives log2(N) messages, each
 // checked against what the ranks it holds were handed, by the floor plus a transfer time.
 std::vector<std::unique_ptr<Worker>> mpi_remote_workers(const Fingerprint& job_fingerprint,
