@@ -7,7 +7,9 @@
 
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <string>
+#include <vector>
 
 #include "test_util.h"
 
@@ -123,6 +125,74 @@ TEST(ScaleOut, CompareRendersAAndBAtOnce) {
     EXPECT_NE(r.output.find("rendered at once"), std::string::npos) << r.output;
     const test::CliRun biased = run_mcpt(args + " --b-light-scale 1.2");
     EXPECT_EQ(biased.status, 2) << biased.output;
+}
+
+// A fenced block of docs/scaling.md after its marker comment ("" if there is none).
+std::string doc_block(const std::string& marker, const std::string& lang) {
+    const std::string doc =
+        test::read_file(std::string(MCPT_TEST_DATA_DIR) + "/../../docs/scaling.md");
+    const size_t at = doc.find("<!-- " + marker + " -->");
+    const size_t start = at == std::string::npos ? at : doc.find("```" + lang + "\n", at);
+    const size_t end = start == std::string::npos ? start : doc.find("\n```\n", start);
+    if (end == std::string::npos) return "";
+    const size_t body = start + 4 + lang.size();
+    return doc.substr(body, end + 1 - body);
+}
+
+// The Slurm job array and the Kubernetes Indexed Job of docs/scaling.md, taken from the page
+// as written, run with the variables their schedulers set (4 parts), then merged as the page
+// says: the file of one reproducible render, byte for byte.
+TEST(ScaleOut, SchedulerExamplesRunAsWritten) {
+    const std::string one = one_device();
+    const std::string options = test::device_args("opencl") + " --width 64 --height 48 --seed 3";
+    // `mcpt` on the PATH, as on a cluster's nodes.
+    const fs::path bin = temp("bin");
+    fs::create_directories(bin);
+    fs::remove(bin / "mcpt");
+    fs::create_symlink(MCPT_BINARY, bin / "mcpt");
+    const std::string path = "PATH=" + bin.string() + ":$PATH ";
+    // Slurm: four array tasks numbered from 10 (SLURM_ARRAY_TASK_MIN), then the merge.
+    const std::string script = doc_block("slurm-array", "bash");
+    ASSERT_NE(script.find("#SBATCH"), std::string::npos) << "no Slurm script in docs/scaling.md";
+    const fs::path sbatch = temp("render-array.sbatch"), slurm = temp("slurm");
+    { std::ofstream(sbatch) << script; }
+    fs::remove_all(slurm);
+    for (int task = 10; task < 14; ++task) {
+        const test::CliRun r = test::run_command(
+            "env " + path + "SLURM_ARRAY_TASK_ID=" + std::to_string(task) +
+            " SLURM_ARRAY_TASK_MIN=10 SLURM_ARRAY_TASK_COUNT=4 bash " + sbatch.string() +
+            " cornell 512 " + slurm.string() + " " + options);
+        ASSERT_EQ(r.status, 0) << r.output;
+    }
+    test::CliRun m = test::run_command("cd " + temp("").string() + " && env " + path +
+                                       "mcpt merge slurm/part-*.ckpt -o slurm/image.exr");
+    ASSERT_EQ(m.status, 0) << m.output;
+    EXPECT_TRUE(test::read_file((slurm / "image.exr").string()) == one) << m.output;
+    // Kubernetes: each Job's `sh -c` command, with the environment it declares (the test's
+    // scene, samples and options), four indices, then the merge Job's.
+    const std::string yaml = doc_block("k8s-job", "yaml");
+    std::vector<std::string> commands;
+    const std::string key = "command: [\"sh\", \"-c\", \"";
+    for (size_t at = yaml.find(key); at != std::string::npos; at = yaml.find(key, at + 1)) {
+        const size_t from = at + key.size();
+        commands.push_back(yaml.substr(from, yaml.find("\"]", from) - from));
+    }
+    ASSERT_EQ(commands.size(), 2u) << yaml;
+    ASSERT_NE(yaml.find("completions: 4"), std::string::npos);
+    const fs::path k8s = temp("k8s");
+    fs::remove_all(k8s);
+    fs::create_directories(k8s);
+    const std::string env = "env " + path + "PARTS=4 SCENE=cornell SPP=512 OPTIONS='" + options +
+                            "' OUT=" + k8s.string() + " ";
+    for (int index = 0; index < 4; ++index) {
+        const test::CliRun r = test::run_command(env + "JOB_COMPLETION_INDEX=" +
+                                                 std::to_string(index) + " sh -c '" +
+                                                 commands[0] + "'");
+        ASSERT_EQ(r.status, 0) << commands[0] << "\n" << r.output;
+    }
+    m = test::run_command(env + "sh -c '" + commands[1] + "'");
+    ASSERT_EQ(m.status, 0) << m.output;
+    EXPECT_TRUE(test::read_file((k8s / "image.exr").string()) == one) << m.output;
 }
 
 #if MCPT_WITH_MPI
