@@ -44,6 +44,8 @@ struct ConvergeArgs {
     uint32_t seed = 1;
     std::vector<std::string> samplers{"sobol"};
     std::vector<std::string> sampling{"uniform"};
+    std::vector<std::string> devices;  // --device repeated: each backend's run on all of them
+    bool beside_one = false;           // and on its first device alone
 };
 
 struct Run {
@@ -283,8 +285,16 @@ void run_converge(const ConvergeArgs& a) {
     std::vector<Run> runs;
     std::printf("\n%-18s %-28s %9s %8s %11s %9s %11s %12s\n", "backend", "device", "seconds", "spp",
                 "rmse", "rel rmse", "rel mse", "mean signed");
-    for (size_t b = 0; b < a.backends.size(); ++b) {
-        Session session(open_device(a.backends[b]));
+    // Each backend's run: on its --device list (one image on several devices, coordinator.h),
+    // and with --beside-one on the first of them alone too (what the others add).
+    std::vector<std::vector<std::string>> jobs;
+    for (const std::string& backend : a.backends) {
+        const std::vector<std::string> specs = device_specs(backend, a.devices);
+        if (a.beside_one && specs.size() > 1) jobs.push_back({specs.front()});
+        jobs.push_back(specs);
+    }
+    for (const std::vector<std::string>& specs : jobs) {
+        Session session(specs, BackendOptions{});
         session.set_scene(scene);
         session.settings().width = a.width, session.settings().height = a.height;
         session.settings().max_depth = int(ro.max_depth);
@@ -296,9 +306,13 @@ void run_converge(const ConvergeArgs& a) {
                 session.settings().adaptive = sampling == "adaptive";
                 Run run;
                 run.backend = backend.device().backend;
+                if (specs.size() > 1) run.backend += " x" + std::to_string(specs.size());
                 if (a.samplers.size() > 1) run.backend += "/" + sampler;
                 if (a.sampling.size() > 1) run.backend += "/" + sampling;
                 run.device = backend.device().name;
+                if (specs.size() > 1)
+                    for (size_t d = 1; d < session.device_names().size(); ++d)
+                        run.device += " + " + session.device_names()[d];
                 ProgressiveOptions po;
                 po.schedule =
                     a.checkpoints == "time" ? Schedule::TimeDoubling : Schedule::SppDoubling;
@@ -371,6 +385,11 @@ void add_converge_command(CLI::App& app) {
     add_lighting_options(sub, a->lighting);
     sub->add_option("--backend", a->backends, "opencl|vulkan[:device], repeatable")
         ->capture_default_str();
+    sub->add_option("--device", a->devices,
+                    "Device index or name, repeatable: each backend's run renders one image on "
+                    "all of them (api:device mixes APIs)");
+    sub->add_flag("--beside-one", a->beside_one,
+                  "With several devices: also a run on the first alone, the curve beside");
     sub->add_option("--width", a->width)->check(CLI::Range(1, 16384))->capture_default_str();
     sub->add_option("--height", a->height)->check(CLI::Range(1, 16384))->capture_default_str();
     sub->add_option("--time", a->seconds, "Render time per backend (s)")

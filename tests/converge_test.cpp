@@ -201,6 +201,35 @@ TEST(ConvergeCli, FurnaceTableCsvAndPlot) {
     EXPECT_NE(svg.str().find("ideal slope -1/2"), std::string::npos);
 }
 
+// One image on several devices (--device repeated): its curve, and with --beside-one the
+// first device's alone beside it; both consistent with the exact furnace.
+TEST(ConvergeCli, SeveralDevicesAndOneBeside) {
+    const auto dir = std::filesystem::temp_directory_path() / "mcpt_converge_cli";
+    std::filesystem::create_directories(dir);
+    const std::string prefix = (dir / "furnace_two").string();
+    const std::string d = test::test_opencl_device();
+    int status = 0;
+    const std::string out = run_mcpt("converge furnace --width 16 --height 16 --spp 64 --time 30 "
+                                     "--backend opencl --device " + d + " --device " + d +
+                                         " --beside-one -o " + prefix,
+                                     status);
+    ASSERT_EQ(status, 0) << out;
+    EXPECT_NE(out.find("\nopencl x2 "), std::string::npos) << out;
+    size_t consistent = 0;
+    for (size_t at = out.find("consistent: slope"); at != std::string::npos;
+         at = out.find("consistent: slope", at + 1))
+        ++consistent;
+    EXPECT_EQ(consistent, 2u) << out;
+    std::ifstream csv(prefix + ".csv");
+    size_t one = 0, two = 0;
+    for (std::string line; std::getline(csv, line);) {
+        one += line.rfind("opencl,", 0) == 0;
+        two += line.rfind("opencl x2,", 0) == 0;
+    }
+    EXPECT_EQ(one, 7u);
+    EXPECT_EQ(two, 7u);
+}
+
 TEST(ConvergeCli, RenderStopsAtTargetError) {
     const std::string out_image =
         (std::filesystem::temp_directory_path() / "mcpt_target_error.exr").string();
