@@ -42,6 +42,7 @@ struct Side {
     BatchSet batches;
     RenderResult same_seed;
     double device_seconds = 0;  // of the batches, 0 if the device cannot time itself
+    size_t devices = 1;         // rendering this side together
     std::string tree;           // the k-d tree it rendered with
 };
 
@@ -157,7 +158,10 @@ void run_compare(const CompareArgs& args) {
         BackendOptions opt;
         RenderOptions side_ro = ro;
         if (s == 1) opt.extra_defines = args.b_defines, side_ro.light_scale = args.b_light_scale;
-        sides[s].session = std::make_unique<Session>(open_device(specs[s], opt));
+        // One device, or several rendering each batch together (coordinator.h).
+        const std::vector<std::string> devices = device_list(specs[s]);
+        sides[s].session = std::make_unique<Session>(devices, opt);
+        sides[s].devices = devices.size();
         Session& session = *sides[s].session;
         session.set_scene(scene);
         session.settings().width = args.width, session.settings().height = args.height;
@@ -171,7 +175,9 @@ void run_compare(const CompareArgs& args) {
         side_bo.seed_base = 1000u + 100000u * uint32_t(s);
         const double device_before = session.backend().device_seconds();
         sides[s].batches = render_batches(session, side_bo);
-        sides[s].device_seconds = session.backend().device_seconds() - device_before;
+        // (Several devices: only the first's timers are at hand; no device time then.)
+        sides[s].device_seconds =
+            devices.size() > 1 ? 0 : session.backend().device_seconds() - device_before;
         session.settings().seed = 7;
         session.reset();
         RenderGoal goal;
@@ -208,8 +214,12 @@ void run_compare(const CompareArgs& args) {
                 (unsigned long long)args.spp, ro.max_depth);
     std::printf("%-26s %-40s %-40s\n", "", "A", "B");
     std::vector<SpeedRow> speed;  // printed, and in the report
-    speed.push_back(
-        {"backend", sides[0].backend().description(), sides[1].backend().description()});
+    const auto described = [&](const Side& side) {
+        const std::string d = side.backend().description();
+        return side.devices > 1 ? d + " (+" + std::to_string(side.devices - 1) + " more)" : d;
+    };
+    speed.push_back({"backend", described(sides[0]), described(sides[1])});
+    speed.push_back({"devices", std::to_string(sides[0].devices), std::to_string(sides[1].devices)});
     double rate[2];
     for (int s = 0; s < 2; ++s) {
         const BatchSet& bs = sides[s].batches;
@@ -299,9 +309,11 @@ void add_compare_command(CLI::App& app) {
     CLI::App* sub = app.add_subcommand("compare", "A/B-test two backends on one scene");
     sub->add_option("scene", a->scene, "Built-in scene or .gltf/.glb file")->capture_default_str();
     add_lighting_options(sub, a->lighting);
-    sub->add_option("--a", a->a, "Backend A: opencl|vulkan[:device][,limits=phone]")
+    sub->add_option("--a", a->a,
+                    "Backend A: opencl|vulkan[:device][,limits=phone]; several devices, "
+                    "comma-separated (opencl:0,opencl:1), render it together")
         ->capture_default_str();
-    sub->add_option("--b", a->b, "Backend B: opencl|vulkan[:device][,limits=phone]")
+    sub->add_option("--b", a->b, "Backend B, as --a")
         ->capture_default_str();
     sub->add_option("--width", a->width)->check(CLI::Range(1, 4096))->capture_default_str();
     sub->add_option("--height", a->height)->check(CLI::Range(1, 4096))->capture_default_str();

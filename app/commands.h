@@ -29,6 +29,10 @@ void add_view_command(CLI::App& app);
 // api:device); none: the backend's best device.
 std::vector<std::string> device_specs(const std::string& backend,
                                       const std::vector<std::string>& devices);
+// A side of compare or view on one device or several: "opencl:0,opencl:1,limits=phone" ->
+// {"opencl:0,limits=phone", "opencl:1,limits=phone"}: options (name=value) apply to every
+// device; a bare index or name takes the API before it ("vulkan:0,1").
+std::vector<std::string> device_list(const std::string& side);
 
 // load_scene(arg) with its warnings printed to stderr.
 Scene load_scene_argument(const std::string& arg);

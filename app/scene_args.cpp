@@ -1,6 +1,8 @@
+#include <algorithm>
 #include <iostream>
 
 #include "app/commands.h"
+#include "common/error.h"
 #include "common/scene/environment.h"
 
 namespace mcpt {
@@ -49,6 +51,31 @@ std::vector<std::string> device_specs(const std::string& backend,
         specs.push_back(has_api ? d : backend + ":" + d);
     }
     return specs;
+}
+
+std::vector<std::string> device_list(const std::string& side) {
+    std::vector<std::string> devices, options;
+    std::string api;
+    for (size_t at = 0; at <= side.size();) {
+        const size_t comma = std::min(side.find(',', at), side.size());
+        const std::string item = side.substr(at, comma - at);
+        at = comma + 1;
+        if (item.find('=') != std::string::npos) {
+            options.push_back(item);
+            continue;
+        }
+        if (item.empty()) throw Error("an empty device in '" + side + "'");
+        const size_t colon = item.find(':');
+        const bool has_api = item.rfind("opencl", 0) == 0 || item.rfind("vulkan", 0) == 0;
+        if (has_api) api = item.substr(0, colon);
+        if (!has_api && api.empty())
+            throw Error("'" + item + "' in '" + side + "' names no API (opencl or vulkan)");
+        devices.push_back(has_api ? item : api + ":" + item);
+    }
+    if (devices.empty()) throw Error("no device in '" + side + "'");
+    for (std::string& d : devices)
+        for (const std::string& o : options) d += "," + o;
+    return devices;
 }
 
 }  // namespace mcpt

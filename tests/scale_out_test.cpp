@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "app/commands.h"
+#include "common/error.h"
 #include "test_util.h"
 
 namespace mcpt {
@@ -193,6 +195,30 @@ TEST(ScaleOut, SchedulerExamplesRunAsWritten) {
     m = test::run_command(env + "sh -c '" + commands[1] + "'");
     ASSERT_EQ(m.status, 0) << m.output;
     EXPECT_TRUE(test::read_file((k8s / "image.exr").string()) == one) << m.output;
+}
+
+// compare with a side on several devices (--a opencl:D,opencl:D): each batch rendered by
+// both together; A/B agreement as with one device, a 20% brighter B still told apart.
+TEST(ScaleOut, CompareWithASideOnTwoDevices) {
+    const std::string dev = test::device_args("opencl");
+    const std::string d = dev.substr(dev.rfind(' ') + 1);
+    const std::string args = "compare cornell --a opencl:" + d + ",opencl:" + d +
+                             " --b vulkan --width 24 --height 24 --batches 12 --spp 4";
+    const test::CliRun r = run_mcpt(args);
+    EXPECT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("(+1 more)"), std::string::npos) << r.output;
+    EXPECT_EQ(run_mcpt(args + " --b-light-scale 1.2").status, 2);
+}
+
+TEST(ScaleOut, DeviceListsOfASide) {
+    using V = std::vector<std::string>;
+    EXPECT_EQ(device_list("opencl"), V{"opencl"});
+    EXPECT_EQ(device_list("opencl:0,opencl:1"), (V{"opencl:0", "opencl:1"}));
+    EXPECT_EQ(device_list("vulkan:0,1,limits=phone"), (V{"vulkan:0,limits=phone", "vulkan:1,limits=phone"}));
+    EXPECT_EQ(device_list("opencl:0,vulkan:1"), (V{"opencl:0", "vulkan:1"}));
+    EXPECT_THROW(device_list("0,1"), Error);
+    EXPECT_THROW(device_list("opencl:0,,opencl:1"), Error);
+    EXPECT_THROW(device_list("limits=phone"), Error);
 }
 
 #if MCPT_WITH_MPI
