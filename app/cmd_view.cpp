@@ -21,8 +21,8 @@ struct ViewArgs {
     std::string scene = "cornell";
     LightingArgs lighting;
     std::string backend = "opencl";
-    std::string device;
-    std::string a, b;  // A/B: two device specs
+    std::vector<std::string> devices;  // one side: --device repeated, one image on all
+    std::string a, b;                  // A/B: each side's device, or several (device_list)
     float b_light_scale = 1.f;
     int width = 512, height = 512;
     uint64_t spp = 0;    // each side stops there (0: renders until stopped)
@@ -43,20 +43,19 @@ void run_view(const ViewArgs& args) {
     if (args.a.empty() != args.b.empty()) throw Error("an A/B view needs both --a and --b");
     const bool ab = !args.a.empty();
     // One session per side, the same scene, settings and seed.
-    std::vector<std::string> specs;
+    // Each side's devices: one, or several rendering its image together (coordinator.h).
+    std::vector<std::vector<std::string>> specs;
     if (ab)
-        specs = {args.a, args.b};
+        specs = {device_list(args.a), device_list(args.b)};
     else
-        specs =
-            device_specs(args.backend, args.device.empty() ? std::vector<std::string>{}
-                                                           : std::vector<std::string>{args.device});
+        specs = {device_specs(args.backend, args.devices)};
     const Scene scene = load_scene_argument(args.scene);
     const Environment env = lighting_environment(args.lighting);
     std::vector<std::unique_ptr<Session>> sessions;
     ViewInfo info;
     info.scene = scene.name.empty() ? args.scene : scene.name;
     for (size_t s = 0; s < specs.size(); ++s) {
-        auto session = std::make_unique<Session>(specs[s]);
+        auto session = std::make_unique<Session>(specs[s], BackendOptions{});
         session->set_environment(env);
         session->set_scene(scene);
         SessionSettings& st = session->settings();
@@ -65,6 +64,8 @@ void run_view(const ViewArgs& args) {
         if (s == 1) st.light_scale = args.b_light_scale;
         session->commit();  // compile now: errors before the server starts
         info.sides[s] = (ab ? std::string(s ? "B: " : "A: ") : "") + session->device().label();
+        if (specs[s].size() > 1)
+            info.sides[s] += " (+" + std::to_string(specs[s].size() - 1) + " more devices)";
         std::printf("%s\n", info.sides[s].c_str());
         sessions.push_back(std::move(session));
     }
@@ -126,9 +127,11 @@ void add_view_command(CLI::App& app) {
     sub->add_option("scene", a->scene, "Built-in scene or .gltf/.glb file")->capture_default_str();
     add_lighting_options(sub, a->lighting);
     sub->add_option("--backend", a->backend, "opencl or vulkan")->capture_default_str();
-    sub->add_option("--device", a->device, "Device index or name substring (mcpt devices)");
-    auto* opt_a = sub->add_option("--a", a->a, "A/B: side A, opencl|vulkan[:device]");
-    sub->add_option("--b", a->b, "A/B: side B, opencl|vulkan[:device]")->needs(opt_a);
+    sub->add_option("--device", a->devices,
+                    "Device index or name substring (mcpt devices); repeated: one image on all");
+    auto* opt_a = sub->add_option(
+        "--a", a->a, "A/B: side A, opencl|vulkan[:device]; several: opencl:0,opencl:1");
+    sub->add_option("--b", a->b, "A/B: side B, as --a")->needs(opt_a);
     sub->add_option("--b-light-scale", a->b_light_scale,
                     "Scale B's emitters (negative control: the z map must light up)")
         ->check(CLI::Range(0.0, 1e6));

@@ -338,6 +338,19 @@ std::string ViewServer::state_json() {
         side["rays_per_second"] = snap ? snap->rays_per_second : 0.0;
         side["invalid"] = snap ? snap->result.nonfinite_total : 0;
         side["serial"] = snap ? snap->serial : 0;
+        // Several devices: each one's share of the samples, as `render` prints it.
+        Json devices = Json::array();
+        {
+            const std::vector<WorkerStats> stats = live_.device_stats(s);
+            uint64_t all = 0;
+            for (const WorkerStats& w : stats) all += w.samples;
+            for (const WorkerStats& w : stats)
+                devices.push_back({{"name", w.name},
+                                   {"chunks", w.chunks},
+                                   {"samples", w.samples},
+                                   {"share", all > 0 ? double(w.samples) / double(all) : 0.0}});
+        }
+        side["devices"] = devices;
         // The curve: every point, or evenly thinned (the last one kept).
         Json curve = Json::array();
         const size_t stride = series.size() / kMaxCurvePoints + 1;

@@ -84,6 +84,7 @@ void LiveRender::reset() {
     for (auto& side : sides_) {
         side->session->cancel();  // ends the step under way
         side->series.clear(), side->milestones.clear(), side->snapshot.reset();
+        side->devices.clear();
         side->wanted.store(true);
     }
     met_[0].reset(), met_[1].reset(), maps_.reset();
@@ -116,6 +117,11 @@ std::shared_ptr<const LiveSnapshot> LiveRender::latest(size_t side) const {
 std::vector<ErrorPoint> LiveRender::error_series(size_t side) const {
     std::lock_guard<std::mutex> lock(mutex_);
     return sides_.at(side)->series;
+}
+
+std::vector<WorkerStats> LiveRender::device_stats(size_t side) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return sides_.at(side)->devices;
 }
 
 std::shared_ptr<const LiveMaps> LiveRender::maps() {
@@ -164,9 +170,11 @@ void LiveRender::publish(size_t s, uint64_t generation, double relative_error) {
         snap->rays_per_second = r.rays / seconds;
         snap->relative_error = relative_error;
     }
+    std::vector<WorkerStats> devices = side.session->device_stats();
     std::lock_guard<std::mutex> lock(mutex_);
     if (generation != generation_) return;  // reset meanwhile: these samples are dropped
     side.series.push_back({r.seconds, r.spp, relative_error});
+    side.devices = std::move(devices);
     if (side.series.size() >= 2 * kMaxSeriesPoints) {
         std::vector<ErrorPoint>& v = side.series;
         size_t kept = 0;

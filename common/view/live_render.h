@@ -83,6 +83,9 @@ class LiveRender {
     // The error curve: a point per render step, thinned evenly past 2048 points (the first
     // and the latest always kept).
     std::vector<ErrorPoint> error_series(size_t side) const;
+    // A side on several devices: what each rendered so far, after the latest step (empty:
+    // one device).
+    std::vector<WorkerStats> device_stats(size_t side) const;
     // A and B: the maps at the highest milestone both reached (null before), computed here on
     // the caller's thread the first time they are asked for.
     std::shared_ptr<const LiveMaps> maps();
@@ -96,6 +99,7 @@ class LiveRender {
         std::atomic<bool> wanted{true};  // a viewer asked for a snapshot since the last
         std::shared_ptr<const LiveSnapshot> snapshot;
         std::vector<ErrorPoint> series;
+        std::vector<WorkerStats> devices;
         uint64_t serial = 0;
         // Milestones reached and not yet met by the other side: mean and standard error.
         std::map<uint64_t, std::shared_ptr<const RenderResult>> milestones;

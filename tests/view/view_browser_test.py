@@ -173,6 +173,20 @@ finally:
     stop_view(proc)
 
 
+# ---- one side on two devices: the page shows each one's share
+proc, port, url = start_view(MCPT, ["cornell", "--device", "0", "--device", "0"] + size)
+drv = browser()
+try:
+    drv.get(url)
+    wait_for(drv, "(document.getElementById('devices-0') || {textContent: ''}).textContent"
+                  ".split('%').length === 3", "the devices' shares")
+    text = drv.find_element(By.ID, "devices-0").text
+    check(text.count("%") == 2, "two devices: the page shows each one's share (%s)" % text)
+finally:
+    drv.quit()
+    stop_view(proc)
+
+
 # ---- A and B: OpenCL against Vulkan, then a B whose light is 5% brighter
 def ab(extra, spp):
     proc, port, url = start_view(MCPT, ["cornell", "--a", "opencl", "--b", "vulkan", "--spp", str(spp)]

@@ -254,6 +254,25 @@ try:
 finally:
     shutil.rmtree(folder)
 
+# One side on two devices (--device repeated): the state gives each one's share.
+dev = next((a for a in os.environ.get("MCPT_TEST_DEVICE_ARGS", "").split() if a.isdigit()), "0")
+proc, port, url = start_view(MCPT, ["cornell", "--device", dev, "--device", dev, "--width", "32",
+                                    "--height", "32"])
+TOKEN = url.split("token=")[1]
+try:
+    deadline, devices = time.time() + 60, []
+    while time.time() < deadline:
+        status, body = get(port, "/api/state")
+        devices = json.loads(body)["sides"][0]["devices"] if status == 200 else []
+        if len(devices) == 2 and all(d["samples"] > 0 for d in devices):
+            break
+        time.sleep(0.5)
+    shares = [d["share"] for d in devices]
+    check(len(devices) == 2 and abs(sum(shares) - 1) < 1e-6 and min(shares) > 0,
+          "two devices on one side: each one's share (%s)" % shares)
+finally:
+    stop_view(proc)
+
 # A/B with B ten times slower (MCPT_VIEW_SLOW_B): A runs many milestones ahead, and the maps
 # still appear and keep coming (A kept only its 8 newest milestones, none of which B reached).
 env = dict(os.environ, MCPT_VIEW_SLOW_B="10")
