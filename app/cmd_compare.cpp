@@ -219,7 +219,8 @@ void run_compare(const CompareArgs& args) {
         return side.devices > 1 ? d + " (+" + std::to_string(side.devices - 1) + " more)" : d;
     };
     speed.push_back({"backend", described(sides[0]), described(sides[1])});
-    speed.push_back({"devices", std::to_string(sides[0].devices), std::to_string(sides[1].devices)});
+    speed.push_back(
+        {"devices", std::to_string(sides[0].devices), std::to_string(sides[1].devices)});
     double rate[2];
     for (int s = 0; s < 2; ++s) {
         const BatchSet& bs = sides[s].batches;
@@ -313,8 +314,7 @@ void add_compare_command(CLI::App& app) {
                     "Backend A: opencl|vulkan[:device][,limits=phone]; several devices, "
                     "comma-separated (opencl:0,opencl:1), render it together")
         ->capture_default_str();
-    sub->add_option("--b", a->b, "Backend B, as --a")
-        ->capture_default_str();
+    sub->add_option("--b", a->b, "Backend B, as --a")->capture_default_str();
     sub->add_option("--width", a->width)->check(CLI::Range(1, 4096))->capture_default_str();
     sub->add_option("--height", a->height)->check(CLI::Range(1, 4096))->capture_default_str();
     sub->add_option("--batches", a->batches, "Independent batches per backend")

@@ -319,8 +319,9 @@ void run_converge(const ConvergeArgs& a) {
                 po.seconds = a.seconds, po.max_spp = a.max_spp;
                 po.seed_base = a.seed + 100000u * uint32_t(runs.size());
                 RenderResult total;
-                run.checkpoints = render_progressive(
-                    session, po, ref, &total, [&](const Checkpoint& c) { print_checkpoint(run, c); });
+                run.checkpoints =
+                    render_progressive(session, po, ref, &total,
+                                       [&](const Checkpoint& c) { print_checkpoint(run, c); });
                 run.report =
                     analyze_convergence(run.checkpoints, ref.mean_value(), effective_pixels(total));
                 if (!a.report.empty()) run.image = total.mean_image();

@@ -209,10 +209,11 @@ TEST(ConvergeCli, SeveralDevicesAndOneBeside) {
     const std::string prefix = (dir / "furnace_two").string();
     const std::string d = test::test_opencl_device();
     int status = 0;
-    const std::string out = run_mcpt("converge furnace --width 16 --height 16 --spp 64 --time 30 "
-                                     "--backend opencl --device " + d + " --device " + d +
-                                         " --beside-one -o " + prefix,
-                                     status);
+    const std::string out = run_mcpt(
+        "converge furnace --width 16 --height 16 --spp 64 --time 30 "
+        "--backend opencl --device " +
+            d + " --device " + d + " --beside-one -o " + prefix,
+        status);
     ASSERT_EQ(status, 0) << out;
     EXPECT_NE(out.find("\nopencl x2 "), std::string::npos) << out;
     size_t consistent = 0;

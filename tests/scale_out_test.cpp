@@ -160,10 +160,10 @@ TEST(ScaleOut, SchedulerExamplesRunAsWritten) {
     { std::ofstream(sbatch) << script; }
     fs::remove_all(slurm);
     for (int task = 10; task < 14; ++task) {
-        const test::CliRun r = test::run_command(
-            "env " + path + "SLURM_ARRAY_TASK_ID=" + std::to_string(task) +
-            " SLURM_ARRAY_TASK_MIN=10 SLURM_ARRAY_TASK_COUNT=4 bash " + sbatch.string() +
-            " cornell 512 " + slurm.string() + " " + options);
+        const test::CliRun r =
+            test::run_command("env " + path + "SLURM_ARRAY_TASK_ID=" + std::to_string(task) +
+                              " SLURM_ARRAY_TASK_MIN=10 SLURM_ARRAY_TASK_COUNT=4 bash " +
+                              sbatch.string() + " cornell 512 " + slurm.string() + " " + options);
         ASSERT_EQ(r.status, 0) << r.output;
     }
     test::CliRun m = test::run_command("cd " + temp("").string() + " && env " + path +
@@ -187,9 +187,8 @@ TEST(ScaleOut, SchedulerExamplesRunAsWritten) {
     const std::string env = "env " + path + "PARTS=4 SCENE=cornell SPP=512 OPTIONS='" + options +
                             "' OUT=" + k8s.string() + " ";
     for (int index = 0; index < 4; ++index) {
-        const test::CliRun r = test::run_command(env + "JOB_COMPLETION_INDEX=" +
-                                                 std::to_string(index) + " sh -c '" +
-                                                 commands[0] + "'");
+        const test::CliRun r = test::run_command(
+            env + "JOB_COMPLETION_INDEX=" + std::to_string(index) + " sh -c '" + commands[0] + "'");
         ASSERT_EQ(r.status, 0) << commands[0] << "\n" << r.output;
     }
     m = test::run_command(env + "sh -c '" + commands[1] + "'");
@@ -214,7 +213,8 @@ TEST(ScaleOut, DeviceListsOfASide) {
     using V = std::vector<std::string>;
     EXPECT_EQ(device_list("opencl"), V{"opencl"});
     EXPECT_EQ(device_list("opencl:0,opencl:1"), (V{"opencl:0", "opencl:1"}));
-    EXPECT_EQ(device_list("vulkan:0,1,limits=phone"), (V{"vulkan:0,limits=phone", "vulkan:1,limits=phone"}));
+    EXPECT_EQ(device_list("vulkan:0,1,limits=phone"),
+              (V{"vulkan:0,limits=phone", "vulkan:1,limits=phone"}));
     EXPECT_EQ(device_list("opencl:0,vulkan:1"), (V{"opencl:0", "vulkan:1"}));
     EXPECT_THROW(device_list("0,1"), Error);
     EXPECT_THROW(device_list("opencl:0,,opencl:1"), Error);

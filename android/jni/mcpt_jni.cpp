@@ -3,6 +3,7 @@
 // engine's message. Nothing here touches the engine's C++ directly.
 #include <jni.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -92,6 +93,26 @@ JNI_FN(nativeCreate)(JNIEnv* env, jclass, jstring device)->jlong {
     if (!utf8(env, device, spec)) return 0;
     mcpt_session s = nullptr;
     if (!check(env, 0, mcpt_session_create(spec.c_str(), &s))) return 0;
+    return static_cast<jlong>(reinterpret_cast<intptr_t>(s));
+}
+
+JNI_FN(nativeCreateDevices)(JNIEnv* env, jclass, jobjectArray devices)->jlong {
+    if (!devices) {
+        throw_error(env, MCPT_ERROR_INVALID_ARGUMENT, "no devices given (null)");
+        return 0;
+    }
+    const jsize n = env->GetArrayLength(devices);
+    std::vector<std::string> specs(size_t(std::max<jsize>(n, 0)));
+    for (jsize i = 0; i < n; ++i) {
+        jstring d = static_cast<jstring>(env->GetObjectArrayElement(devices, i));
+        const bool ok = utf8(env, d, specs[size_t(i)]);
+        if (d) env->DeleteLocalRef(d);
+        if (!ok) return 0;
+    }
+    std::vector<const char*> c;
+    for (const std::string& d : specs) c.push_back(d.c_str());
+    mcpt_session s = nullptr;
+    if (!check(env, 0, mcpt_session_create_devices(c.data(), c.size(), &s))) return 0;
     return static_cast<jlong>(reinterpret_cast<intptr_t>(s));
 }
 

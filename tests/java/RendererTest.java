@@ -93,6 +93,20 @@ public final class RendererTest {
             resumed = r.readRgba32f();
         }
         check(Arrays.equals(whole, resumed), "resumed render equals the uninterrupted one");
+
+        // One image on two devices (this one twice): reproducible, it is one device's image
+        // bit for bit; no devices at all is an error.
+        try (Renderer r = new Renderer(new String[] {device, device})) {
+            r.loadBuiltin("cornell");
+            r.setSize(16, 12);
+            r.setSeed(5);
+            r.setReproducible(true);
+            RenderStats st = r.render(1e6, 0, 80);
+            check(st.spp == 80, "two devices rendered " + st.spp + " spp");
+            check(Arrays.equals(whole, r.readRgba32f()), "two devices' image equals one's");
+        }
+        expectError("no devices", -1, "count must be 1 to 64",
+                    () -> new Renderer(new String[0]).close());
         Files.deleteIfExists(Paths.get(ckpt));
 
         // Adaptive sampling: 48 spp on average, and never together with reproducible sums.

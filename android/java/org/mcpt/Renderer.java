@@ -29,6 +29,16 @@ public final class Renderer implements AutoCloseable {
         session = nativeCreate(device);
     }
 
+    /**
+     * Opens a session on several devices at once (specs as above; one may repeat): one image,
+     * its samples handed in chunks to whichever device asks next, sized to each one's speed.
+     * Reproducible renders (multiples of 16 samples per pixel) are one device's bit for bit
+     * when the devices are of one kind. {@link #device} is the first.
+     */
+    public Renderer(String[] devices) {
+        session = nativeCreateDevices(devices);
+    }
+
     /** The library's version, e.g. "0.1.0". */
     public static native String version();
 
@@ -144,6 +154,7 @@ public final class Renderer implements AutoCloseable {
     }
 
     private static native long nativeCreate(String device);
+    private static native long nativeCreateDevices(String[] devices);
     private static native void nativeRelease(long s);
     private static native String nativeDevice(long s);
     private static native void nativeLoadMemory(long s, byte[] data);
