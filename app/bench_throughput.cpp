@@ -6,6 +6,7 @@
 // prefix.svg.
 #include "app/bench_throughput.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <sstream>
@@ -31,6 +32,8 @@ constexpr double kTestBytes = sizeof(uint32_t) + sizeof(gpu::GpuTriangle);
 struct ThroughputRow {
     std::string scene, tree, backend, device, type;
     size_t triangles = 0;
+    int devices = 1;     // rendering the image together
+    double speedup = 0;  // several devices: rays/s over the one-device row's (same API); 0: none
     double seconds = 0, msamples = 0, mrays = 0;
     double visits_per_ray = 0, tests_per_ray = 0;
     // Vulkan rows: rays/s over the OpenCL rays/s of the same device, else of the same kind of
@@ -70,15 +73,17 @@ std::vector<std::pair<std::string, Scene>> throughput_scenes(const ThroughputBen
 
 std::string markdown_table(const std::vector<ThroughputRow>& rows) {
     std::string t =
-        "| scene | triangles | tree | backend/device | M samples/s | M rays/s | Vulkan/OpenCL | "
-        "node visits/ray | tri tests/ray | bytes/ray | GB/s |\n"
-        "|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|\n";
+        "| scene | triangles | tree | backend/device | devices | M samples/s | M rays/s | "
+        "speed-up | Vulkan/OpenCL | node visits/ray | tri tests/ray | bytes/ray | GB/s |\n"
+        "|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const ThroughputRow& r : rows) {
         t += "| " + r.scene + " | " + std::to_string(r.triangles) + " | " + r.tree + " | " +
-             r.backend + ": " + r.device + " | " + fmt("%.1f", r.msamples) + " | " +
-             fmt("%.1f", r.mrays) + " | " + (r.ratio > 0 ? fmt("%.2f", r.ratio) : "") + " | " +
-             fmt("%.1f", r.visits_per_ray) + " | " + fmt("%.1f", r.tests_per_ray) + " | " +
-             fmt("%.0f", r.bytes_per_ray()) + " | " + fmt("%.1f", r.gbytes_per_s()) + " |\n";
+             r.backend + ": " + r.device + " | " + std::to_string(r.devices) + " | " +
+             fmt("%.1f", r.msamples) + " | " + fmt("%.1f", r.mrays) + " | " +
+             (r.speedup > 0 ? fmt("%.2f", r.speedup) : "") + " | " +
+             (r.ratio > 0 ? fmt("%.2f", r.ratio) : "") + " | " + fmt("%.1f", r.visits_per_ray) +
+             " | " + fmt("%.1f", r.tests_per_ray) + " | " + fmt("%.0f", r.bytes_per_ray()) + " | " +
+             fmt("%.1f", r.gbytes_per_s()) + " |\n";
     }
     return t;
 }
@@ -86,13 +91,15 @@ std::string markdown_table(const std::vector<ThroughputRow>& rows) {
 void write_csv(const std::string& path, const std::vector<ThroughputRow>& rows, int w, int h) {
     std::ostringstream f;
     f << "scene,triangles,tree,backend,device,width,height,seconds,msamples_per_s,mrays_per_s,"
-         "vulkan_over_opencl,node_visits_per_ray,tri_tests_per_ray,bytes_per_ray,gbytes_per_s\n";
+         "vulkan_over_opencl,node_visits_per_ray,tri_tests_per_ray,bytes_per_ray,gbytes_per_s,"
+         "devices,speedup\n";
     for (const ThroughputRow& r : rows) {
         f << r.scene << "," << r.triangles << "," << r.tree << "," << r.backend << ",\"" << r.device
           << "\"," << w << "," << h << "," << fmt("%.3f", r.seconds) << ","
           << fmt("%.3f", r.msamples) << "," << fmt("%.3f", r.mrays) << "," << fmt("%.4f", r.ratio)
           << "," << fmt("%.3f", r.visits_per_ray) << "," << fmt("%.3f", r.tests_per_ray) << ","
-          << fmt("%.1f", r.bytes_per_ray()) << "," << fmt("%.3f", r.gbytes_per_s()) << "\n";
+          << fmt("%.1f", r.bytes_per_ray()) << "," << fmt("%.3f", r.gbytes_per_s()) << ","
+          << r.devices << "," << fmt("%.3f", r.speedup) << "\n";
     }
     write_text_atomically(path, f.str());
 }
@@ -105,7 +112,8 @@ void write_plot(const std::string& path, const std::vector<ThroughputRow>& rows)
     plot.y_label = "M rays/s";
     std::vector<std::string> keys;
     for (const ThroughputRow& r : rows) {
-        const std::string key = r.backend + ": " + r.device;
+        const std::string key =
+            r.backend + ": " + r.device + (r.devices > 1 ? " x" + std::to_string(r.devices) : "");
         size_t k = 0;
         while (k < keys.size() && keys[k] != key) ++k;
         if (k == keys.size()) keys.push_back(key), plot.series.push_back({});
@@ -119,10 +127,39 @@ void write_plot(const std::string& path, const std::vector<ThroughputRow>& rows)
 }  // namespace
 
 void run_throughput_bench(const ThroughputBenchArgs& a) {
-    // One session per device, driven as `mcpt render` drives its own (render_until()).
+    // One session per device, driven as `mcpt render` drives its own (render_until()); or,
+    // with device counts, per API and count one session on its first N devices.
     std::vector<std::unique_ptr<Session>> sessions;
-    for (OpenBackend& ob : open_backends(a.backends))
-        sessions.push_back(std::make_unique<Session>(std::move(ob.backend)));
+    std::vector<int> counts;  // devices per session
+    std::vector<OpenBackend> opened = open_backends(a.backends);
+    if (a.device_counts.empty()) {
+        for (OpenBackend& ob : opened) {
+            sessions.push_back(std::make_unique<Session>(std::move(ob.backend)));
+            counts.push_back(1);
+        }
+    } else {
+        std::vector<std::pair<std::string, std::vector<std::string>>> apis;
+        for (const OpenBackend& ob : opened) {
+            const std::string api = ob.backend->device().backend;
+            const std::string spec = api + ":" + std::to_string(ob.backend->device().index);
+            auto it = std::find_if(apis.begin(), apis.end(),
+                                   [&](const auto& p) { return p.first == api; });
+            if (it == apis.end()) apis.push_back({api, {}}), it = std::prev(apis.end());
+            it->second.push_back(spec);
+        }
+        opened.clear();  // each session opens its devices again
+        for (const auto& [api, specs] : apis)
+            for (int n : a.device_counts) {
+                if (n > int(specs.size())) {
+                    std::printf("note: %s has %zu devices here: no row for %d\n", api.c_str(),
+                                specs.size(), n);
+                    continue;
+                }
+                const std::vector<std::string> first(specs.begin(), specs.begin() + n);
+                sessions.push_back(std::make_unique<Session>(first, BackendOptions{}));
+                counts.push_back(n);
+            }
+    }
     const auto scenes = throughput_scenes(a);
     std::printf("bench --throughput: %dx%d, tree %s, %.1f s warm-up, %.1f s timed per row\n",
                 a.width, a.height, a.tree.c_str(), a.warmup_seconds, a.seconds);
@@ -130,8 +167,8 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
     std::vector<ThroughputRow> rows;
     for (const auto& [name, scene] : scenes) {
         const size_t first = rows.size();
-        for (const std::unique_ptr<Session>& session : sessions) {
-            Session& s = *session;
+        for (size_t k = 0; k < sessions.size(); ++k) {
+            Session& s = *sessions[k];
             Backend& backend = s.backend();
             s.set_scene(scene);
             s.settings().width = a.width, s.settings().height = a.height;
@@ -155,6 +192,7 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
             row.tree = tree_kind_name(g.tree_kind);
             row.backend = backend.device().backend, row.device = backend.device().name;
             row.type = backend.device().type;
+            row.devices = counts[k];
             row.triangles = g.triangles.size();
             row.seconds = r.seconds;
             row.msamples = double(r.spp) * a.width * a.height / r.seconds * 1e-6;
@@ -162,19 +200,27 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
             const Counts c = count_work(g, scene, ro, row.tree);
             row.visits_per_ray = c.paths.visits_per_ray();
             row.tests_per_ray = c.paths.tests_per_ray();
-            std::printf("  %-16s %-6s %-40.40s %9.1f M samples/s %9.1f M rays/s\n", name.c_str(),
-                        row.tree.c_str(), (row.backend + ": " + row.device).c_str(), row.msamples,
-                        row.mrays);
+            std::printf("  %-16s %-6s %-40.40s x%d %9.1f M samples/s %9.1f M rays/s\n",
+                        name.c_str(), row.tree.c_str(), (row.backend + ": " + row.device).c_str(),
+                        row.devices, row.msamples, row.mrays);
             std::fflush(stdout);
             rows.push_back(row);
         }
-        // Vulkan against OpenCL per scene: the same device, else the same kind of device.
+        // Several devices against one of the same API, per scene.
+        for (size_t i = first; i < rows.size(); ++i)
+            for (size_t j = first; j < rows.size(); ++j)
+                if (rows[i].devices > 1 && rows[j].devices == 1 &&
+                    rows[j].backend == rows[i].backend && rows[j].mrays > 0)
+                    rows[i].speedup = rows[i].mrays / rows[j].mrays;
+        // Vulkan against OpenCL per scene: the same device, else the same kind of device (and
+        // as many devices).
         for (size_t i = first; i < rows.size(); ++i) {
             if (rows[i].backend != "vulkan") continue;
             for (int same_name = 1; same_name >= 0 && rows[i].ratio == 0; --same_name) {
                 for (size_t j = first; j < rows.size() && rows[i].ratio == 0; ++j) {
-                    const bool match =
-                        same_name ? rows[j].device == rows[i].device : rows[j].type == rows[i].type;
+                    const bool match = rows[j].devices == rows[i].devices &&
+                                       (same_name ? rows[j].device == rows[i].device
+                                                  : rows[j].type == rows[i].type);
                     if (rows[j].backend == "opencl" && match && rows[j].mrays > 0)
                         rows[i].ratio = rows[i].mrays / rows[j].mrays;
                 }

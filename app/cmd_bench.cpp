@@ -36,6 +36,7 @@ struct BenchArgs {
     bool throughput = false;
     double seconds = 0;                 // --throughput: timed seconds per row (0: 5, quick 0.3)
     std::string tree = "auto";          // --throughput
+    std::vector<int> device_counts;     // --throughput --devices 1,2,4
     std::vector<std::string> backends;  // empty: every device found
     std::string models = "models";
     std::string output = "bench";
@@ -157,6 +158,7 @@ void run_bench(const BenchArgs& a) {
         t.seconds = a.seconds > 0 ? a.seconds : (a.quick ? 0.3 : 5);
         t.warmup_seconds = a.quick ? 0.1 : 1;
         t.tree = a.tree;
+        t.device_counts = a.device_counts;
         run_throughput_bench(t);
         return;
     }
@@ -250,6 +252,11 @@ void add_bench_command(CLI::App& app) {
     sub->add_option("--tree", a->tree, "--throughput: auto (per device), sah, median or none")
         ->check(CLI::IsMember({"auto", "sah", "median", "none"}))
         ->capture_default_str();
+    sub->add_option("--devices", a->device_counts,
+                    "--throughput: rows of one image on the first N devices of each API, for "
+                    "each N (1,2,4: the scaling table; speed-up against one)")
+        ->delimiter(',')
+        ->check(CLI::Range(1, 64));
     sub->add_option("--backend", a->backends,
                     "opencl|vulkan[:device], repeatable (default: every device found)");
     sub->add_option("--models", a->models, "Directory of models (scripts/fetch-models)")

@@ -94,6 +94,37 @@ TEST(BenchCli, SpecializeTableHasEveryScene) {
     EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 4) << csv;
 }
 
+// The scaling table in one command: --devices 1,2 gives each scene a row on one device and
+// one on two (here PoCL twice), the second with its speed-up over the first.
+TEST(BenchCli, ThroughputRowsPerDeviceCount) {
+    const auto dir = std::filesystem::temp_directory_path() / "mcpt_bench_devices_test";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir / "no-models");
+    const std::string prefix = (dir / "tp").string();
+    const std::string d = " --backend opencl:" + test::test_opencl_device();
+    const CliRun r = run_mcpt(
+        "bench --throughput --quick --tree sah --time 0.2 --devices 1,2 "
+        "--models " +
+        (dir / "no-models").string() + d + d + " -o " + prefix);
+    ASSERT_EQ(r.status, 0) << r.output;
+    std::istringstream lines(read_file(prefix + ".csv"));
+    std::string line;
+    std::getline(lines, line);
+    EXPECT_NE(line.find(",devices,speedup"), std::string::npos) << line;
+    std::vector<std::pair<int, double>> rows;  // devices, speed-up
+    for (; std::getline(lines, line);) {
+        const size_t b = line.rfind(','), a = line.rfind(',', b - 1);
+        rows.emplace_back(std::stoi(line.substr(a + 1, b - a - 1)), std::stod(line.substr(b + 1)));
+    }
+    ASSERT_EQ(rows.size(), 4u) << r.output;  // two scenes x (1, 2)
+    for (size_t i = 0; i < rows.size(); i += 2) {
+        EXPECT_EQ(rows[i].first, 1);
+        EXPECT_EQ(rows[i].second, 0.0);
+        EXPECT_EQ(rows[i + 1].first, 2);
+        EXPECT_GT(rows[i + 1].second, 0.2);
+    }
+}
+
 // Long-run throughput, shortened: every scene on both CPU drivers, with the Vulkan/OpenCL ratio
 // of the two (the same kind of device) equal to the ratio of their rays/s cells.
 TEST(BenchCli, ThroughputTableHasRatios) {
@@ -126,7 +157,8 @@ TEST(BenchCli, ThroughputTableHasRatios) {
                 cell += ch;
         }
         cells.push_back(cell);
-        ASSERT_EQ(cells.size(), 15u) << line;
+        ASSERT_EQ(cells.size(), 17u) << line;
+        EXPECT_EQ(cells[15], "1") << line;  // one device
         EXPECT_EQ(cells[2], "sah") << line;
         EXPECT_GT(std::stod(cells[9]), 0.0) << line;   // M rays/s
         EXPECT_GT(std::stod(cells[12]), 0.0) << line;  // triangle tests per ray
