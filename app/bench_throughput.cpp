@@ -140,11 +140,13 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
     } else {
         std::vector<std::pair<std::string, std::vector<std::string>>> apis;
         for (const OpenBackend& ob : opened) {
+            // Per API and kind of device: the first N GPUs, never a CPU driver among them.
             const std::string api = ob.backend->device().backend;
+            const std::string group = api + " " + ob.backend->device().type;
             const std::string spec = api + ":" + std::to_string(ob.backend->device().index);
             auto it = std::find_if(apis.begin(), apis.end(),
-                                   [&](const auto& p) { return p.first == api; });
-            if (it == apis.end()) apis.push_back({api, {}}), it = std::prev(apis.end());
+                                   [&](const auto& p) { return p.first == group; });
+            if (it == apis.end()) apis.push_back({group, {}}), it = std::prev(apis.end());
             it->second.push_back(spec);
         }
         opened.clear();  // each session opens its devices again
