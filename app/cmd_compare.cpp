@@ -37,7 +37,8 @@ struct CompareArgs {
 };
 
 struct Side {
-    std::unique_ptr<Session> session;  // renders the batches and the same-seed image
+    std::unique_ptr<Session> session;               // renders the batches and the same-seed image
+    std::vector<std::unique_ptr<Session>> helpers;  // several devices: the others, batches only
     Backend& backend() const { return session->backend(); }
     BatchSet batches;
     RenderResult same_seed;
@@ -158,23 +159,30 @@ void run_compare(const CompareArgs& args) {
         BackendOptions opt;
         RenderOptions side_ro = ro;
         if (s == 1) opt.extra_defines = args.b_defines, side_ro.light_scale = args.b_light_scale;
-        // One device, or several rendering each batch together (coordinator.h).
+        // One device, or several: each renders whole batches (independent renders), handed
+        // to whichever is free; the first renders the same-seed image.
         const std::vector<std::string> devices = device_list(specs[s]);
-        sides[s].session = std::make_unique<Session>(devices, opt);
+        sides[s].session = std::make_unique<Session>(open_device(devices[0], opt));
+        for (size_t k = 1; k < devices.size(); ++k)
+            sides[s].helpers.push_back(std::make_unique<Session>(open_device(devices[k], opt)));
         sides[s].devices = devices.size();
         Session& session = *sides[s].session;
-        session.set_scene(scene);
-        session.settings().width = args.width, session.settings().height = args.height;
-        session.settings().max_depth = int(side_ro.max_depth);
-        session.settings().light_scale = side_ro.light_scale;
-        // The tree: as asked, or (auto) the one this side's device cost model picks.
-        session.settings().tree = args.tree;
-        session.commit();
+        std::vector<Session*> all{&session};
+        for (auto& h : sides[s].helpers) all.push_back(h.get());
+        for (Session* one : all) {
+            one->set_scene(scene);
+            one->settings().width = args.width, one->settings().height = args.height;
+            one->settings().max_depth = int(side_ro.max_depth);
+            one->settings().light_scale = side_ro.light_scale;
+            // The tree: as asked, or (auto) the one this side's device cost model picks.
+            one->settings().tree = args.tree;
+            one->commit();
+        }
         sides[s].tree = tree_kind_name(session.prepared().tree_kind);
         BatchOptions side_bo = bo;
         side_bo.seed_base = 1000u + 100000u * uint32_t(s);
         const double device_before = session.backend().device_seconds();
-        sides[s].batches = render_batches(session, side_bo);
+        sides[s].batches = render_batches(all, side_bo);
         // (Several devices: only the first's timers are at hand; no device time then.)
         sides[s].device_seconds =
             devices.size() > 1 ? 0 : session.backend().device_seconds() - device_before;

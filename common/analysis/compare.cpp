@@ -1,8 +1,11 @@
 #include "common/analysis/compare.h"
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <sstream>
+#include <thread>
 
 #include "common/analysis/stats.h"
 #include "common/error.h"
@@ -65,6 +68,42 @@ BatchSet render_batches(Session& session, const BatchOptions& batch) {
         renders.push_back(session.result());
     }
     return batch_means(renders);
+}
+
+BatchSet render_batches(const std::vector<Session*>& sessions, const BatchOptions& batch) {
+    if (batch.batches < 2) throw Error("need at least 2 batches");
+    if (sessions.empty()) throw Error("no session to render the batches");
+    if (sessions.size() == 1) return render_batches(*sessions[0], batch);
+    std::vector<RenderResult> renders(size_t(batch.batches));
+    std::atomic<int> next{0};
+    std::vector<std::string> failures(sessions.size());
+    const auto start = std::chrono::steady_clock::now();
+    std::vector<std::thread> threads;
+    for (size_t k = 0; k < sessions.size(); ++k)
+        threads.emplace_back([&, k] {
+            Session& session = *sessions[k];
+            try {
+                for (int b; (b = next.fetch_add(1)) < batch.batches;) {
+                    session.settings().seed = batch.seed_base + uint32_t(b);
+                    session.reset();
+                    RenderGoal goal;
+                    goal.spp = batch.spp_per_batch;
+                    render_until(session, goal);
+                    renders[size_t(b)] = session.result();
+                }
+            } catch (const std::exception& e) {
+                failures[k] = e.what();
+                next.store(batch.batches);  // the others stop after their batch
+            }
+        });
+    for (std::thread& t : threads) t.join();
+    for (size_t k = 0; k < sessions.size(); ++k)
+        if (!failures[k].empty())
+            throw Error("device " + std::to_string(k) + " (" + sessions[k]->device().label() +
+                        "): " + failures[k]);
+    BatchSet set = batch_means(renders);
+    set.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return set;
 }
 
 std::string Agreement::verdict() const {

@@ -35,6 +35,10 @@ BatchSet render_batches(Backend& backend, const GpuScene& scene, const Camera& c
 // The same through a session (its scene and settings; the seeds are set here), each batch
 // rendered from zero by render_until(), the loop of `mcpt render`.
 BatchSet render_batches(Session& session, const BatchOptions& batch);
+// The same batches on several sessions at once (each a device: batches are independent
+// renders, handed to whichever session is free); batch b is the render of seed_base + b
+// whichever renders it. `seconds` is the wall time of them all.
+BatchSet render_batches(const std::vector<Session*>& sessions, const BatchOptions& batch);
 
 struct Agreement {
     size_t pixels_tested = 0;  // pixels with variance or differing means
