@@ -6,6 +6,7 @@
 #include <thread>
 
 #include "app/commands.h"
+#include "app/mpi_job.h"
 #include "common/analysis/compare.h"
 #include "common/error.h"
 #include "common/io/false_color.h"
@@ -141,6 +142,7 @@ void write_compare_report(const CompareArgs& args, const Side (&sides)[2],
 }
 
 void run_compare(const CompareArgs& args) {
+    refuse_mpirun("compare");
     if (!args.report.empty()) prepare_report_dir(args.report);  // before any rendering
     Scene scene = load_scene_argument(args.scene);
     scene.environment = lighting_environment(args.lighting);

@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "app/commands.h"
+#include "app/mpi_job.h"
 #include "common/analysis/convergence.h"
 #include "common/error.h"
 #include "common/io/atomic_file.h"
@@ -252,6 +253,7 @@ void write_converge_report(const ConvergeArgs& a, const std::string& label, cons
 }
 
 void run_converge(const ConvergeArgs& a) {
+    refuse_mpirun("converge");
     if (!a.report.empty()) prepare_report_dir(a.report);  // before any rendering
     // Scene, tree, render settings.
     Scene scene = load_scene_argument(a.scene);

@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "app/commands.h"
+#include "app/mpi_job.h"
 #include "app/view/view_server.h"
 #include "common/error.h"
 #include "common/render/session.h"
@@ -40,6 +41,7 @@ extern "C" void on_interrupt(int) {
 }
 
 void run_view(const ViewArgs& args) {
+    refuse_mpirun("view");
     if (args.a.empty() != args.b.empty()) throw Error("an A/B view needs both --a and --b");
     const bool ab = !args.a.empty();
     // One session per side, the same scene, settings and seed.

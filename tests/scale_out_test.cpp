@@ -343,6 +343,24 @@ TEST(ScaleOut, MpiRankHungOrLyingIsNamedAndTheRoundsBeforeKept) {
 #endif
 }
 
+// converge, compare and view run in one process: under mpirun each refuses, saying what to use.
+TEST(ScaleOut, CommandsOfOneProcessRefuseMpirun) {
+#if !MCPT_WITH_MPI
+    GTEST_SKIP() << "built without MPI (libopenmpi-dev)";
+#else
+    for (const std::string& args :
+         {std::string("converge furnace --width 8 --height 8 --spp 4"),
+          std::string("compare cornell --width 8 --height 8 --batches 2 --spp 1"),
+          std::string("view cornell --width 8 --height 8 --time 1 --port 0")}) {
+        const test::CliRun r = mpirun(2, args);
+        EXPECT_NE(r.status, 0) << args << "\n" << r.output;
+        EXPECT_NE(r.output.find("runs in one process, not under mpirun"), std::string::npos)
+            << args << "\n"
+            << r.output;
+    }
+#endif
+}
+
 TEST(ScaleOut, MpiRankWhoseDeviceIsLostIsNamedAndTheSamplesKept) {
 #if !MCPT_WITH_MPI
     GTEST_SKIP() << "built without MPI (libopenmpi-dev)";
