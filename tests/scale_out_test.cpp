@@ -370,11 +370,7 @@ TEST(ScaleOut, MpiRankWhoseDeviceIsLostIsNamedAndTheSamplesKept) {
     // Rank 1 alone loses its device at its 120th dispatch, a few rounds in (MPMD: its own
     // environment); the round it fails in is dropped, the rounds before are kept.
     const std::string args = job(100000) + " -o " + out.string();
-    const test::CliRun r = test::run_command(
-        "env OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 mpirun --oversubscribe "
-        "-np 1 " +
-        std::string(MCPT_BINARY) + " " + args + " : -np 1 -x MCPT_LOSE_DEVICE_AFTER=120 " +
-        MCPT_BINARY + " " + args);
+    const test::CliRun r = mpirun_two(args, args, "-x MCPT_LOSE_DEVICE_AFTER=120");
     EXPECT_NE(r.status, 0) << r.output;
     EXPECT_NE(r.output.find("device 1 ("), std::string::npos) << r.output;
     EXPECT_NE(r.output.find("(rank 1)"), std::string::npos) << r.output;
