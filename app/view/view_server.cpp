@@ -334,8 +334,9 @@ std::string ViewServer::state_json() {
         side["spp"] = last.spp;
         side["seconds"] = last.seconds;
         side["relative_error"] = number(last.relative_error);
-        side["samples_per_second"] = snap ? snap->samples_per_second : 0.0;
-        side["rays_per_second"] = snap ? snap->rays_per_second : 0.0;
+        const LiveRates rates = live_.rates(s);
+        side["samples_per_second"] = rates.samples_per_second;
+        side["rays_per_second"] = rates.rays_per_second;
         side["invalid"] = snap ? snap->result.nonfinite_total : 0;
         side["serial"] = snap ? snap->serial : 0;
         // Several devices: each one's share of the samples, as `render` prints it.

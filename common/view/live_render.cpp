@@ -19,6 +19,8 @@ constexpr size_t kMaxMilestones = 8;
 // Points of a side's error curve: at twice this many, every other one is dropped (the first
 // and the last kept), so a long run's curve stays evenly spaced and small.
 constexpr size_t kMaxSeriesPoints = 1024;
+// The window over which a side's current rates are measured.
+constexpr double kRateWindowSeconds = 1.0;
 
 // The sums of a result without its exact fixed-point copy (not needed to look at).
 std::shared_ptr<RenderResult> copy_sums(const RenderResult& r) {
@@ -85,6 +87,9 @@ void LiveRender::reset() {
         side->session->cancel();  // ends the step under way
         side->series.clear(), side->milestones.clear(), side->snapshot.reset();
         side->devices.clear();
+        side->window_seconds = side->window_samples = side->window_rays = 0;
+        side->last_samples = side->last_rays = 0;
+        side->rates = LiveRates{};
         side->wanted.store(true);
     }
     met_[0].reset(), met_[1].reset(), maps_.reset();
@@ -124,6 +129,11 @@ std::vector<WorkerStats> LiveRender::device_stats(size_t side) const {
     return sides_.at(side)->devices;
 }
 
+LiveRates LiveRender::rates(size_t side) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return sides_.at(side)->rates;
+}
+
 std::shared_ptr<const LiveMaps> LiveRender::maps() {
     std::shared_ptr<const RenderResult> a, b;
     {
@@ -153,7 +163,8 @@ std::string LiveRender::failure() const {
     return failure_;
 }
 
-void LiveRender::publish(size_t s, uint64_t generation, double relative_error) {
+void LiveRender::publish(size_t s, uint64_t generation, double relative_error,
+                         double step_seconds) {
     Side& side = *sides_[s];
     const RenderResult& r = side.session->result();
     // The error curve gets every step; a snapshot only when a viewer asked for one since the
@@ -165,14 +176,29 @@ void LiveRender::publish(size_t s, uint64_t generation, double relative_error) {
     if (side.wanted.exchange(false) || idle) {
         snap = std::make_shared<LiveSnapshot>();
         snap->result = std::move(*copy_sums(r));
-        const double seconds = r.seconds > 0 ? r.seconds : 1;
-        snap->samples_per_second = double(r.spp) * r.width * r.height / seconds;
-        snap->rays_per_second = r.rays / seconds;
         snap->relative_error = relative_error;
     }
     std::vector<WorkerStats> devices = side.session->device_stats();
     std::lock_guard<std::mutex> lock(mutex_);
     if (generation != generation_) return;  // reset meanwhile: these samples are dropped
+    // The current rates: this step joins the window; a full window becomes the rates (the
+    // first one, until full, shows what it has).
+    const double samples = double(r.spp) * r.width * r.height;
+    side.window_seconds += step_seconds;
+    side.window_samples += samples - side.last_samples;
+    side.window_rays += r.rays - side.last_rays;
+    side.last_samples = samples, side.last_rays = r.rays;
+    const bool first = side.rates.samples_per_second == 0 && side.rates.rays_per_second == 0;
+    if (side.window_seconds > 0 && (first || side.window_seconds >= kRateWindowSeconds)) {
+        side.rates.samples_per_second = side.window_samples / side.window_seconds;
+        side.rates.rays_per_second = side.window_rays / side.window_seconds;
+        if (side.window_seconds >= kRateWindowSeconds)
+            side.window_seconds = side.window_samples = side.window_rays = 0;
+    }
+    if (snap) {
+        snap->samples_per_second = side.rates.samples_per_second;
+        snap->rays_per_second = side.rates.rays_per_second;
+    }
     side.series.push_back({r.seconds, r.spp, relative_error});
     side.devices = std::move(devices);
     if (side.series.size() >= 2 * kMaxSeriesPoints) {
@@ -256,9 +282,12 @@ void LiveRender::run(size_t s) {
                 std::unique_lock<std::mutex> lock(mutex_);
                 wake_.wait_for(lock, took * (b_slowdown_ - 1), [&] { return stopping_.load(); });
             }
+            const double step_wall = std::chrono::duration<double>(
+                                         std::chrono::steady_clock::now() - step_start)
+                                         .count();
             if (session.spp() == 0) continue;
             if (ab && session.spp() == cap) reach_milestone(s, cap, generation);
-            publish(s, generation, st.relative_error);
+            publish(s, generation, st.relative_error, step_wall);
         }
     } catch (const std::exception& e) {
         std::lock_guard<std::mutex> lock(mutex_);

@@ -31,6 +31,12 @@ struct LiveSnapshot {
     double relative_error = 0;  // RenderResult::relative_error(); HUGE_VAL while unknown
 };
 
+// A side's current speed: over its last second or so of render steps (wall time, pauses left
+// out), not since the start, so that a viewer sees the rate now.
+struct LiveRates {
+    double samples_per_second = 0, rays_per_second = 0;
+};
+
 // A point of the error-against-time curve: after each render step.
 struct ErrorPoint {
     double seconds = 0;  // render time since the start (or the last reset)
@@ -86,6 +92,8 @@ class LiveRender {
     // A side on several devices: what each rendered so far, after the latest step (empty:
     // one device).
     std::vector<WorkerStats> device_stats(size_t side) const;
+    // The side's current rates, updated after every step (zero before the first).
+    LiveRates rates(size_t side) const;
     // A and B: the maps at the highest milestone both reached (null before), computed here on
     // the caller's thread the first time they are asked for.
     std::shared_ptr<const LiveMaps> maps();
@@ -101,11 +109,16 @@ class LiveRender {
         std::vector<ErrorPoint> series;
         std::vector<WorkerStats> devices;
         uint64_t serial = 0;
+        // The rate window: steps' wall time, samples and rays since it opened; the totals at
+        // the last step; the rates of the last full window.
+        double window_seconds = 0, window_samples = 0, window_rays = 0;
+        double last_samples = 0, last_rays = 0;
+        LiveRates rates;
         // Milestones reached and not yet met by the other side: mean and standard error.
         std::map<uint64_t, std::shared_ptr<const RenderResult>> milestones;
     };
     void run(size_t s);
-    void publish(size_t s, uint64_t generation, double relative_error);
+    void publish(size_t s, uint64_t generation, double relative_error, double step_seconds);
     void reach_milestone(size_t s, uint64_t spp, uint64_t generation);
     std::vector<std::unique_ptr<Side>> sides_;
     uint64_t max_spp_;

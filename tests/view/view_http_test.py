@@ -4,7 +4,8 @@ whatever the path), survives clients that hang up mid-frame, and refuses bad add
 answers no one without the run's token, no foreign Host (DNS rebinding), no other page's
 Origin (CSRF); it bounds request heads, bodies and connections before cpp-httplib parses
 them; a second viewer on a port in use fails; a scene name that is not UTF-8 does not break
-the state; an A/B whose B is ten times slower still shows its maps.
+the state; an A/B whose B is fifty times slower shows its maps within seconds, again and
+again, and lights them when B's lamps are 5 % brighter; the state's rates are current.
 Usage: view_http_test.py MCPT_BINARY"""
 import http.client
 import json
@@ -273,34 +274,66 @@ try:
 finally:
     stop_view(proc)
 
-# A/B with B ten times slower (MCPT_VIEW_SLOW_B): A runs many milestones ahead, and the maps
-# still appear, again and again, while B climbs to 512 spp (A kept only its 8 newest
-# milestones, none of which B reached: no map came before B passed 1160 spp in a run here).
-env = dict(os.environ, MCPT_VIEW_SLOW_B="10")
-proc, port, url = start_view(MCPT, ["cornell", "--a", "opencl", "--b", "opencl", "--width",
-                                    "24", "--height", "24"], env=env)
-TOKEN = url.split("token=")[1]
-try:
-    deadline, seen, sides, polls = time.time() + 120, [], None, 0
-    while time.time() < deadline:
-        status, body = get(port, "/api/maps")
-        if status == 200:
-            n = struct.unpack("<I", body[:4])[0]
-            spp = json.loads(body[4:4 + n])["spp"]
-            if not seen or spp > seen[-1]:
-                seen.append(spp)
-        polls += 1
-        if polls % 5 == 0:
-            sides = json.loads(get(port, "/api/state")[1])["sides"]
-            if sides[1]["spp"] >= 512:
-                break
-        time.sleep(0.1)
-    check(sides is not None and sides[1]["spp"] >= 512 and sides[0]["spp"] > 4 * sides[1]["spp"]
-          and len(seen) >= 3 and seen[-1] <= sides[1]["spp"],
-          "B ten times slower: maps again and again while B reached 512 spp, at %s (A %s spp, "
-          "B %s)" % (seen, sides and sides[0]["spp"], sides and sides[1]["spp"]))
-finally:
-    stop_view(proc)
+# A/B with B fifty times slower (MCPT_VIEW_SLOW_B: B sleeps 49 times each step's time after
+# it, as a slow device would): A runs thousands of samples ahead, and still the maps appear
+# within seconds and again and again while B climbs to 256 spp, each at a count B reached
+# lately (with A's 8 newest milestones kept, no map came before B passed 1160 spp at 10x; at
+# 50x none came in 40 s). /api/state gives the current rates: B's shows its slowdown, and A's
+# moves from one read to the next (they stayed at the first frame's values before).
+def maps_header(port):
+    status, body = get(port, "/api/maps")
+    if status != 200:
+        return None
+    n = struct.unpack("<I", body[:4])[0]
+    return json.loads(body[4:4 + n])
+
+
+def slow_b_run(extra, until_b_spp, limit_s):
+    """An A/B with B 50x slower, polled every 0.2 s: the maps' headers seen (with the time in
+    s after the start), the last state's sides, and A's rates read 1 s apart."""
+    global TOKEN
+    env = dict(os.environ, MCPT_VIEW_SLOW_B="50")
+    proc, port, url = start_view(MCPT, ["cornell", "--a", "opencl", "--b", "opencl", "--width",
+                                        "24", "--height", "24"] + extra, env=env)
+    TOKEN = url.split("token=")[1]
+    start, seen, sides, rates, polls = time.time(), [], None, [], 0
+    try:
+        while time.time() < start + limit_s:
+            h = maps_header(port)
+            if h and (not seen or h["spp"] > seen[-1]["spp"]):
+                seen.append(dict(h, at=time.time() - start))
+            polls += 1
+            if polls % 5 == 0:
+                sides = json.loads(get(port, "/api/state")[1])["sides"]
+                rates.append(sides[0]["samples_per_second"])
+                if sides[1]["spp"] >= until_b_spp:
+                    break
+            time.sleep(0.2)
+    finally:
+        stop_view(proc)
+    return seen, sides, rates
+
+
+MAPS_WITHIN_S = 10
+seen, sides, rates = slow_b_run([], 256, 120)
+spps = [m["spp"] for m in seen]
+check(sides is not None and sides[1]["spp"] >= 256 and sides[0]["spp"] > 20 * sides[1]["spp"]
+      and seen and seen[0]["at"] <= MAPS_WITHIN_S and len(seen) >= 4
+      and 2 * spps[-1] >= sides[1]["spp"] and all(m["diverged"] == 0 for m in seen),
+      "B fifty times slower: the first maps within %d s (at %.1f s), then again and again at "
+      "%s spp while B reached %s (A %s), no pixel diverged" %
+      (MAPS_WITHIN_S, seen[0]["at"] if seen else -1, spps, sides and sides[1]["spp"],
+       sides and sides[0]["spp"]))
+ratio = sides[0]["samples_per_second"] / max(sides[1]["samples_per_second"], 1e-9) if sides else 0
+check(ratio >= 10 and len(set(rates)) >= len(rates) // 2 and len(rates) >= 4,
+      "current rates: A/B %.0fx (B 50x slowed), A's rate moves (%d distinct of %d reads)" %
+      (ratio, len(set(rates)), len(rates)))
+# Control: B's lamps 5 % brighter, still 50x slower: the maps light up within the same time.
+seen, sides, _ = slow_b_run(["--b-light-scale", "1.05"], 64, 60)
+lit = [m for m in seen if m["diverged"] >= 0.9 * m["pixels"]]
+check(lit and lit[0]["at"] <= MAPS_WITHIN_S and len(lit) == len(seen),
+      "control, B's lamps 5%% brighter and 50x slower: every map lights up, the first within "
+      "%d s (%s)" % (MAPS_WITHIN_S, [(m["spp"], m["diverged"], round(m["at"], 1)) for m in seen]))
 
 print("%d failed" % len(failures) if failures else "all passed")
 sys.exit(1 if failures else 0)
