@@ -87,6 +87,8 @@ class OpenClBackend final : public Backend {
     uint32_t compiled_features() const override { return built_features_; }
     double device_seconds() const override { return device_seconds_; }
     uint32_t max_bounces_per_dispatch() const override { return 1u << 20; }
+    std::string build_settings() const override { return built_options_; }
+
     std::string layout() const override {
         return std::to_string(BINDING_COUNT) + " buffer arguments, workgroup " +
                std::to_string(local_) + window_note(accum_shape_);
@@ -227,6 +229,8 @@ class OpenClBackend final : public Backend {
             opts += " -DKD_NODE_STEPS=" + std::to_string(steps.nodes) +
                     "u -DKD_TRI_STEPS=" + std::to_string(steps.triangles) + "u";
         if (steps.overlap == 0) opts += " -DKD_OVERLAP=0u";
+        if (options_.env_strategy != 0)
+            opts += " -DMCPT_ENV_STRATEGY=" + std::to_string(options_.env_strategy) + "u";
         if (!options_.extra_defines.empty()) opts += " " + options_.extra_defines;
         if (program_() != nullptr && opts == built_options_) return;
         const auto t0 = std::chrono::steady_clock::now();

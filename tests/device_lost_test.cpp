@@ -60,6 +60,7 @@ class FailingBackend final : public Backend {
     }
     uint32_t compiled_features() const override { return inner_->compiled_features(); }
     std::string layout() const override { return inner_->layout(); }
+    std::string build_settings() const override { return inner_->build_settings(); }
 
   private:
     std::unique_ptr<Backend> inner_;

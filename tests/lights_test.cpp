@@ -18,118 +18,34 @@
 #include "common/analysis/stats.h"
 #include "common/render/gpu_scene.h"
 #include "common/scene/environment.h"
+#include "light_cases.h"
 #include "test_util.h"
 
 namespace mcpt {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-// A Lambertian square of half-size s at y = 0 (front side up), seen from (0, 3h, 0) straight
-// down, the image inside the square.
-Scene plane_scene(float albedo, float s, float h) {
-    Scene scene;
-    Material m;
-    m.color = glm::vec3(albedo);
-    scene.add_material(m);
-    const glm::vec3 a(-s, 0, -s), b(-s, 0, s), c(s, 0, s), d(s, 0, -s);
-    scene.triangles.push_back({a, b, c, 0});
-    scene.triangles.push_back({a, c, d, 0});
-    scene.camera.position = glm::vec3(0, 3 * h, 0);
-    scene.camera.forward = glm::vec3(0, -1, 0);
-    scene.camera.up = glm::vec3(0, 0, -1);
-    scene.camera.yfov = float(2 * std::atan(0.8 * s / (3 * h)));
-    scene.has_camera = true;
-    return scene;
-}
-
-// The point of the plane y = 0 the camera ray through image point (fx, fy) meets.
-glm::dvec3 plane_point(const Camera& cam, double fx, double fy, double aspect) {
-    const glm::dvec3 w = glm::normalize(glm::dvec3(cam.forward));
-    const glm::dvec3 u = glm::normalize(glm::cross(w, glm::dvec3(cam.up)));
-    const glm::dvec3 v = glm::cross(u, w);
-    const double t = std::tan(0.5 * double(cam.yfov));
-    const glm::dvec3 d = glm::normalize(w + u * (t * aspect * fx) + v * (t * fy));
-    const glm::dvec3 o(cam.position);
-    return o + d * (-o.y / d.y);
-}
-
-// Per pixel: the mean of `radiance` over the pixel (32 x 32 points), against the render.
-template <class Radiance>
-std::vector<double> expected_image(const Scene& scene, int size, Radiance radiance) {
-    std::vector<double> out(size_t(size) * size_t(size));
-    constexpr int kSub = 32;
-    for (int py = 0; py < size; ++py)
-        for (int px = 0; px < size; ++px) {
-            double sum = 0;
-            for (int j = 0; j < kSub; ++j)
-                for (int i = 0; i < kSub; ++i) {
-                    const double fx = (px + (i + 0.5) / kSub) / size * 2 - 1;
-                    const double fy = 1 - (py + (j + 0.5) / kSub) / size * 2;
-                    sum += radiance(plane_point(scene.camera, fx, fy, 1.0));
-                }
-            out[size_t(py) * size_t(size) + size_t(px)] = sum / (kSub * kSub);
-        }
-    return out;
-}
+using test::expected_image;
+using test::image_z;
+using test::kPi;
+using test::map_with_sun;
+using test::pixels_off;
+using test::plane_scene;
+using test::upward_irradiance;
 
 RenderResult render_scene(const std::string& api, const Scene& scene, int size, uint64_t spp,
                           uint32_t max_depth = 8, float light_scale = 1.f,
-                          const std::string& defines = "") {
-    const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, TreeOptions{}));
-    BackendOptions bo;
-    bo.extra_defines = defines;
-    auto backend = test::test_backend(api, bo);
-    RenderOptions o;
-    o.width = size, o.height = size;
-    o.spp = spp;
-    o.max_depth = max_depth;
-    o.seed = 5;
-    o.light_scale = light_scale;
-    return render(*backend, g, scene.camera, o);
-}
-
-// Pixels (channel 0) whose mean differs from `expected` beyond the Sidak-corrected z limit,
-// counting the sample error and 0.2% for the expected value's own integration.
-int pixels_off(const RenderResult& r, const std::vector<double>& expected) {
-    const double z_limit =
-        stats::normal_quantile(1 - stats::sidak_level(1e-4, expected.size()) / 2);
-    // Float rounding where the light fades to zero (a range's or a cone's edge): 1e-4 of the
-    // brightest pixel, absolute.
-    const double floor = 1e-4 * *std::max_element(expected.begin(), expected.end());
-    int off = 0;
-    for (size_t i = 0; i < expected.size(); ++i) {
-        const double n = double(r.spp) - double(r.nonfinite[i]);
-        const double mean = r.sum[3 * i] / n;
-        const double var = std::max(0.0, r.sum_sq[3 * i] / n - mean * mean) * n / (n - 1);
-        const double sigma = std::sqrt(var / n + std::pow(2e-3 * expected[i], 2) + floor * floor);
-        const bool is_off = std::abs(mean - expected[i]) / sigma > z_limit;
-        if (is_off && std::getenv("MCPT_TEST_VERBOSE"))
-            std::printf("pixel %zu: mean %.6g expected %.6g sigma %.3g\n", i, mean, expected[i],
-                        sigma);
-        off += is_off;
-    }
-    return off;
-}
-
-// The image's mean difference from `expected` over its standard error (sample error, and
-// 0.05% for the expected value's integration): what a light 2% too bright cannot pass.
-double image_z(const RenderResult& r, const std::vector<double>& expected) {
-    double diff = 0, var = 0;
-    for (size_t i = 0; i < expected.size(); ++i) {
-        const double n = double(r.spp) - double(r.nonfinite[i]);
-        const double mean = r.sum[3 * i] / n;
-        const double v = std::max(0.0, r.sum_sq[3 * i] / n - mean * mean) * n / (n - 1);
-        diff += mean - expected[i];
-        var += v / n + std::pow(5e-4 * expected[i], 2);
-    }
-    return diff / std::sqrt(var);
+                          uint32_t env_strategy = 0) {
+    test::CaseRender how;
+    how.spp = spp, how.max_depth = max_depth, how.light_scale = light_scale;
+    how.env_strategy = env_strategy;
+    return test::render_case(api, scene, size, how);
 }
 
 class ExactLights : public ::testing::TestWithParam<std::string> {};
 
-// Renders the plane lit by `light` at two scales (h = 1 and h = `far`), each exact per pixel,
-// and a 2% brighter light rejected.
+// Renders the plane lit by `light` at three scales (h = 1e-3, 1, 1e4), each exact per pixel;
+// at each, a 2% brighter light is rejected by the image-wide z, and the per-pixel check
+// rejects the brightest pixel 1% off (its samples scaled alone).
 template <class Radiance>
 void expect_plane_exact(const std::string& api, const char* what, PunctualLight light,
                         Radiance radiance_at_unit_height) {
@@ -150,16 +66,29 @@ void expect_plane_exact(const std::string& api, const char* what, PunctualLight 
         EXPECT_EQ(r.nonfinite_total, 0u) << what << " at h = " << h;
         const int off = pixels_off(r, exact);
         const double z = image_z(r, exact);
-        std::printf("%s, %s, h = %g: %d of %d pixels off, image z %.2f\n", api.c_str(), what, h,
-                    off, kSize * kSize, z);
-        EXPECT_EQ(off, 0) << api << ": " << what << " at h = " << h;
-        EXPECT_LT(std::abs(z), 4.5) << api << ": " << what << " at h = " << h;
-        if (h != 1.f) continue;
-        // Negative control: the light 2% brighter.
+        // Controls: the light 2% brighter; one pixel 1% off, each in turn.
         const RenderResult bright = render_scene(api, scene, kSize, 256, 8, 1.02f);
         const double bright_z = image_z(bright, exact);
-        std::printf("%s, %s, 2%% brighter: image z %.1f\n", api.c_str(), what, bright_z);
-        EXPECT_GT(bright_z, 4.5) << api << ": " << what << ": control passed";
+        // The brightest pixel 1% off must be caught; how many other lit pixels would be is
+        // printed (where the irradiance changes fast within a pixel, 256 samples are too few).
+        const size_t brightest = size_t(std::max_element(exact.begin(), exact.end()) - exact.begin());
+        const bool caught = pixels_off(test::with_pixel_scaled(r, brightest, 1.01), exact) > off;
+        int lit = 0, lit_caught = 0;
+        for (size_t i = 0; i < exact.size(); ++i) {
+            if (exact[i] < 0.1 * exact[brightest]) continue;
+            ++lit;
+            lit_caught += pixels_off(test::with_pixel_scaled(r, i, 1.01), exact) > off;
+        }
+        std::printf(
+            "%s, %s, h = %g: %d of %d pixels off, image z %.2f; 2%% brighter: z %.1f; the "
+            "brightest pixel 1%% off: %s (any lit pixel: %d of %d)\n",
+            api.c_str(), what, h, off, kSize * kSize, z, bright_z, caught ? "caught" : "MISSED",
+            lit_caught, lit);
+        EXPECT_EQ(off, 0) << api << ": " << what << " at h = " << h;
+        EXPECT_LT(std::abs(z), 4.5) << api << ": " << what << " at h = " << h;
+        EXPECT_GT(bright_z, 4.5) << api << ": " << what << " at h = " << h << ": control passed";
+        EXPECT_TRUE(caught) << api << ": " << what << " at h = " << h
+                            << ": the brightest pixel 1% off passed the per-pixel check";
     }
 }
 
@@ -221,32 +150,6 @@ TEST_P(ExactLights, DirectionalLightTilted) {
     l.intensity = glm::vec3(1.5f);
     const double cos_t = -double(l.direction.y);
     expect_plane_exact(GetParam(), "directional", l, [&](glm::dvec3) { return 1.5 * cos_t; });
-}
-
-// A map of w x h texels of radiance `sky`, with `sun` at texel (x, y).
-Environment map_with_sun(int w, int h, float sky, int x, int y, float sun) {
-    Environment env;
-    env.name = "test map";
-    env.width = w, env.height = h;
-    env.rgb.assign(size_t(w) * size_t(h) * 3, sky);
-    for (int c = 0; c < 3; ++c) env.rgb[(size_t(y) * size_t(w) + size_t(x)) * 3 + size_t(c)] = sun;
-    return env;
-}
-
-// Irradiance of the upward plane under a map: the integral of L cos over the upper half.
-double upward_irradiance(const Environment& env) {
-    constexpr int kSub = 16;
-    double e = 0;
-    for (int y = 0; y < env.height * kSub; ++y) {
-        const double theta = kPi * (y + 0.5) / (env.height * kSub);
-        if (std::cos(theta) <= 0) continue;
-        const double d_omega =
-            (2 * kPi / env.width) * (kPi / (env.height * kSub)) * std::sin(theta);
-        for (int x = 0; x < env.width; ++x)
-            e += env.rgb[(size_t(y / kSub) * size_t(env.width) + size_t(x)) * 3] * std::cos(theta) *
-                 d_omega;
-    }
-    return e;
 }
 
 TEST_P(ExactLights, PlaneUnderExtremeEnvironments) {
@@ -331,13 +234,18 @@ double mean_squared_mean(const RenderResult& r) {
     return m2 / double(r.nonfinite.size());
 }
 
-// MIS against each strategy alone (OpenCL, -DMCPT_ENV_STRATEGY=1: next-event estimation, 2:
-// BSDF sampling): on a Lambertian plane under a small sun BSDF sampling alone explodes, on a
+// MIS against each strategy alone (both APIs; BackendOptions::env_strategy 1: next-event
+// estimation, 2: BSDF sampling): on a Lambertian plane under a small sun BSDF sampling alone explodes, on a
 // near-mirror metal under a smooth sky next-event estimation alone does. MIS stays within
 // Veach's bound of the better strategy (its variance + mu^2 / 2 for one sample of each:
 // where one strategy is nearly exact, the other one's share costs at most that), far below
-// the one that explodes, and all three agree on the mean (docs/lights.md).
-TEST(EnvironmentMis, VarianceBoundedWhereOneStrategyExplodes) {
+// the one that explodes, and all three agree on the mean (docs/lights.md). Controls: both
+// strategies unweighted (the mean check rejects it) and both weighted 1/2 (unbiased: the
+// mean check passes it, Veach's bound must reject it where one strategy explodes).
+class EnvironmentMis : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(EnvironmentMis, VarianceBoundedWhereOneStrategyExplodes) {
+    const std::string api = GetParam();
     const Environment sun_sky = map_with_sun(64, 32, 1.f, 20, 8, 1e4f);
     Environment sky = map_with_sun(64, 32, 1.f, 0, 0, 1.f);
     for (int y = 0; y < 32; ++y)  // brighter toward +Y
@@ -361,39 +269,44 @@ TEST(EnvironmentMis, VarianceBoundedWhereOneStrategyExplodes) {
                  {"metal, roughness 0.05, smooth sky", metal, 1},
                  {"metal, roughness 0.3, sun 1e4 x sky", glossy_sun, 0}};
     std::printf(
-        "| scene | variance MIS | NEE only / MIS | BSDF only / MIS | mu^2/2 |\n"
-        "|---|---|---|---|---|\n");
+        "%s:\n| scene | variance MIS | NEE only / MIS | BSDF only / MIS | halves / MIS | "
+        "mu^2/2 |\n|---|---|---|---|---|---|\n",
+        api.c_str());
     for (const auto& c : cases) {
-        double var[3], mean[3], se[3], mu2 = 0;
-        for (int k = 0; k < 3; ++k) {
-            const RenderResult r =
-                render_scene("opencl", c.scene, 16, 256, 8, 1.f,
-                             k == 0 ? "" : "-DMCPT_ENV_STRATEGY=" + std::to_string(k));
+        // Strategies 0 (MIS), 1, 2, and 4 (halves) at k = 3.
+        double var[4], mean[4], se[4], mu2 = 0;
+        for (int k = 0; k < 4; ++k) {
+            const RenderResult r = render_scene(api, c.scene, 16, 256, 8, 1.f, uint32_t(k == 3 ? 4 : k));
             EXPECT_EQ(r.nonfinite_total, 0u) << c.what;
             var[k] = mean_sample_variance(r);
             if (k == 0) mu2 = mean_squared_mean(r);
             const test::MeanEstimate e = test::pooled_mean(r);
             mean[k] = e.mean, se[k] = e.std_error;
         }
-        std::printf("| %s | %.4g | %.3g | %.3g | %.3g |\n", c.what, var[0], var[1] / var[0],
-                    var[2] / var[0], 0.5 * mu2);
-        for (int k = 1; k < 3; ++k)
+        std::printf("| %s | %.4g | %.3g | %.3g | %.3g | %.3g |\n", c.what, var[0],
+                    var[1] / var[0], var[2] / var[0], var[3] / var[0], 0.5 * mu2);
+        for (int k = 1; k < 4; ++k)
             EXPECT_LT(std::abs(mean[k] - mean[0]) / std::hypot(se[k], se[0]), 4.5)
                 << c.what << ": strategy " << k << " disagrees on the mean";
         EXPECT_LT(var[0], std::min(var[1], var[2]) + 0.5 * mu2) << c.what;
         if (c.explodes) {
             EXPECT_GT(var[c.explodes], 10 * var[0]) << c.what;
+            // Control: the halves are unbiased (above) but fail the bound.
+            EXPECT_GT(var[3], std::min(var[1], var[2]) + 0.5 * mu2)
+                << c.what << ": constant weights 1/2 passed Veach's bound";
         }
     }
     // Negative control: both strategies unweighted count the environment twice; the mean check
     // above must see it.
-    const RenderResult mis = render_scene("opencl", diffuse, 16, 256);
-    const RenderResult twice =
-        render_scene("opencl", diffuse, 16, 256, 8, 1.f, "-DMCPT_ENV_STRATEGY=3");
+    const RenderResult mis = render_scene(api, diffuse, 16, 256);
+    const RenderResult twice = render_scene(api, diffuse, 16, 256, 8, 1.f, 3);
     const test::MeanEstimate a = test::pooled_mean(mis), b = test::pooled_mean(twice);
     EXPECT_GT(std::abs(b.mean - a.mean) / std::hypot(a.std_error, b.std_error), 4.5)
         << "counting the environment twice passed";
 }
+
+INSTANTIATE_TEST_SUITE_P(Api, EnvironmentMis, ::testing::ValuesIn(test::test_apis()),
+                         [](const auto& info) { return info.param; });
 
 // The environment's sampling routine (the device code, compiled for the CPU) against its pdf:
 // directions binned over the sphere in equal-area cells that do not follow the texels, the

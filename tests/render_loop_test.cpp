@@ -100,6 +100,7 @@ class FakeBackend final : public Backend {
     double compile_seconds() const override { return 0; }
     uint32_t compiled_features() const override { return FEATURE_ALL; }
     std::string layout() const override { return "fake"; }
+    std::string build_settings() const override { return ""; }
     double device_seconds() const override { return 0; }
     uint32_t max_bounces_per_dispatch() const override { return cap; }
     bool offer_exact = true;  // room for exact sums when a reproducible render asks

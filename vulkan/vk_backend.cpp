@@ -55,6 +55,7 @@ struct VulkanBackend::Impl {
     uint32_t max_groups = 1;
     uint32_t built_stack = 0, built_features = 0;
     bool built_texels = false;
+    std::string built_settings;  // the specialization constants, "NAME=value ..."
     BackendOptions options;
     uint32_t dispatches = 0;  // counted for options.lose_device_after
     double compile_seconds = 0;
@@ -238,14 +239,22 @@ struct VulkanBackend::Impl {
         pipeline = VK_NULL_HANDLE;
         const auto t0 = std::chrono::steady_clock::now();
         // Specialization: id 0 = KD_STACK_SIZE, id 1 = local_size_x, id 2 = MCPT_FEATURES,
-        // ids 3, 4 and 5 = KD_NODE_STEPS, KD_TRI_STEPS and KD_OVERLAP.
+        // ids 3, 4 and 5 = KD_NODE_STEPS, KD_TRI_STEPS and KD_OVERLAP, id 6 = the environment
+        // strategy (tests).
         const KdSteps steps = kd_steps(pd.info);
-        const uint32_t values[6] = {stack_size,  local,           features,
-                                    steps.nodes, steps.triangles, steps.overlap};
-        const VkSpecializationMapEntry entries[6] = {{0, 0, 4},  {1, 4, 4},  {2, 8, 4},
-                                                     {3, 12, 4}, {4, 16, 4}, {5, 20, 4}};
+        const uint32_t values[7] = {stack_size,  local,           features,      steps.nodes,
+                                    steps.triangles, steps.overlap, options.env_strategy};
+        static const char* const names[7] = {"KD_STACK_SIZE", "local_size_x",  "MCPT_FEATURES",
+                                             "KD_NODE_STEPS", "KD_TRI_STEPS",  "KD_OVERLAP",
+                                             "MCPT_ENV_STRATEGY"};
+        VkSpecializationMapEntry entries[7];
+        built_settings.clear();
+        for (uint32_t i = 0; i < 7; ++i) {
+            entries[i] = {i, 4 * i, 4};
+            built_settings += std::string(i ? " " : "") + names[i] + "=" + std::to_string(values[i]);
+        }
         VkSpecializationInfo spec{};
-        spec.mapEntryCount = 6;
+        spec.mapEntryCount = 7;
         spec.pMapEntries = entries;
         spec.dataSize = sizeof(values);
         spec.pData = values;
@@ -564,6 +573,9 @@ double VulkanBackend::gpu_seconds() const {
 }
 size_t VulkanBackend::validation_messages() const {
     return impl_->instance->messages() - impl_->messages_before;
+}
+std::string VulkanBackend::build_settings() const {
+    return impl_->built_settings;
 }
 std::string VulkanBackend::layout() const {
     return vk::layout_line(impl_->pd.props.limits) +

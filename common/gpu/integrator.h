@@ -16,10 +16,12 @@ MCPT_NAMESPACE_BEGIN
 
 // How the environment is reached: 0 (always): both strategies combined by MIS. Tests and the
 // variance table of docs/lights.md build 1 (next-event estimation alone), 2 (BSDF sampling
-// alone) and 3 (both unweighted: a biased variant, the negative control) through
-// -DMCPT_ENV_STRATEGY.
+// alone), 3 (both unweighted: a biased variant, the negative control) and 4 (both weighted
+// 1/2: unbiased, but without MIS's variance bound, its control) through
+// BackendOptions::env_strategy (OpenCL: -DMCPT_ENV_STRATEGY; Vulkan: specialization constant
+// 6). A constant either way: the compiler folds every branch on it.
 #ifndef MCPT_ENV_STRATEGY
-#define MCPT_ENV_STRATEGY 0
+#define MCPT_ENV_STRATEGY 0u
 #endif
 
 // The C++ build reports every ray trace_path() traces to the thread's RayWork, if one is set
@@ -290,11 +292,9 @@ MCPT_FN PathState bounce_path(SCENE_PARAMS_ PathState st, uint pixel) {
             if (!st.specular) {
                 float env_pdf = PARAM(env_pmf) * env_solid_angle_pdf(t, ray.d);
                 w = power_heuristic(st.prev_pdf, env_pdf);
-#if MCPT_ENV_STRATEGY == 1
-                w = env_pdf > 0.0f ? 0.0f : 1.0f;
-#elif MCPT_ENV_STRATEGY >= 2
-                w = 1.0f;
-#endif
+                if (MCPT_ENV_STRATEGY == 1u) w = env_pdf > 0.0f ? 0.0f : 1.0f;
+                if (MCPT_ENV_STRATEGY == 2u || MCPT_ENV_STRATEGY == 3u) w = 1.0f;
+                if (MCPT_ENV_STRATEGY == 4u) w = env_pdf > 0.0f ? 0.5f : 1.0f;
             }
             st.radiance += st.beta * V3(t.x, t.y, t.z) * (w * light_scale);
         }
@@ -367,9 +367,8 @@ MCPT_FN PathState bounce_path(SCENE_PARAMS_ PathState st, uint pixel) {
             if (blocker.prim == NO_HIT) {
                 BsdfEval e = eval_bsdf(m, ns, wo, ls.wi, front);
                 float w = ls.delta ? 1.0f : power_heuristic(ls.pdf, e.pdf);
-#if MCPT_ENV_STRATEGY != 0
-                if (ls.at_infinity && !ls.delta) w = MCPT_ENV_STRATEGY == 2 ? 0.0f : 1.0f;
-#endif
+                if (MCPT_ENV_STRATEGY != 0u && ls.at_infinity && !ls.delta)
+                    w = MCPT_ENV_STRATEGY == 2u ? 0.0f : (MCPT_ENV_STRATEGY == 4u ? 0.5f : 1.0f);
                 st.radiance += st.beta * e.f * ls.le * (light_scale * cos_x * w / ls.pdf);
             }
         }

@@ -96,6 +96,8 @@ layout(constant_id = 2) const uint MCPT_FEATURES = FEATURE_ALL;
 layout(constant_id = 3) const uint KD_NODE_STEPS = 1u;  // traverse.h
 layout(constant_id = 4) const uint KD_TRI_STEPS = 1u;
 layout(constant_id = 5) const uint KD_OVERLAP = 1u;  // traverse.h
+layout(constant_id = 6) const uint ENV_STRATEGY_SPEC = 0u;  // integrator.h (tests)
+#define MCPT_ENV_STRATEGY ENV_STRATEGY_SPEC
 #define SCENE_PARAMS_
 #define SCENE_ARGS_
 #define PARAM(x) params.x

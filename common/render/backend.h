@@ -36,6 +36,9 @@ struct BackendOptions {
     std::string device;         // "" (best), an index, or a name substring
     bool fast_math = false;     // -cl-fast-relaxed-math / equivalent
     std::string extra_defines;  // extra -D options for test variants (e.g. "-DMCPT_COUNTERS")
+    // Tests: how the environment is reached (MCPT_ENV_STRATEGY, common/gpu/integrator.h; 0 =
+    // MIS, what renders use). Both APIs: OpenCL defines it, Vulkan specializes it.
+    uint32_t env_strategy = 0;
     // Device features to compile for (FEATURE_* bits): 0 = the scene's own (the default),
     // FEATURE_ALL = the full kernel; another mask only in tests' negative controls.
     uint32_t features = 0;
@@ -112,6 +115,9 @@ class Backend {
     // What the backend works within: "4 storage buffers per stage (device allows 4),
     // workgroup 64" (the buffers bound and the workgroup size).
     virtual std::string layout() const = 0;
+    // What the loaded program was compiled with, as the compiler got it: OpenCL's build
+    // options; Vulkan's specialization constants ("KD_NODE_STEPS=3 ..."). Empty before load().
+    virtual std::string build_settings() const = 0;
 };
 
 }  // namespace mcpt

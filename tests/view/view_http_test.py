@@ -9,6 +9,7 @@ again, and lights them when B's lamps are 5 % brighter; the state's rates are cu
 Usage: view_http_test.py MCPT_BINARY"""
 import http.client
 import json
+import math
 import os
 import shutil
 import signal
@@ -19,6 +20,7 @@ import sys
 import tempfile
 import time
 
+from view_images import binary_body, read_exr, rgbe_pixel
 from view_util import start_view, stop_view
 
 MCPT = sys.argv[1]
@@ -208,6 +210,100 @@ finally:
     out = stop_view(proc)
 check(proc.returncode == 0, "Ctrl-C ends the viewer with status 0 (%s)" % proc.returncode)
 check("frames sent:" in out, "it says what it rendered and sent")
+
+
+# ---- What the page shows is what the render saves: paused, a frame decoded here (RGBE, then
+# the error bytes) and the hover readout (/api/pixel) against the EXR of /api/save, pixel by
+# pixel and channel by channel. RGBE keeps 8 bits of mantissa under the largest channel's
+# exponent: the decoded (m + 0.5) 2^(E - 136) is within 2^-8 of the largest channel of the
+# EXR's value (a swapped channel or an exponent off by one is off by far more). The readout's
+# radiance is the EXR's float exactly. Cornell's red and green walls tell the channels apart;
+# 80x60, not square, tells rows from columns.
+def state_side(port):
+    return json.loads(get(port, "/api/state")[1])["sides"][0]
+
+
+def paused_still(port):
+    """Pauses; then waits until the side publishes no new snapshot for 1.5 s (the step under
+    way when it paused may still end in one): the state's side then."""
+    request(port, "/api/pause", "POST", body=b"")
+    get(port, "/api/frame?side=0")  # asks for a snapshot, as the page does
+    last, still, deadline = None, 0, time.time() + 60
+    while still < 5 and time.time() < deadline:
+        side = state_side(port)
+        still = still + 1 if (side["serial"], side["spp"]) == last else 0
+        last = (side["serial"], side["spp"])
+        time.sleep(0.3)
+    return side
+
+
+W, H = 80, 60
+proc, port, url = start_view(MCPT, ["cornell", "--width", str(W), "--height", str(H)])
+TOKEN = url.split("token=")[1]
+try:
+    deadline = time.time() + 60
+    while time.time() < deadline and state_side(port)["spp"] < 16:
+        time.sleep(0.2)
+    side = paused_still(port)
+    status, body = get(port, "/api/frame?side=0")
+    head, data = binary_body(body)
+    status_exr, exr, hdrs = request(port, "/api/save?side=0&format=exr")
+    name = hdrs.get("Content-Disposition", "")
+    ew, eh, ch = read_exr(exr)
+    after = state_side(port)
+    check(status == 200 and status_exr == 200 and head["width"] == W and head["height"] == H
+          and (ew, eh) == (W, H) and len(data) == 5 * W * H and head["serial"] == side["serial"]
+          == after["serial"] and head["spp"] == side["spp"] and "%dspp.exr" % head["spp"] in name,
+          "paused: the frame (%dx%d, %d spp, serial %d) and the EXR (%dx%d, %s) are of one "
+          "snapshot" % (head["width"], head["height"], head["spp"], head["serial"], ew, eh, name))
+    exr_px = [[ch[c][i] for c in "RGB"] for i in range(W * H)]
+    bad, worst, distinct = [], 0.0, [0, 0]
+    for i in range(W * H):
+        want, got = exr_px[i], rgbe_pixel(data, i)
+        top = max(want)
+        tol = 2.0 ** -8 * top * (1 + 1e-6)
+        if not all(math.isfinite(v) for v in want):
+            ok = data[4 * i + 3] == 255
+        elif top <= 1e-32:
+            ok = got == [0.0, 0.0, 0.0]
+        else:
+            ok = all(abs(g - w) <= tol for g, w in zip(got, want))
+            worst = max(worst, max(abs(g - w) for g, w in zip(got, want)) / top)
+            distinct[0] += abs(want[0] - want[2]) > 8 * tol  # R and B told apart
+            distinct[1] += abs(want[1] - want[0]) > 8 * tol  # G and R
+        if not ok and len(bad) < 3:
+            bad.append("pixel %d,%d: frame %s, EXR %s" % (i % W, i // W, got, want))
+        elif not ok:
+            bad.append("")
+    check(min(distinct) > W * H // 10,
+          "the image tells the channels apart (R vs B at %d pixels, G vs R at %d)" % tuple(distinct))
+    check(not bad, "the decoded frame matches the EXR within RGBE's 2^-8 of the largest channel "
+          "at all %d pixels (worst %.5f; %d off%s)" % (W * H, worst, len(bad),
+                                                       ": " + "; ".join(bad[:3]) if bad else ""))
+    # The hover readout of a few pixels: the reddest, the greenest, the brightest (the light),
+    # the dimmest lit one, the middle, the first and the last; the error byte within a step of
+    # the readout's (sum of the channels' standard errors over the sum of their means).
+    lit = [i for i in range(W * H) if sum(exr_px[i]) > 0]
+    for i in [max(lit, key=lambda i: exr_px[i][0] / sum(exr_px[i])),
+              max(lit, key=lambda i: exr_px[i][1] / sum(exr_px[i])),
+              max(lit, key=lambda i: sum(exr_px[i])), min(lit, key=lambda i: sum(exr_px[i])),
+              H // 2 * W + W // 2, 0, W * H - 1]:
+        x, y = i % W, i // W
+        status, body = get(port, "/api/pixel?x=%d&y=%d" % (x, y))
+        p = json.loads(body)["sides"][0]
+        want = exr_px[i]
+        rel = sum(p["std_error"]) / sum(want) if sum(want) > 0 else None
+        exact_byte = (0 if rel is None else 1 if rel <= 1e-3 else 255 if rel >= 1 else
+                      1 + round(254 * (math.log10(rel) + 3) / 3))
+        check(p["radiance"] == want and p["spp"] == head["spp"] and
+              all(abs(g - w) <= 2.0 ** -8 * max(want) * (1 + 1e-6)
+                  for g, w in zip(rgbe_pixel(data, i), want)) and
+              abs(data[4 * W * H + i] - exact_byte) <= 1,
+              "hover %d,%d: radiance %s = the EXR's %s, the frame's %s, error byte %d (%s)"
+              % (x, y, p["radiance"], want, [round(v, 5) for v in rgbe_pixel(data, i)],
+                 data[4 * W * H + i], exact_byte))
+finally:
+    stop_view(proc)
 
 # Bad addresses: a clear error and a non-zero exit, no server.
 for args, expect in [(["--port", "99999"], "port"),

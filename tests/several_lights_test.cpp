@@ -1,0 +1,123 @@
+// Several lights at once against exact radiance, on both APIs: their radiance adds, so a
+// Lambertian plane under a point lamp and an emissive quad, under a uniform map and a lamp,
+// and under a map with a sun and a directional light is exact per pixel. The light choice
+// (the alias table's pick probabilities) is what these scenes test that single-light scenes
+// cannot: a probability both APIs share, off by 10% for one light (the pick itself
+// unchanged), must be rejected.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "light_cases.h"
+#include "test_util.h"
+
+namespace mcpt {
+namespace {
+
+using test::kPi;
+
+constexpr int kSize = 24;
+constexpr float kAlbedo = 0.5f;
+
+// Irradiance at p (normal +Y) from a one-sided polygon of uniform radiance L facing it
+// (Lambert's formula: L / 2 times the sum over edges of the angle they subtend times the
+// cosine of their plane's normal with the surface normal).
+double polygon_irradiance(glm::dvec3 p, const std::vector<glm::dvec3>& poly, double radiance) {
+    double sum = 0;
+    for (size_t i = 0; i < poly.size(); ++i) {
+        const glm::dvec3 a = glm::normalize(poly[i] - p);
+        const glm::dvec3 b = glm::normalize(poly[(i + 1) % poly.size()] - p);
+        const double angle = std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0));
+        sum += angle * glm::normalize(glm::cross(a, b)).y;
+    }
+    return 0.5 * radiance * std::abs(sum);
+}
+
+// Irradiance from a point light of intensity I at (0, 1, 0).
+double lamp_irradiance(glm::dvec3 p, double intensity) {
+    const double r = glm::length(glm::dvec3(0, 1, 0) - p);
+    return intensity / (r * r * r);
+}
+
+PunctualLight lamp(float intensity) {
+    PunctualLight l;
+    l.kind = PunctualKind::Point;
+    l.position = glm::vec3(0, 1, 0);
+    l.intensity = glm::vec3(intensity);
+    return l;
+}
+
+class SeveralLights : public ::testing::TestWithParam<std::string> {};
+
+// The scene exact per pixel and image-wide; with `plant` (one light's pick probability off
+// by 10%) rejected image-wide.
+void expect_exact_with_control(const std::string& api, const char* what, const Scene& scene,
+                               const std::function<double(glm::dvec3)>& irradiance,
+                               const std::function<void(GpuScene&)>& plant) {
+    const std::vector<double> exact = test::expected_image(
+        scene, kSize, [&](glm::dvec3 p) { return kAlbedo / kPi * irradiance(p); });
+    test::CaseRender how;
+    const RenderResult r = test::render_case(api, scene, kSize, how);
+    how.plant = plant;
+    const RenderResult planted = test::render_case(api, scene, kSize, how);
+    const int off = test::pixels_off(r, exact);
+    const double z = test::image_z(r, exact), planted_z = test::image_z(planted, exact);
+    std::printf("%s, %s: %d of %d pixels off, image z %.2f; a pick probability 10%% off: z %.1f\n",
+                api.c_str(), what, off, kSize * kSize, z, planted_z);
+    EXPECT_EQ(r.nonfinite_total, 0u) << what;
+    EXPECT_EQ(off, 0) << api << ": " << what;
+    EXPECT_LT(std::abs(z), 4.5) << api << ": " << what;
+    EXPECT_GT(std::abs(planted_z), 4.5) << api << ": " << what << ": the planted pick passed";
+}
+
+TEST_P(SeveralLights, LampAndEmissiveQuad) {
+    Scene scene = test::plane_scene(kAlbedo, 1.f, 1.f);
+    scene.punctual_lights.push_back(lamp(2.f));
+    // A quad of radiance 3 facing down at y = 1.2, beside the view (and above the lamp).
+    Material m;
+    m.color = glm::vec3(0.f);
+    m.emission = glm::vec3(3.f);
+    const uint32_t mat = uint32_t(scene.add_material(m));
+    const glm::vec3 a(1.2f, 1.2f, -0.5f), b(2.2f, 1.2f, -0.5f), c(2.2f, 1.2f, 0.5f),
+        d(1.2f, 1.2f, 0.5f);
+    scene.triangles.push_back({a, b, c, mat});
+    scene.triangles.push_back({a, c, d, mat});
+    const std::vector<glm::dvec3> quad = {a, b, c, d};
+    expect_exact_with_control(
+        GetParam(), "point lamp and emissive quad", scene,
+        [&](glm::dvec3 p) { return lamp_irradiance(p, 2.0) + polygon_irradiance(p, quad, 3.0); },
+        [](GpuScene& g) { test::scale_pick_pmf(g, 0u | LIGHT_PUNCTUAL_BIT, 1.1f); });
+}
+
+TEST_P(SeveralLights, UniformMapAndLamp) {
+    Scene scene = test::plane_scene(kAlbedo, 1.f, 1.f);
+    scene.punctual_lights.push_back(lamp(1.f));
+    scene.environment = test::map_with_sun(64, 32, 0.4f, 0, 0, 0.4f);
+    expect_exact_with_control(
+        GetParam(), "uniform map and point lamp", scene,
+        [&](glm::dvec3 p) { return kPi * 0.4 + lamp_irradiance(p, 1.0); },
+        [](GpuScene& g) { test::scale_pick_pmf(g, 0u | LIGHT_PUNCTUAL_BIT, 1.1f); });
+}
+
+TEST_P(SeveralLights, MapSunAndDirectionalLight) {
+    Scene scene = test::plane_scene(kAlbedo, 1.f, 1.f);
+    PunctualLight l;
+    l.kind = PunctualKind::Directional;
+    l.direction = glm::normalize(glm::vec3(-0.4f, -1.f, 0.2f));
+    l.intensity = glm::vec3(1.5f);
+    scene.punctual_lights.push_back(l);
+    scene.environment = test::map_with_sun(64, 32, 0.2f, 20, 8, 2e3f);
+    const double sky = test::upward_irradiance(scene.environment);
+    const double cos_t = -double(l.direction.y);
+    expect_exact_with_control(
+        GetParam(), "map with a sun and a directional light", scene,
+        [&](glm::dvec3) { return sky + 1.5 * cos_t; },
+        [](GpuScene& g) { test::scale_pick_pmf(g, 0u | LIGHT_PUNCTUAL_BIT, 1.1f); });
+}
+
+INSTANTIATE_TEST_SUITE_P(Api, SeveralLights, ::testing::ValuesIn(test::test_apis()),
+                         [](const auto& info) { return info.param; });
+
+}  // namespace
+}  // namespace mcpt
