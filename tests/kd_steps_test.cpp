@@ -6,6 +6,7 @@
 // is refused.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <cstdlib>
 
 #include "common/error.h"
@@ -21,7 +22,7 @@ class KdSteps : public ::testing::TestWithParam<std::string> {};
 // A mesh through its k-d tree, 16 samples; nullptr: the variable unset (the default).
 std::vector<float> render_mesh(const std::string& api, const char* nodes, const char* tris,
                                uint32_t seed = 3, const char* overlap = nullptr,
-                               const char* reads = "storage") {
+                               const char* reads = "storage", std::string* settings = nullptr) {
     const auto set = [](const char* name, const char* value) {
         if (value)
             setenv(name, value, 1);
@@ -44,6 +45,7 @@ std::vector<float> render_mesh(const std::string& api, const char* nodes, const 
     s.settings().reproducible = true;
     s.settings().seed = seed;
     s.render(1e6, 0, 16);
+    if (settings) *settings = s.backend().build_settings();
     set("MCPT_KD_NODE_STEPS", nullptr);
     set("MCPT_KD_TRI_STEPS", nullptr);
     set("MCPT_KD_OVERLAP", nullptr);
@@ -67,6 +69,21 @@ TEST_P(KdSteps, OverlappedStepsGiveTheSameImage) {
         EXPECT_EQ(render_mesh(GetParam(), nullptr, nullptr, 3, nullptr, reads), overlapped)
             << reads;
         EXPECT_EQ(render_mesh(GetParam(), "3", "5", 3, "1", reads), overlapped) << reads;
+    }
+}
+
+// The variables reach the compiler: the build options OpenCL compiled with, the
+// specialization constants Vulkan's pipeline was made with (without this, a backend that read
+// the variables and never passed them on passed every test above).
+TEST_P(KdSteps, StepsReachTheCompiler) {
+    std::string plain, stepped;
+    render_mesh(GetParam(), nullptr, nullptr, 3, nullptr, "storage", &plain);
+    render_mesh(GetParam(), "3", "5", 3, "0", "storage", &stepped);
+    std::printf("%s, default: %s\n%s, 3, 5, no overlap: %s\n", GetParam().c_str(),
+                plain.c_str(), GetParam().c_str(), stepped.c_str());
+    for (const char* want : {"KD_NODE_STEPS=3", "KD_TRI_STEPS=5", "KD_OVERLAP=0"}) {
+        EXPECT_NE(stepped.find(want), std::string::npos) << want << " not in: " << stepped;
+        EXPECT_EQ(plain.find(want), std::string::npos) << want << " in the default: " << plain;
     }
 }
 

@@ -755,6 +755,48 @@ TEST(KdTreeTraversal, DeviceTraversalMatchesBruteForce) {
     });
 }
 
+// Any hit (shadow rays) against brute force, with the tmax a shadow ray has: unbounded, just
+// short of the nearest hit (nothing may be found but what lies nearer), and past it. A hit
+// is reported exactly when brute force finds one below tmax, and it is a real one: below
+// tmax, and the triangle it names, tested alone, gives the same t. Plain and overlapped
+// steps; stops at the first fatal failure.
+TEST(KdTreeTraversal, AnyHitMatchesBruteForce) {
+    size_t hits = 0, misses = 0;
+    for_each_device_ray(14, [&](const std::string& what, const std::vector<gpu::GpuTriangle>& g,
+                                const KdTree& tree, const TestRay& r, const gpu::Ray& unbounded) {
+        const gpu::Hit nearest = brute_force_hit(g, unbounded);
+        std::vector<float> tmaxes = {unbounded.tmax};
+        if (nearest.prim != NO_HIT) tmaxes.insert(tmaxes.end(), {nearest.t * 0.999f, nearest.t * 1.5f});
+        for (float tmax : tmaxes) {
+            gpu::Ray ray = unbounded;
+            ray.tmax = tmax;
+            const gpu::Hit b = brute_force_hit(g, ray);
+            for (uint32_t flags : {0u, uint32_t(SCENE_KD_OVERLAP)}) {
+                const gpu::Hit h = cpu_trace_tree(tree, g, ray, true, flags);
+                const std::string at = what + ": " + describe_ray(r) + ", tmax " +
+                                       std::to_string(tmax) + (flags ? " (overlapped)" : "");
+                ASSERT_EQ(h.status, 0u) << at;
+                ASSERT_EQ(h.prim == NO_HIT, b.prim == NO_HIT)
+                    << at << ": any hit " << h.prim << " at " << h.t << ", brute force "
+                    << b.prim << " at " << b.t;
+                if (h.prim == NO_HIT) {
+                    ++misses;
+                    continue;
+                }
+                ++hits;
+                ASSERT_LT(h.prim, g.size()) << at;
+                ASSERT_LT(h.t, tmax) << at;
+                const gpu::TriHit alone = gpu::intersect_triangle(ray, gpu::woop_setup(ray.d), g[h.prim]);
+                ASSERT_TRUE(alone.hit) << at << ": triangle " << h.prim << " is not hit";
+                ASSERT_EQ(alone.t, h.t) << at << ": triangle " << h.prim;
+            }
+        }
+    });
+    std::printf("any hit: %zu hits and %zu misses as brute force\n", hits, misses);
+    EXPECT_GT(hits, 100u);
+    EXPECT_GT(misses, 100u);
+}
+
 // Overlapped steps (traverse.h: KD_OVERLAP, on in the device builds) give every hit of the
 // plain loop bit for bit, closest and any: the same leaves in the same order. They may visit
 // nodes the pending triangles would have culled: more visits, never fewer.
