@@ -4,6 +4,7 @@
 // and seed for seed; a worker that counts a chunk twice is caught by both tests.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 #include <thread>
 
@@ -24,6 +25,7 @@ class FakeWorker : public Worker {
     std::string name() const override { return name_; }
     void render(const Chunk& c) override {
         if (chunks_++ == fail_at_) throw DeviceLost("lost (planted)");
+        ranges_.push_back({c.first, c.end});
         std::this_thread::sleep_for(std::chrono::duration<double>(double(c.end - c.first) / rate_));
         spp_ += c.end - c.first;
     }
@@ -37,12 +39,33 @@ class FakeWorker : public Worker {
         spp_ = 0;
     }
 
+    // The sample ranges of its chunks, as handed out.
+    const std::vector<std::pair<uint64_t, uint64_t>>& ranges() const { return ranges_; }
+
   private:
+    std::vector<std::pair<uint64_t, uint64_t>> ranges_;
     std::string name_;
     double rate_;
     int fail_at_, chunks_ = 0;
     uint64_t spp_ = 0;
 };
+
+// Sorted ranges [first, end) that cover [begin, end) exactly once, each non-empty and on
+// multiples of `granule` (the last may end at `end`).
+::testing::AssertionResult tiles(const std::vector<std::pair<uint64_t, uint64_t>>& ranges,
+                                 uint64_t begin, uint64_t end, uint64_t granule) {
+    uint64_t at = begin;
+    for (const auto& [first, last] : ranges) {
+        if (first != at)
+            return ::testing::AssertionFailure()
+                   << "a chunk starts at " << first << ", the one before ended at " << at;
+        if (last <= first || first % granule != 0 || (last % granule != 0 && last != end))
+            return ::testing::AssertionFailure() << "chunk [" << first << ", " << last << ")";
+        at = last;
+    }
+    if (at != end) return ::testing::AssertionFailure() << "the chunks end at " << at;
+    return ::testing::AssertionSuccess();
+}
 
 // A job's limits: ending at sample `end` (0: none) after `seconds` (0: none), in chunks of
 // `chunk_seconds` starting at multiples of `granule`.
@@ -67,6 +90,20 @@ TEST(Coordinator, ChunksCoverTheJobOnceSharedBySpeed) {
     EXPECT_GT(fast_share, 0.6);
     EXPECT_LT(fast_share, 0.95);
     EXPECT_EQ(job.stats()[0].samples + job.stats()[1].samples, 2000u);
+    // The chunks' ranges tile [0, 2000) exactly (totals alone pass overlaps and gaps that add
+    // up), each on granule boundaries, and both devices took some.
+    std::vector<std::pair<uint64_t, uint64_t>> all = fast.ranges();
+    all.insert(all.end(), slow.ranges().begin(), slow.ranges().end());
+    std::sort(all.begin(), all.end());
+    EXPECT_TRUE(tiles(all, 0, 2000, 16));
+    EXPECT_FALSE(fast.ranges().empty());
+    EXPECT_FALSE(slow.ranges().empty());
+    // Controls: a gap and an overlap of one granule, the totals unchanged, are caught.
+    auto gap = all, overlap = all;
+    gap[1].first += 16, gap.back().second += 16;
+    overlap[1].first -= 16, overlap.back().second -= 16;
+    EXPECT_FALSE(tiles(gap, 0, 2000, 16));
+    EXPECT_FALSE(tiles(overlap, 0, 2000, 16));
 }
 
 TEST(Coordinator, AFailedDeviceEndsTheJobNamedKeepingAPrefix) {
@@ -150,9 +187,10 @@ TEST(SeveralDevices, ReproducibleIsOneDevicesImageBitForBit) {
         EXPECT_EQ(three.spp(), 96u);
         EXPECT_TRUE(bitwise_equal(one.result().sum, three.result().sum)) << api;
         EXPECT_TRUE(bitwise_equal(one.result().sum_sq, three.result().sum_sq)) << api;
-        uint64_t chunks = 0;
-        for (const WorkerStats& w : three.device_stats()) chunks += w.chunks;
-        EXPECT_GE(chunks, 3u) << "the job was not split";
+        // Each of the three took chunks (one device doing all would give the same image).
+        ASSERT_EQ(three.device_stats().size(), 3u);
+        for (const WorkerStats& w : three.device_stats())
+            EXPECT_GE(w.chunks, 1u) << api << ": " << w.name << " took no chunk";
         // Negative control: another seed on one device differs (the check can fail).
         Session other(api);
         setup(other, 8, true);

@@ -107,4 +107,34 @@ std::string read_file(const std::string& path) {
     return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
+::testing::AssertionResult same_bytes(const std::string& path, const std::string& expected) {
+    const std::string got = read_file(path);
+    if (expected.empty()) return ::testing::AssertionFailure() << "the reference file is empty";
+    if (got.empty()) return ::testing::AssertionFailure() << path << " is missing or empty";
+    if (got != expected)
+        return ::testing::AssertionFailure() << path << " differs (" << got.size() << " bytes, "
+                                             << expected.size() << " expected)";
+    return ::testing::AssertionSuccess();
+}
+
+::testing::AssertionResult every_device_took_chunks(const std::string& output, int devices) {
+    for (int d = 0; d < devices; ++d) {
+        const std::string key = "  device " + std::to_string(d) + ": ";
+        const size_t at = output.find(key);
+        if (at == std::string::npos)
+            return ::testing::AssertionFailure() << "no line for device " << d;
+        const size_t eol = output.find('\n', at);
+        const std::string line = output.substr(at, eol - at);
+        const size_t chunks = line.find(" chunks,");
+        const size_t colon = line.rfind(": ", chunks);
+        if (chunks == std::string::npos || colon == std::string::npos)
+            return ::testing::AssertionFailure() << "no chunk count in: " << line;
+        const long n = std::strtol(line.c_str() + colon + 2, nullptr, 10);
+        if (n < 1) return ::testing::AssertionFailure() << "took no chunk: " << line;
+    }
+    if (output.find("  device " + std::to_string(devices) + ": ") != std::string::npos)
+        return ::testing::AssertionFailure() << "more than " << devices << " devices";
+    return ::testing::AssertionSuccess();
+}
+
 }  // namespace mcpt::test

@@ -1,5 +1,7 @@
 // Helpers shared by the tests: the OpenCL device under test and simple statistics.
 #pragma once
+
+#include <gtest/gtest.h>
 #include <cmath>
 #include <cstdlib>
 #include <memory>
@@ -66,6 +68,12 @@ CliRun run_command(const std::string& command);
 std::string device_args(const std::string& api);
 // A file's bytes ("" if it cannot be read).
 std::string read_file(const std::string& path);
+// The file at `path` holds exactly `expected`, and neither is empty (two runs that wrote no
+// file would otherwise compare equal).
+::testing::AssertionResult same_bytes(const std::string& path, const std::string& expected);
+// Every device of a several-device run took a chunk: `render`'s lines "  device K: NAME: C
+// chunks" for K = 0 .. devices - 1, each with C >= 1 (byte equality holds when one did all).
+::testing::AssertionResult every_device_took_chunks(const std::string& output, int devices);
 
 // Mean radiance over all pixels, channels and samples, with its standard error (samples are
 // independent across pixels, so the pooled variance applies).
