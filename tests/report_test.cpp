@@ -10,6 +10,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include <stb_image.h>
+
 #include "common/io/html_report.h"
 #include "test_util.h"
 
@@ -74,6 +76,91 @@ int check_images(const std::string& html, int width, int height) {
         EXPECT_EQ(big_endian(&png[20]), uint32_t(height)) << "image " << n;
     }
     return n;
+}
+
+// The <img>s of `html` decoded (stb_image, not the project's writer): RGB, 8 bits.
+struct Decoded {
+    int width = 0, height = 0;
+    std::vector<unsigned char> rgb;
+    // Mean of channel c over the columns [x0, x1) of the middle half of the rows.
+    double mean(int c, int x0, int x1) const {
+        double sum = 0;
+        int n = 0;
+        for (int y = height / 4; y < 3 * height / 4; ++y)
+            for (int x = x0; x < x1; ++x) sum += rgb[3 * size_t(y * width + x) + size_t(c)], ++n;
+        return n ? sum / n : 0;
+    }
+    // Share of pixels whose colour passes `test(r, g, b)`.
+    template <class Test>
+    double share(Test test) const {
+        size_t n = 0;
+        for (size_t i = 0; i + 2 < rgb.size(); i += 3) n += test(rgb[i], rgb[i + 1], rgb[i + 2]);
+        return double(n) / double(rgb.size() / 3);
+    }
+};
+std::vector<Decoded> decode_images(const std::string& html) {
+    std::vector<Decoded> out;
+    const std::string prefix = "src=\"data:image/png;base64,";
+    for (size_t at = html.find(prefix); at != std::string::npos; at = html.find(prefix, at + 1)) {
+        const size_t begin = at + prefix.size(), end = html.find('"', begin);
+        std::vector<unsigned char> png;
+        if (!base64_decode(html.substr(begin, end - begin), png)) continue;
+        Decoded d;
+        int channels = 0;
+        unsigned char* px =
+            stbi_load_from_memory(png.data(), int(png.size()), &d.width, &d.height, &channels, 3);
+        if (!px) continue;
+        d.rgb.assign(px, px + size_t(d.width) * size_t(d.height) * 3);
+        stbi_image_free(px);
+        out.push_back(std::move(d));
+    }
+    return out;
+}
+
+// What compare's five images show: the Welch z map, A and B (the Cornell box: red wall left,
+// green right; B brighter by `b_brighter`), the same-seed relative map and its z. Unbiased:
+// z maps near white, relative map dark. B 20% brighter: z maps red (B brighter), relative map
+// bright. Swapped, blank or mis-ordered images fail.
+void expect_compare_images(const std::string& html, bool biased) {
+    const std::vector<Decoded> img = decode_images(html);
+    ASSERT_EQ(img.size(), 5u);
+    // The z maps: white at 0, red where B is brighter, blue where darker: their mean of R - B
+    // is about 0 where the sides agree, clearly positive where B is brighter.
+    for (int k : {0, 4}) {
+        const Decoded& d = img[k];
+        double red_minus_blue = 0;
+        for (size_t i = 0; i + 2 < d.rgb.size(); i += 3)
+            red_minus_blue += double(d.rgb[i]) - double(d.rgb[i + 2]);
+        red_minus_blue /= double(d.rgb.size() / 3);
+        std::printf("image %d (z map): mean R - B %.1f\n", k, red_minus_blue);
+        if (biased)
+            EXPECT_GT(red_minus_blue, 10) << "image " << k << ": B 20% brighter, the z map not red";
+        else
+            EXPECT_LT(std::abs(red_minus_blue), 8) << "image " << k << ": agreeing sides, a z map not white";
+    }
+    for (int k : {1, 2}) {
+        const Decoded& d = img[k];
+        const int w = d.width;
+        // Red wall on the left (R over G), green on the right (G over R), not blank.
+        EXPECT_GT(d.mean(0, w / 32, 6 * w / 32), d.mean(1, w / 32, 6 * w / 32) + 40)
+            << "image " << k << ": left wall";
+        EXPECT_GT(d.mean(1, 26 * w / 32, 31 * w / 32), d.mean(0, 26 * w / 32, 31 * w / 32) + 15)
+            << "image " << k << ": right wall";
+    }
+    // B brighter than A where biased; about as bright otherwise (sRGB of 1.2x: ~1.08x).
+    const double a = img[1].mean(0, 0, img[1].width) + img[1].mean(1, 0, img[1].width);
+    const double b = img[2].mean(0, 0, img[2].width) + img[2].mean(1, 0, img[2].width);
+    std::printf("A %.1f, B %.1f (sRGB, R + G)\n", a, b);
+    if (biased)
+        EXPECT_GT(b, 1.04 * a);
+    else
+        EXPECT_NEAR(b / a, 1.0, 0.01);
+    const double dark = img[3].share([](int r, int g, int b) { return std::max({r, g, b}) < 100; });
+    std::printf("image 3 (relative): %.0f%% dark\n", 100 * dark);
+    if (biased)
+        EXPECT_LT(dark, 0.2) << "image 3: a 20% difference is not bright in the relative map";
+    else
+        EXPECT_GT(dark, 0.8) << "image 3: same-seed agreement is not dark in the relative map";
 }
 
 // Nothing that a browser would fetch, and no script.
@@ -163,6 +250,7 @@ TEST(ReportCompare, UnbiasedPairAgrees) {
           "speed ratio B/A", "Statistical agreement", "Same seed", "pixels diverged"})
         EXPECT_NE(r.html.find(s), std::string::npos) << s;
     EXPECT_EQ(check_images(r.html, 32, 32), 5);
+    expect_compare_images(r.html, false);
     expect_self_contained(r.html);
 }
 
@@ -173,29 +261,52 @@ TEST(ReportCompare, BiasedBDiffersAndStillWritesTheReport) {
     EXPECT_NE(overall(r.html).find("DIFFER"), std::string::npos) << overall(r.html);
     EXPECT_NE(r.html.find("class=\"verdict fail\""), std::string::npos);
     EXPECT_EQ(check_images(r.html, 32, 32), 5);
+    expect_compare_images(r.html, true);
     expect_self_contained(r.html);
 }
 
-TEST(ReportConverge, FurnacePlotTablesAndImages) {
-    const fs::path dir = temp("converge");
+// converge's report of `max_depth` bounces on the furnace (exact: infinitely many), stopped at
+// 512 spp whatever the machine's speed.
+std::string converge_report(const std::string& name, int max_depth) {
+    const fs::path dir = temp(name);
     fs::remove_all(dir);
     fs::create_directories(dir);
-    const test::CliRun r =
-        test::run_mcpt("converge furnace --width 32 --height 32 --time 1 --backend opencl:" +
-                       test::test_opencl_device() + " -o " + (dir / "c").string() + " --report " +
-                       (dir / "report").string());
-    ASSERT_EQ(r.status, 0) << r.output;
+    const test::CliRun r = test::run_mcpt(
+        "converge furnace --width 32 --height 32 --time 60 --spp 512 --max-depth " +
+        std::to_string(max_depth) + " --backend opencl:" + test::test_opencl_device() + " -o " +
+        (dir / "c").string() + " --report " + (dir / "report").string());
+    EXPECT_EQ(r.status, 0) << r.output;
     // The files it always wrote are still there.
     EXPECT_TRUE(fs::exists(dir / "c.csv"));
     EXPECT_TRUE(fs::exists(dir / "c.svg"));
-    const std::string html = test::read_file((dir / "report" / "index.html").string());
+    return test::read_file((dir / "report" / "index.html").string());
+}
+
+TEST(ReportConverge, FurnacePlotTablesAndImages) {
+    const std::string html = converge_report("converge", 64);
     EXPECT_NE(overall(html).find("CONSISTENT"), std::string::npos) << overall(html);
     for (const char* s : {"<svg", "ideal slope -1/2", "Fits and bias", "consistent: slope vs spp",
                           "Time to a relative RMSE", "<td>10%</td>", "<td>5%</td>",
                           "<th>rel rmse</th>", "exact: Le/(1-rho) = 2"})
         EXPECT_NE(html.find(s), std::string::npos) << s;
     EXPECT_EQ(check_images(html, 32, 32), 2);  // the final image and its error map
+    // The final image: the furnace's uniform radiance 2 (sRGB at the report's exposure: one
+    // grey, not blank); the error map dark (the error below 10% nearly everywhere).
+    const std::vector<Decoded> img = decode_images(html);
+    ASSERT_EQ(img.size(), 2u);
+    const double grey = img[0].mean(0, 0, 32);
+    EXPECT_GT(grey, 60);
+    EXPECT_NEAR(img[0].mean(1, 0, 32), grey, 3);
+    EXPECT_GT(img[1].share([](int r, int g, int b) { return std::max({r, g, b}) < 160; }), 0.9);
     expect_self_contained(html);
+}
+
+// Control: 2 bounces where the exact radiance needs them all (a bias of -1/8 relative) is
+// reported BIASED, in the title and the verdict.
+TEST(ReportConverge, TruncatedPathsAreReportedBiased) {
+    const std::string html = converge_report("converge_biased", 2);
+    EXPECT_NE(overall(html).find("BIASED"), std::string::npos) << overall(html);
+    EXPECT_NE(html.find("<title>mcpt converge furnace: BIASED</title>"), std::string::npos);
 }
 
 TEST(ReportCli, UnwritableFolderFailsBeforeRendering) {
