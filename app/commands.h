@@ -42,6 +42,7 @@ Scene load_scene_argument(const std::string& arg);
 struct LightingArgs {
     std::string env;
     float env_rotate = 0.f, env_scale = 1.f;
+    std::string env_sampling = "compensated";
     std::vector<float> background;
 };
 void add_lighting_options(CLI::App* sub, LightingArgs& a);

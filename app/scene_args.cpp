@@ -21,6 +21,11 @@ void add_lighting_options(CLI::App* sub, LightingArgs& a) {
         ->check(CLI::Range(-1e6, 1e6));
     sub->add_option("--env-scale", a.env_scale, "Scale the environment's radiance")
         ->check(CLI::Range(0.0, 1e30));
+    sub->add_option("--env-sampling", a.env_sampling,
+                    "Next-event estimation of the environment: compensated (texels by their "
+                    "luminance above the map's mean; BSDF sampling takes the rest) or luminance")
+        ->check(CLI::IsMember({"compensated", "luminance"}))
+        ->capture_default_str();
     sub->add_option("--background", a.background,
                     "Constant background radiance R,G,B lighting the scene (default: black)")
         ->delimiter(',')
@@ -39,6 +44,7 @@ Environment lighting_environment(const LightingArgs& a) {
     }
     env.rotate_deg = a.env_rotate;
     env.scale = a.env_scale;
+    env.compensated = a.env_sampling == "compensated";
     return env;
 }
 

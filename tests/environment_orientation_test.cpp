@@ -7,7 +7,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <random>
 
 #include "common/accel/kdtree.h"
 #include "common/gpu/lights.h"
@@ -42,47 +41,42 @@ std::vector<unsigned char> radiance_file(int w, int h, Rgb rgb) {
     return out;
 }
 
-// Blender's texel of glTF direction d under a Mapping node rotation of `deg` about Z:
-// (column, row), row 0 the file's first (top).
-std::pair<double, double> blender_uv(glm::dvec3 d, double deg, int w, int h) {
-    glm::dvec3 b(d.x, -d.z, d.y);  // Blender's axes
-    const double a = deg * kPi / 180;
-    b = glm::dvec3(std::cos(a) * b.x - std::sin(a) * b.y, std::sin(a) * b.x + std::cos(a) * b.y,
-                   b.z);  // the Mapping node turns the lookup direction
-    const double u = 0.5 - std::atan2(b.y, b.x) / (2 * kPi);
-    const double v_up = 1 - std::acos(std::clamp(b.z, -1.0, 1.0)) / kPi;  // Blender's v: 1 = up
-    return {(u - std::floor(u)) * w, (1 - v_up) * h};
+// The glTF direction Blender shows the centre of texel (x, y) of a w x h map in, under a
+// Mapping node rotation of `deg` about Z (Cycles: u = 1/2 - atan2(y, x) / 2 pi, v = 1 -
+// acos(z) / pi with v = 1 up, of the lookup direction R(deg) d; row 0 the file's first, top).
+glm::dvec3 blender_direction(int x, int y, int w, int h, double deg) {
+    const double u = (x + 0.5) / w, v_up = 1 - (y + 0.5) / h;
+    const double phi = 2 * kPi * (0.5 - u), theta = kPi * (1 - v_up);
+    const glm::dvec3 lookup(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi),
+                            std::cos(theta));
+    const double a = -deg * kPi / 180;  // R(deg) d = lookup: d = R(-deg) lookup
+    const glm::dvec3 b(std::cos(a) * lookup.x - std::sin(a) * lookup.y,
+                       std::sin(a) * lookup.x + std::cos(a) * lookup.y, lookup.z);
+    return {b.x, b.z, -b.y};  // Blender's (x, y, z) is glTF's (X, -Z, Y)
 }
 
+// Every texel of the file, looked up in the direction Blender shows its centre in, at four
+// rotations.
 TEST(EnvironmentOrientation, TexelsWhereBlenderPutsThem) {
-    constexpr int kW = 7, kH = 4;  // odd width: no column centred on an axis
+    constexpr int kW = 7, kH = 4;
     const std::vector<unsigned char> file =
         radiance_file(kW, kH, [](int x, int y) { return glm::vec3(x + 1, y + 1, 1); });
     Scene scene = test::plane_scene(0.5f, 1.f, 1.f);
     scene.environment = load_environment_memory(file.data(), file.size(), "hand-written.hdr");
-    std::mt19937 rng(11);
-    std::normal_distribution<double> normal;
     for (double deg : {0.0, 90.0, -30.0, 200.0}) {
         scene.environment.rotate_deg = float(deg);
         const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, TreeOptions{}));
-        int checked = 0;
-        for (int k = 0; k < 400; ++k) {
-            const glm::dvec3 d =
-                glm::normalize(glm::dvec3(normal(rng), normal(rng), normal(rng)));
-            const auto [col, row] = blender_uv(d, deg, kW, kH);
-            // Not within rounding of a texel edge.
-            if (std::abs(col - std::round(col)) < 1e-3 || std::abs(row - std::round(row)) < 1e-3)
-                continue;
-            const glm::vec4 t = gpu::env_lookup(&g.params, nullptr, nullptr, nullptr, nullptr,
-                                                nullptr, nullptr, nullptr, nullptr,
-                                                g.texels.data(), glm::vec3(d));
-            ++checked;
-            ASSERT_EQ(t.x, float(int(col) % kW + 1))
-                << "column at rotation " << deg << ", direction " << d.x << " " << d.y << " " << d.z;
-            ASSERT_EQ(t.y, float(std::min(int(row), kH - 1) + 1))
-                << "row at rotation " << deg << ", direction " << d.x << " " << d.y << " " << d.z;
-        }
-        EXPECT_GT(checked, 350);
+        for (int y = 0; y < kH; ++y)
+            for (int x = 0; x < kW; ++x) {
+                const glm::dvec3 d = blender_direction(x, y, kW, kH, deg);
+                const glm::vec4 t = gpu::env_lookup(&g.params, nullptr, nullptr, nullptr, nullptr,
+                                                    nullptr, nullptr, nullptr, nullptr,
+                                                    g.texels.data(), glm::vec3(d));
+                ASSERT_NEAR(t.x, float(x + 1), 1e-3f * (x + 1))
+                    << "column of texel " << x << ", " << y << " at rotation " << deg;
+                ASSERT_NEAR(t.y, float(y + 1), 1e-3f * (y + 1))
+                    << "row of texel " << x << ", " << y << " at rotation " << deg;
+            }
     }
 }
 
@@ -130,6 +124,67 @@ TEST_P(EnvironmentOrientationRender, BrightSideWhereBlenderPutsIt) {
             }
         }
     }
+}
+
+// The map seen directly (camera rays): bilinear between texel centres, exact per pixel against
+// the test's own bilinear formula over each pixel's directions; per texel (nearest) rejected.
+TEST_P(EnvironmentOrientationRender, MapSeenDirectlyIsBilinear) {
+    constexpr int kW = 8, kH = 4, kSize = 24;
+    const std::vector<unsigned char> file = radiance_file(kW, kH, [](int x, int y) {
+        return glm::vec3(float(1 + ((x * 5 + y * 3) % 7)), 1, 1);
+    });
+    Scene scene;
+    Material m;
+    scene.add_material(m);
+    scene.spheres.push_back({glm::vec3(0, -100, 0), 0.01f, 0});  // out of view: not a light
+    scene.camera.position = glm::vec3(0.f);
+    scene.camera.forward = glm::normalize(glm::vec3(1, 0.3f, 0.5f));
+    const glm::vec3 right = glm::normalize(glm::cross(scene.camera.forward, glm::vec3(0, 1, 0)));
+    scene.camera.up = glm::cross(right, scene.camera.forward);
+    scene.camera.yfov = 1.2f;
+    scene.has_camera = true;
+    scene.environment = load_environment_memory(file.data(), file.size(), "hand-written.hdr");
+    test::CaseRender how;
+    how.spp = 64;
+    const RenderResult r = test::render_case(GetParam(), scene, kSize, how);
+    // Expected per pixel: the pixel's directions (16 x 16), each to (u, v) by Blender's
+    // mapping (the orientation test above), bilinear by the test's own formula.
+    const Camera& c = scene.camera;
+    const glm::dvec3 w = glm::normalize(glm::dvec3(c.forward));
+    const glm::dvec3 u_axis = glm::normalize(glm::cross(w, glm::dvec3(c.up)));
+    const glm::dvec3 v_axis = glm::cross(u_axis, w);
+    const double t = std::tan(0.5 * double(c.yfov));
+    const auto expected = [&](bool nearest) {
+        std::vector<double> out(kSize * kSize);
+        for (int py = 0; py < kSize; ++py)
+            for (int px = 0; px < kSize; ++px) {
+                double sum = 0;
+                for (int j = 0; j < 16; ++j)
+                    for (int i = 0; i < 16; ++i) {
+                        const double fx = (px + (i + 0.5) / 16) / kSize * 2 - 1;
+                        const double fy = 1 - (py + (j + 0.5) / 16) / kSize * 2;
+                        const glm::dvec3 d = glm::normalize(w + u_axis * (t * fx) + v_axis * (t * fy));
+                        const glm::dvec3 b(d.x, -d.z, d.y);  // Blender's axes
+                        double u = 0.5 - std::atan2(b.y, b.x) / (2 * kPi);
+                        u -= std::floor(u);
+                        const double v = std::acos(std::clamp(b.z, -1.0, 1.0)) / kPi;
+                        if (nearest) {
+                            const int x = std::min(kW - 1, int(u * kW)), y = std::min(kH - 1, int(v * kH));
+                            sum += 1 + ((x * 5 + y * 3) % 7);
+                        } else {
+                            sum += test::bilinear_radiance(scene.environment, u, v);
+                        }
+                    }
+                out[size_t(py * kSize + px)] = sum / 256;
+            }
+        return out;
+    };
+    const int off = test::pixels_off(r, expected(false));
+    const int off_nearest = test::pixels_off(r, expected(true));
+    std::printf("%s: the map seen: %d of %d pixels off bilinear, %d off nearest\n",
+                GetParam().c_str(), off, kSize * kSize, off_nearest);
+    EXPECT_EQ(off, 0);
+    EXPECT_GT(off_nearest, kSize * kSize / 4) << "the control (per texel) passed";
 }
 
 INSTANTIATE_TEST_SUITE_P(Api, EnvironmentOrientationRender,

@@ -56,8 +56,11 @@ std::vector<double> expected_image(const Scene& scene, int size,
     return out;
 }
 
-RenderResult render_case(const std::string& api, const Scene& scene, int size,
+RenderResult render_case(const std::string& api, const Scene& scene_in, int size,
                          const CaseRender& how) {
+    Scene scene = scene_in;
+    // Next-event estimation alone, or weighted 1/2 everywhere, must reach the whole map.
+    if (how.env_strategy == 1 || how.env_strategy == 4) scene.environment.compensated = false;
     GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, TreeOptions{}));
     if (how.plant) how.plant(g);
     BackendOptions bo;
@@ -123,7 +126,21 @@ Environment map_with_sun(int w, int h, float sky, int x, int y, float sun) {
     return env;
 }
 
+double bilinear_radiance(const Environment& env, double u, double v) {
+    const int w = env.width, h = env.height;
+    const double fx = u * w - 0.5, fy = v * h - 0.5;
+    const int x0 = int(std::floor(fx)), y0 = int(std::floor(fy));
+    const double tx = fx - x0, ty = fy - y0;
+    const auto at = [&](int x, int y) {
+        x = ((x % w) + w) % w, y = std::clamp(y, 0, h - 1);
+        return double(env.rgb[(size_t(y) * size_t(w) + size_t(x)) * 3]);
+    };
+    return (at(x0, y0) * (1 - tx) + at(x0 + 1, y0) * tx) * (1 - ty) +
+           (at(x0, y0 + 1) * (1 - tx) + at(x0 + 1, y0 + 1) * tx) * ty;
+}
+
 double upward_irradiance(const Environment& env) {
+    // Per texel (nearest): how surfaces are lit by the map (lights.h).
     constexpr int kSub = 16;
     double e = 0;
     for (int y = 0; y < env.height * kSub; ++y) {

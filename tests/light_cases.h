@@ -57,7 +57,12 @@ RenderResult with_pixel_scaled(RenderResult r, size_t i, double factor);
 // A map of w x h texels of radiance `sky`, with `sun` at texel (x, y).
 Environment map_with_sun(int w, int h, float sky, int x, int y, float sun);
 
-// Irradiance of the upward plane under a map: the integral of L cos over the upper half.
+// The map's radiance (channel 0) at (u, v), bilinear between texel centres as the device reads
+// it (u wraps, v clamps): written here, not taken from the device code.
+double bilinear_radiance(const Environment& env, double u, double v);
+
+// Irradiance of the upward plane under a map: the integral of L cos over the upper half, L
+// per texel (nearest), as surfaces are lit.
 double upward_irradiance(const Environment& env);
 
 // The packed light of `prim` (LIGHT_* bits, gpu_scene.h): its pick probability, as the

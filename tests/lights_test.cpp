@@ -337,28 +337,45 @@ TEST(EnvironmentSampling, ChiSquareAgainstPdf) {
         ASSERT_TRUE(s.valid) << "sample " << k;
         observed[cell(s.wi)] += 1;
     }
-    // Expected: the pdf integrated over each cell (16 x 16 points, equal-area in cos theta).
-    const auto expected_counts = [&](bool with_sin) {
+    // Expected, exactly: the device's pdf is constant per texel in (u, v) (its w), so a cell's
+    // probability is the sum over texels of w times the (u, v) area they share. A cell is an
+    // interval of phi (a u interval, shifted by the rotation, wrapping) and of cos theta (a v
+    // interval). The control's pdf lacks 1 / sin(theta): w sin(pi v) integrated instead.
+    const uint32_t W = p->env_width, H = p->env_height;
+    const double shift = double(p->env_u_shift);
+    const auto u_overlap = [&](double lo, double hi, uint32_t x) {  // [lo, hi) mod 1
+        const double len = hi - lo;
+        lo -= std::floor(lo), hi = lo + len;
+        const double a = double(x) / W, b = double(x + 1) / W;
+        double total = std::max(0.0, std::min(std::min(hi, 1.0), b) - std::max(lo, a));
+        if (hi > 1) total += std::max(0.0, std::min(hi - 1, b) - a);
+        return total;
+    };
+    const auto expected_counts = [&](bool control) {
         std::vector<double> expected(kPhi * kCos, 0.0);
-        constexpr int kSub = 16;
-        const double d_omega = (2 * kPi / (kPhi * kSub)) * (2.0 / (kCos * kSub));
-        for (int j = 0; j < kCos * kSub; ++j)
-            for (int i = 0; i < kPhi * kSub; ++i) {
-                const double cos_t = -1 + 2 * (j + 0.5) / (kCos * kSub);
-                const double phi = 2 * kPi * (i + 0.5) / (kPhi * kSub) - kPi;
-                const double sin_t = std::sqrt(1 - cos_t * cos_t);
-                const glm::vec3 d(float(sin_t * std::cos(phi)), float(cos_t),
-                                  float(sin_t * std::sin(phi)));
-                const glm::vec4 t = gpu::env_lookup(ENV_ARGS d);
-                const double pdf = with_sin ? gpu::env_solid_angle_pdf(t, d)
-                                            : t.w / (2 * kPi * kPi);  // the control's
-                expected[cell(d)] += pdf * d_omega * kSamples;
+        for (int j = 0; j < kCos; ++j) {
+            // v = acos(cos theta) / pi, decreasing in cos theta.
+            const double v_lo = std::acos(std::min(1.0, -1 + 2.0 * (j + 1) / kCos)) / kPi;
+            const double v_hi = std::acos(std::max(-1.0, -1 + 2.0 * j / kCos)) / kPi;
+            for (int i = 0; i < kPhi; ++i) {
+                double prob = 0;
+                for (uint32_t y = 0; y < H; ++y) {
+                    const double a = std::max(v_lo, double(y) / H), b = std::min(v_hi, double(y + 1) / H);
+                    if (b <= a) continue;
+                    const double v_part = control ? (std::cos(kPi * a) - std::cos(kPi * b)) / kPi : b - a;
+                    for (uint32_t x = 0; x < W; ++x) {
+                        const double u_part = u_overlap(double(i) / kPhi - shift, double(i + 1) / kPhi - shift, x);
+                        if (u_part > 0) prob += double(gpu::env_texel(ENV_ARGS x, y).w) * u_part * v_part;
+                    }
+                }
+                expected[size_t(j * kPhi + i)] = prob * kSamples;
             }
+        }
         return expected;
     };
 #undef ENV_ARGS
-    const double p_value = stats::chi_square_test(observed, expected_counts(true));
-    const double p_control = stats::chi_square_test(observed, expected_counts(false));
+    const double p_value = stats::chi_square_test(observed, expected_counts(false));
+    const double p_control = stats::chi_square_test(observed, expected_counts(true));
     std::printf("chi-square, environment sampling: p = %.3f; control (no sin theta): p = %.3g\n",
                 p_value, p_control);
     EXPECT_GT(p_value, 1e-3);

@@ -287,16 +287,20 @@ MCPT_FN PathState bounce_path(SCENE_PARAMS_ PathState st, uint pixel) {
     if (hit.prim == NO_HIT) {
         // The environment, MIS-weighted unless NEE could not have sampled the direction.
         if (HAS_FEATURE(FEATURE_ENVIRONMENT) && PARAM(env_width) > 0u) {
-            vec4 t = env_lookup(SCENE_ARGS_ ray.d);
+            vec3 le;
             float w = 1.0f;
-            if (!st.specular) {
+            if (st.specular) {
+                le = env_seen(SCENE_ARGS_ ray.d);  // nothing else samples it: bilinear
+            } else {
+                vec4 t = env_lookup(SCENE_ARGS_ ray.d);
+                le = V3(t.x, t.y, t.z);
                 float env_pdf = PARAM(env_pmf) * env_solid_angle_pdf(t, ray.d);
                 w = power_heuristic(st.prev_pdf, env_pdf);
                 if (MCPT_ENV_STRATEGY == 1u) w = env_pdf > 0.0f ? 0.0f : 1.0f;
                 if (MCPT_ENV_STRATEGY == 2u || MCPT_ENV_STRATEGY == 3u) w = 1.0f;
                 if (MCPT_ENV_STRATEGY == 4u) w = env_pdf > 0.0f ? 0.5f : 1.0f;
             }
-            st.radiance += st.beta * V3(t.x, t.y, t.z) * (w * light_scale);
+            st.radiance += st.beta * le * (w * light_scale);
         }
         st.status = PATH_ENDED;
         return st;

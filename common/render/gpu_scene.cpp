@@ -46,21 +46,43 @@ double punctual_power(const PunctualLight& l, double disk) {
     return l.kind == PunctualKind::Directional ? disk * mean : 4 * M_PI * mean;
 }
 
-// The environment's sampling weight of each texel (luminance * sin(theta) * scale), and its
-// power per unit area of the disk: the integral of mean radiance over the sphere.
+// The environment's sampling weight of each texel, and its power per unit area of the disk:
+// the integral of mean radiance over the sphere. A texel's weight: its luminance (where NEE
+// competes, radiance is read per texel: lights.h), compensated minus the map's mean
+// (solid-angle weighted) and clamped at 0 (a uniform map keeps the plain weights: nothing
+// would be left); times sin(theta).
 double environment_weights(const Environment& env, std::vector<double>& weights) {
     const size_t w = size_t(env.width), h = size_t(env.height);
     weights.assign(w * h, 0.0);
-    double integral = 0;
+    const auto lum = [&](size_t x, size_t y) {
+        const float* c = &env.rgb[3 * (y * w + x)];
+        return env_luminance(c[0], c[1], c[2]);
+    };
+    double integral = 0, lum_integral = 0, solid_angle = 0;
     for (size_t y = 0; y < h; ++y) {
         const double sin_theta = std::sin(M_PI * (double(y) + 0.5) / double(h));
         const double texel_sr = (2 * M_PI / double(w)) * (M_PI / double(h)) * sin_theta;
         for (size_t x = 0; x < w; ++x) {
             const float* c = &env.rgb[3 * (y * w + x)];
-            weights[y * w + x] = env_luminance(c[0], c[1], c[2]) * sin_theta;
             integral += (double(c[0]) + double(c[1]) + double(c[2])) / 3 * texel_sr;
+            lum_integral += lum(x, y) * texel_sr, solid_angle += texel_sr;
+            weights[y * w + x] = lum(x, y);
         }
     }
+    std::vector<double> compensated(w * h, 0.0);
+    const double mean = lum_integral / solid_angle;
+    bool any = false;
+    for (size_t y = 0; y < h; ++y) {
+        const double sin_theta = std::sin(M_PI * (double(y) + 0.5) / double(h));
+        for (size_t x = 0; x < w; ++x) {
+            double& wt = weights[y * w + x];
+            // (Rounding of a uniform map's mean must not leave a few texels to sample.)
+            compensated[y * w + x] = wt > mean * (1 + 1e-4) ? (wt - mean) * sin_theta : 0.0;
+            any |= compensated[y * w + x] > 0;
+            wt *= sin_theta;
+        }
+    }
+    if (env.compensated && any) weights.swap(compensated);
     return integral * double(env.scale);
 }
 

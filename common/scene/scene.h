@@ -73,13 +73,17 @@ struct PunctualLight {
 // Light from every direction no surface covers: an equirectangular map of linear radiance
 // (Blender's orientation seen through glTF's axes: row 0 at +Y, u = 0.5 at +X, u growing
 // towards +Z), or a constant background (a map of one colour). Turned by rotate_deg about +Y and
-// scaled by `scale`.
+// scaled by `scale`. Radiance between texel centres is bilinear.
 struct Environment {
     std::string name;            // the file, or "background"
     int width = 0, height = 0;   // 0: none
     std::vector<float> rgb;      // width * height texels, row 0 first
     float rotate_deg = 0.f;
     float scale = 1.f;
+    // Next-event estimation samples texels by max(luminance - mean, 0) x sin(theta), leaving
+    // what is below the map's mean to BSDF sampling (MIS compensation, Karlik et al. 2019);
+    // false: by luminance x sin(theta) (A/B measurements, and tests of NEE alone).
+    bool compensated = true;
     bool present() const { return width > 0 && height > 0; }
 };
 
