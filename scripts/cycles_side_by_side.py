@@ -43,6 +43,9 @@ def parse_args():
                    "64x32-segment spheres) to this path, for mcpt's mesh benchmarks")
     p.add_argument("--scene", default="cornell", choices=["cornell", "lamps", "hdri"])
     p.add_argument("--env", help="--scene hdri: the equirectangular map (.exr or .hdr)")
+    p.add_argument("--variant", action="append", default=[],
+                   help="another mcpt row: NAME=OPTIONS, e.g. 'luminance=--env-sampling "
+                   "luminance' (A/B of an option against Cycles and the default, one run)")
     return p.parse_args(argv)
 
 
@@ -314,10 +317,10 @@ def render_cycles(sc, spp, seed, path):
     return time.perf_counter() - start
 
 
-def render_mcpt(args, backend, sampler, spp, seed, path):
+def render_mcpt(args, backend, sampler, spp, seed, path, options=()):
     cmd = [args.mcpt, "render", args.mcpt_scene, "--backend", backend, "--spp", str(spp), "--seed",
            str(seed), "--sampler", sampler, "--width", str(args.size), "--height", str(args.size),
-           "-q", "-o", path] + args.mcpt_extra
+           "-q", "-o", path] + args.mcpt_extra + list(options)
     out = subprocess.run(cmd, capture_output=True, text=True)
     if out.returncode != 0:
         sys.exit("mcpt failed: " + " ".join(cmd) + "\n" + out.stdout + out.stderr)
@@ -459,16 +462,21 @@ def main():
     # Error against time.
     runs = []
     rows = ["renderer,spp,seconds,rel_rmse"]
-    names = [("cycles", None, None)] + [("mcpt " + b + (" " + s if len(samplers) > 1 else ""), b, s)
-                                        for b in backends for s in samplers]
-    for name, backend, sampler in names:
+    names = [("cycles", None, None, [])] + [
+        ("mcpt " + b + (" " + s if len(samplers) > 1 else ""), b, s, []) for b in backends
+        for s in samplers]
+    for v in args.variant:
+        label, _, options = v.partition("=")
+        names.append(("mcpt " + backends[0] + " " + label, backends[0], samplers[0],
+                      options.split()))
+    for name, backend, sampler, options in names:
         curve = []
         for spp in spps:
             path = exr("%s-%d" % (name.replace(" ", "-"), spp))
             if backend is None:
                 t = render_cycles(sc, spp, 1, path)
             else:
-                t = render_mcpt(args, backend, sampler, spp, 1, path)
+                t = render_mcpt(args, backend, sampler, spp, 1, path, options)
             err = refs["cycles" if backend is None else "mcpt"].rel_rmse(read_exr(path, args.size))
             curve.append((t, err))
             print("  %-22s %5d spp %8.3f s  rel RMSE %6.2f%%" % (name, spp, t, 100 * err), flush=True)

@@ -114,7 +114,9 @@ uint64_t scene_hash(const Scene& s) {
     }
     if (s.environment.present()) {
         const Environment& e = s.environment;
-        const float head[] = {float(e.width), float(e.height), e.rotate_deg, e.scale};
+        // The sampling too: each sample's value depends on it (not the image it converges to).
+        const float head[] = {float(e.width), float(e.height), e.rotate_deg, e.scale,
+                              e.compensated ? 1.f : 0.f};
         h = fnv1a(head, sizeof head, h);
         h = fnv1a(e.rgb.data(), e.rgb.size() * sizeof(float), h);
     }

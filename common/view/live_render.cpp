@@ -276,11 +276,14 @@ void LiveRender::run(size_t s) {
             }
             const double step_ms = 1e3 * std::max(kStepSeconds, session.step_seconds());
             const auto step_start = std::chrono::steady_clock::now();
+            const double rendered_before = session.spp() > 0 ? session.result().seconds : 0.0;
             const PassStats st = session.render(step_ms, 0, cap);
             if (s == 1 && b_slowdown_ > 1) {
-                const auto took = std::chrono::steady_clock::now() - step_start;
+                // N times the render time (not the kernel build a first step includes).
+                const double took = std::max(0.0, session.result().seconds - rendered_before);
                 std::unique_lock<std::mutex> lock(mutex_);
-                wake_.wait_for(lock, took * (b_slowdown_ - 1), [&] { return stopping_.load(); });
+                wake_.wait_for(lock, std::chrono::duration<double>(took * (b_slowdown_ - 1)),
+                               [&] { return stopping_.load(); });
             }
             const double step_wall = std::chrono::duration<double>(
                                          std::chrono::steady_clock::now() - step_start)

@@ -3,9 +3,10 @@
 whatever the path), survives clients that hang up mid-frame, and refuses bad addresses; it
 answers no one without the run's token, no foreign Host (DNS rebinding), no other page's
 Origin (CSRF); it bounds request heads, bodies and connections before cpp-httplib parses
-them; a second viewer on a port in use fails; a scene name that is not UTF-8 does not break
-the state; an A/B whose B is fifty times slower shows its maps within seconds, again and
-again, and lights them when B's lamps are 5 % brighter; the state's rates are current.
+them; paused, a frame decoded here (RGBE) and the hover readout match the EXR it saves; a
+second viewer on a port in use fails; a scene name that is not UTF-8 does not break the
+state; an A/B whose B is fifty times slower shows its maps within seconds, again and again,
+and lights them when B's lamps are 5 % brighter; the state's rates are current.
 Usage: view_http_test.py MCPT_BINARY"""
 import http.client
 import json
@@ -225,16 +226,17 @@ def state_side(port):
 
 def paused_still(port):
     """Pauses; then waits until the side publishes no new snapshot for 1.5 s (the step under
-    way when it paused may still end in one): the state's side then."""
+    way when it paused may still end in one): whether the state says paused, and its side."""
     request(port, "/api/pause", "POST", body=b"")
     get(port, "/api/frame?side=0")  # asks for a snapshot, as the page does
     last, still, deadline = None, 0, time.time() + 60
     while still < 5 and time.time() < deadline:
-        side = state_side(port)
+        state = json.loads(get(port, "/api/state")[1])
+        side = state["sides"][0]
         still = still + 1 if (side["serial"], side["spp"]) == last else 0
         last = (side["serial"], side["spp"])
         time.sleep(0.3)
-    return side
+    return state["paused"], side
 
 
 W, H = 80, 60
@@ -244,14 +246,14 @@ try:
     deadline = time.time() + 60
     while time.time() < deadline and state_side(port)["spp"] < 16:
         time.sleep(0.2)
-    side = paused_still(port)
+    paused, side = paused_still(port)
     status, body = get(port, "/api/frame?side=0")
     head, data = binary_body(body)
     status_exr, exr, hdrs = request(port, "/api/save?side=0&format=exr")
     name = hdrs.get("Content-Disposition", "")
     ew, eh, ch = read_exr(exr)
     after = state_side(port)
-    check(status == 200 and status_exr == 200 and head["width"] == W and head["height"] == H
+    check(paused and status == 200 and status_exr == 200 and head["width"] == W and head["height"] == H
           and (ew, eh) == (W, H) and len(data) == 5 * W * H and head["serial"] == side["serial"]
           == after["serial"] and head["spp"] == side["spp"] and "%dspp.exr" % head["spp"] in name,
           "paused: the frame (%dx%d, %d spp, serial %d) and the EXR (%dx%d, %s) are of one "
