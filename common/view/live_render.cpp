@@ -34,8 +34,12 @@ std::shared_ptr<RenderResult> copy_sums(const RenderResult& r) {
 }  // namespace
 
 uint64_t next_milestone(uint64_t spp) {
-    const uint64_t grown = (spp + spp / 4 + 3) / 4 * 4;
-    return std::max(spp / 4 * 4 + 4, grown);
+    // One sequence for both sides, whatever count a side's step ended at: a step that ran out
+    // of time before its milestone must aim at the same one again (grown from where it stood,
+    // a side slower than a step per milestone left the sequence and met the other no more).
+    uint64_t m = 4;
+    while (m <= spp) m = std::max(m + 4, (m + m / 4 + 3) / 4 * 4);
+    return m;
 }
 
 LiveRender::LiveRender(std::vector<std::unique_ptr<Session>> sessions, uint64_t max_spp)

@@ -51,7 +51,8 @@ struct LiveMaps {
 };
 
 // The sample counts at which A and B meet (both stop there, so their same-seed images can be
-// compared): 4, 8, 12, ... then growing by a quarter, on multiples of 4.
+// compared): 4, 8, 12, ... then growing by a quarter, on multiples of 4. The first of that one
+// sequence above `spp`.
 uint64_t next_milestone(uint64_t spp);
 
 class LiveRender {
