@@ -13,6 +13,11 @@
 # and a sun, exported by Blender's own glTF exporter (KHR_lights_punctual, 683 lm/W) for mcpt;
 # --scene hdri --env FILE: the same geometry lit by an equirectangular map (Cycles' world
 # Environment Texture, mcpt's --env). Both also print mean radiance per region (4 x 4).
+# --scene FILE.glb: any scene as Blender exports it (its camera, lamps and materials), with
+# --env for a map. Like for like unless --as-is: lamps punctual (Blender's importer gives them
+# a 0.25 m radius and the sun 0.5 degrees), non-metals Lambertian in both (Specular 0 in the
+# file mcpt renders, a Diffuse BSDF in Cycles: Principled v1 is 6-16% brighter than glTF's
+# BRDF). --variant NAME=OPTIONS adds an mcpt row with other options (an A/B in one run).
 # Relative RMSE is mcpt converge's: sqrt(mean over pixels and channels of (image - ref)^2,
 # less the reference noise) / mean reference radiance.
 import argparse
@@ -41,7 +46,12 @@ def parse_args():
     p.add_argument("--targets", default="0.10,0.05,0.02")
     p.add_argument("--export-glb", help="only write the box as a .glb (Principled materials, "
                    "64x32-segment spheres) to this path, for mcpt's mesh benchmarks")
-    p.add_argument("--scene", default="cornell", choices=["cornell", "lamps", "hdri"])
+    p.add_argument("--scene", default="cornell",
+                   help="cornell, lamps, hdri, or a .glb/.gltf file (as Blender exports it: its "
+                   "camera, lamps and materials; --env for a map)")
+    p.add_argument("--as-is", action="store_true",
+                   help="a file scene as imported, not like for like (Blender's Principled v1 "
+                   "on non-metals, the importer's 0.25 m lamp radius and 0.5 degree sun)")
     p.add_argument("--env", help="--scene hdri: the equirectangular map (.exr or .hdr)")
     p.add_argument("--variant", action="append", default=[],
                    help="another mcpt row: NAME=OPTIONS, e.g. 'luminance=--env-sampling "
@@ -172,6 +182,8 @@ def add_sphere(name, centre, radius, mat, segments=256, rings=128):
 
 
 def build_scene(args, for_gltf=False):
+    if is_file_scene(args):
+        return cycles_settings(args, build_file_scene(args, for_gltf))
     if args.scene != "cornell":
         return cycles_settings(args, build_lights_scene(args, for_gltf))
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -204,6 +216,88 @@ def build_scene(args, for_gltf=False):
     world.color = (0, 0, 0)
     sc.world = world
     return cycles_settings(args, sc)
+
+
+def is_file_scene(args):
+    return args.scene not in ("cornell", "lamps", "hdri")
+
+
+def add_world(sc, env):
+    """The map as Cycles' world (an Environment Texture; linear, as mcpt shows it to camera
+    rays), or black."""
+    if env:
+        world = bpy.data.worlds.new("env")
+        world.use_nodes = True
+        nt = world.node_tree
+        tex = nt.nodes.new("ShaderNodeTexEnvironment")
+        tex.image = bpy.data.images.load(os.path.abspath(env))
+        tex.interpolation = "Linear"
+        nt.links.new(tex.outputs["Color"], nt.nodes["Background"].inputs["Color"])
+    else:
+        world = bpy.data.worlds.new("black")
+        world.use_nodes = False
+        world.color = (0, 0, 0)
+    sc.world = world
+
+
+def non_metal_principled(mat):
+    """The Principled BSDF node of a material whose metallic is 0 (no texture on it, no
+    transmission), or None."""
+    if not mat or not mat.use_nodes:
+        return None
+    for n in mat.node_tree.nodes:
+        if n.type == "BSDF_PRINCIPLED":
+            metal, trans = n.inputs["Metallic"], n.inputs["Transmission"]
+            if (not metal.is_linked and metal.default_value == 0.0 and not trans.is_linked
+                    and trans.default_value == 0.0):
+                return n
+    return None
+
+
+def build_file_scene(args, for_gltf):
+    """A .glb/.gltf as Blender imports it. Like for like (unless --as-is): lamps punctual
+    (radius 0, sun angle 0) for both; non-metals with Specular 0 in the file mcpt renders
+    (Lambertian in mcpt) and a Diffuse BSDF of the same base colour in Cycles."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    sc = bpy.context.scene
+    # Debian's Blender 3.4 importer uses np.bool, gone from Debian's numpy 1.24.
+    if not hasattr(np, "bool"):
+        np.bool = bool
+    bpy.ops.import_scene.gltf(filepath=os.path.abspath(args.scene))
+    cams = [o for o in sc.objects if o.type == "CAMERA"]
+    if not cams:
+        sys.exit("%s has no camera" % args.scene)
+    sc.camera = cams[0]
+    if not args.as_is:
+        for o in sc.objects:
+            if o.type == "LIGHT":
+                if o.data.type == "SUN":
+                    o.data.angle = 0.0
+                else:
+                    o.data.shadow_soft_size = 0.0
+        for mat in bpy.data.materials:
+            n = non_metal_principled(mat)
+            if n is None:
+                continue
+            if for_gltf:
+                n.inputs["Specular"].default_value = 0.0
+                continue
+            nt = mat.node_tree
+            d = nt.nodes.new("ShaderNodeBsdfDiffuse")
+            colour = n.inputs["Base Color"]
+            if colour.is_linked:
+                nt.links.new(colour.links[0].from_socket, d.inputs["Color"])
+            else:
+                d.inputs["Color"].default_value = colour.default_value
+            out = [m for m in nt.nodes if m.type == "OUTPUT_MATERIAL"][0]
+            emission = n.inputs["Emission Strength"].default_value
+            if emission > 0 and (n.inputs["Emission"].is_linked or
+                                 max(n.inputs["Emission"].default_value[:3]) > 0):
+                # An emitter keeps its Principled node: Cycles' emission is the same.
+                continue
+            nt.links.new(d.outputs["BSDF"], out.inputs["Surface"])
+    add_world(sc, args.env)
+    return sc
 
 
 def cycles_settings(args, sc):
@@ -277,18 +371,9 @@ def build_lights_scene(args, for_gltf):
         spot.spot_size = 1.0  # full cone angle, radians
         spot.spot_blend = 0.0  # a hard edge, as glTF's inner = outer
         lamp("sun", "SUN", 1.5, (0, 0, 5), rotation=(math.radians(30), 0, math.radians(20)))
-        world = bpy.data.worlds.new("black")
-        world.use_nodes = False
-        world.color = (0, 0, 0)
+        add_world(sc, None)
     else:
-        world = bpy.data.worlds.new("env")
-        world.use_nodes = True
-        nt = world.node_tree
-        tex = nt.nodes.new("ShaderNodeTexEnvironment")
-        tex.image = bpy.data.images.load(os.path.abspath(args.env))
-        tex.interpolation = "Closest"  # mcpt reads texels, nearest
-        nt.links.new(tex.outputs["Color"], nt.nodes["Background"].inputs["Color"])
-    sc.world = world
+        add_world(sc, args.env)
     cam_data = bpy.data.cameras.new("camera")
     cam_data.sensor_fit = "VERTICAL"
     cam_data.angle_y = 0.8
@@ -397,8 +482,10 @@ SCENE_TITLE = ["Cornell box"]
 
 def main():
     args = parse_args()
-    SCENE_TITLE[0] = {"cornell": "Cornell box", "lamps": "lamps (point, spot, sun)",
-                      "hdri": "HDRI " + os.path.basename(args.env or "")}[args.scene]
+    SCENE_TITLE[0] = ({"cornell": "Cornell box", "lamps": "lamps (point, spot, sun)",
+                       "hdri": "HDRI " + os.path.basename(args.env or "")}.get(args.scene) or
+                      os.path.basename(args.scene) + (" under " + os.path.basename(args.env)
+                                                      if args.env else ""))
     backends = args.backend or ["opencl", "vulkan"]
     samplers = args.sampler or ["sobol"]
     targets = [float(t) for t in args.targets.split(",")]
@@ -415,10 +502,11 @@ def main():
             sys.exit("--scene hdri needs --env FILE")
         # mcpt renders what Blender's own glTF exporter writes.
         build_scene(args, for_gltf=True)
-        args.mcpt_scene = os.path.abspath(os.path.join(args.out, args.scene + ".glb"))
+        stem = os.path.splitext(os.path.basename(args.scene))[0]
+        args.mcpt_scene = os.path.abspath(os.path.join(args.out, stem + "-mcpt.glb"))
         bpy.ops.export_scene.gltf(filepath=args.mcpt_scene, export_format="GLB",
                                   export_cameras=True, export_lights=True, export_apply=True)
-        if args.scene == "hdri":
+        if args.env:
             args.mcpt_extra = ["--env", os.path.abspath(args.env)]
     sc = build_scene(args)
     print("Cycles: %s, %d threads, pattern %s, box filter 1 px, max bounces %d"
