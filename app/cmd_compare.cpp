@@ -146,6 +146,7 @@ void run_compare(const CompareArgs& args) {
     if (!args.report.empty()) prepare_report_dir(args.report);  // before any rendering
     Scene scene = load_scene_argument(args.scene);
     scene.environment = lighting_environment(args.lighting);
+    scene.light_tree = args.lighting.light_sampling == "tree";
     check_lit(scene);
     RenderOptions ro;
     ro.width = args.width, ro.height = args.height;

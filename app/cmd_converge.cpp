@@ -258,6 +258,7 @@ void run_converge(const ConvergeArgs& a) {
     // Scene, tree, render settings.
     Scene scene = load_scene_argument(a.scene);
     scene.environment = lighting_environment(a.lighting);
+    scene.light_tree = a.lighting.light_sampling == "tree";
     check_lit(scene);
     const TreeOptions tree_opts = tree_options(a.tree);
     const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, tree_opts));

@@ -51,7 +51,8 @@ void run_view(const ViewArgs& args) {
         specs = {device_list(args.a), device_list(args.b)};
     else
         specs = {device_specs(args.backend, args.devices)};
-    const Scene scene = load_scene_argument(args.scene);
+    Scene scene = load_scene_argument(args.scene);
+    scene.light_tree = args.lighting.light_sampling == "tree";
     const Environment env = lighting_environment(args.lighting);
     std::vector<std::unique_ptr<Session>> sessions;
     ViewInfo info;

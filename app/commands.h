@@ -43,6 +43,7 @@ struct LightingArgs {
     std::string env;
     float env_rotate = 0.f, env_scale = 1.f;
     std::string env_sampling = "compensated";
+    std::string light_sampling = "power";  // power | tree
     std::vector<float> background;
 };
 void add_lighting_options(CLI::App* sub, LightingArgs& a);

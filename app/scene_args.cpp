@@ -26,6 +26,11 @@ void add_lighting_options(CLI::App* sub, LightingArgs& a) {
                     "luminance above the map's mean; BSDF sampling takes the rest) or luminance")
         ->check(CLI::IsMember({"compensated", "luminance"}))
         ->capture_default_str();
+    sub->add_option("--light-sampling", a.light_sampling,
+                    "How next-event estimation picks a light: power (every light by its power) "
+                    "or tree (local lights by their importance at the shading point)")
+        ->check(CLI::IsMember({"power", "tree"}))
+        ->capture_default_str();
     sub->add_option("--background", a.background,
                     "Constant background radiance R,G,B lighting the scene (default: black)")
         ->delimiter(',')

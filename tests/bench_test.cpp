@@ -75,7 +75,8 @@ TEST(BenchCli, SpecializeTableHasEveryScene) {
                  " --backend opencl:" + test::test_opencl_device() + " -o " + prefix);
     ASSERT_EQ(r.status, 0) << r.output;
     const std::string kMaterialBits =
-        "microfacet, shading normals, textures, alpha mask, punctual lights, environment";
+        "microfacet, shading normals, textures, alpha mask, punctual lights, environment, "
+        "light tree";
     const std::string expected[][2] = {
         {"walls only (diffuse mesh)", "spheres, mirror, glass, sphere lights, " + kMaterialBits},
         {"cornell", "sphere lights, " + kMaterialBits},

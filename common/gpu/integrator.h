@@ -6,6 +6,7 @@
 #define MCPT_GPU_INTEGRATOR_H
 
 #include "bsdf.h"
+#include "light_tree.h"
 #include "lights.h"
 #include "sampler.h"
 #include "traverse.h"
@@ -112,37 +113,81 @@ MCPT_FN SurfacePoint surface_at(SCENE_PARAMS_ Ray ray, Hit hit) {
     return s;
 }
 
-// Probability per unit area of a point on an emitter: power-proportional light choice
-// (area * mean(Le) / total) times uniform area sampling.
-MCPT_FN float emitter_area_pdf(SCENE_PARAMS_ GpuMaterial m) {
+// The scene picks local lights by the light tree (else every light by power).
+#define LIGHT_TREE_ON (HAS_FEATURE(FEATURE_LIGHT_TREE) && PARAM(num_tree_lights) > 0u)
+
+MCPT_FN float triangle_area(GpuTriangle tri) {
+    return 0.5f * length(cross(tri_v1(tri) - tri_v0(tri), tri_v2(tri) - tri_v0(tri)));
+}
+
+// Probability per unit area that next-event estimation at x picks a point of emitter
+// `light_prim` (a triangle index, or a sphere index | LIGHT_SPHERE_BIT) of material m:
+// by power, mean(Le) / total (area * mean(Le) / total for the pick, uniform area sampling),
+// or by the tree, its pick's probability over the area.
+MCPT_FN float emitter_area_pdf(SCENE_PARAMS_ uint light_prim, vec3 x, GpuMaterial m, float area) {
+    if (LIGHT_TREE_ON)
+        return PARAM(light_tree_pmf) *
+               light_tree_pmf(SCENE_ARGS_ x, light_tree_trail(SCENE_ARGS_ light_prim)) / area;
     return mean_component(material_emission(m)) / PARAM(light_power_total);
 }
 
-// Solid-angle pdf that next-event estimation samples a sphere light from x (cone sampling).
-MCPT_FN float sphere_light_pdf(SCENE_PARAMS_ GpuSphere sph, vec3 x) {
+// Solid-angle pdf that next-event estimation samples a sphere light from x (cone sampling),
+// the sphere picked with probability pmf.
+MCPT_FN float sphere_cone_pdf(GpuSphere sph, vec3 x, float pmf) {
     vec3 to_c = V3(sph.cx, sph.cy, sph.cz) - x;
     float r2 = sph.radius * sph.radius;
     float d2 = dot(to_c, to_c);
     if (d2 <= r2) return 0.0f;  // inside: never sampled from here
-    float pmf = 4.0f * MCPT_PI * r2 * emitter_area_pdf(SCENE_ARGS_ MATERIAL(sph.material));
     return pmf / (2.0f * MCPT_PI * one_minus_cos_cone(r2 / d2));
+}
+
+MCPT_FN float sphere_light_pdf(SCENE_PARAMS_ uint index, vec3 x) {
+    GpuSphere sph = SPHERE(index);
+    float pmf = LIGHT_TREE_ON
+                    ? PARAM(light_tree_pmf) *
+                          light_tree_pmf(SCENE_ARGS_ x,
+                                         light_tree_trail(SCENE_ARGS_ index | LIGHT_SPHERE_BIT))
+                    : 4.0f * MCPT_PI * sph.radius * sph.radius *
+                          emitter_area_pdf(SCENE_ARGS_ index | LIGHT_SPHERE_BIT, x,
+                                           MATERIAL(sph.material), 1.0f);
+    return sphere_cone_pdf(sph, x, pmf);
 }
 
 // Choose a light by power (alias table), then a point on it, a direction of it, seen from x.
 // u: 3 uniforms.
 MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
     LightSample ls = no_light_sample();
-    // Alias table lookup.
+    // A local light by the tree, or (without one, or else) one from the alias table: of every
+    // light, or with a tree of the lights at infinity.
     uint count = PARAM(num_lights);
-    float scaled = u.x * F32(count);
-    uint slot = min(U32(scaled), count - 1u);
-    GpuLight light = LIGHT(slot);
-    if ((scaled - F32(slot)) >= light.prob) light = LIGHT(light.alias);
+    float pick = u.x;
+    bool by_tree = false;
+    float tree_pmf = 0.0f;
+    GpuLight light;
+    if (LIGHT_TREE_ON) {
+        float pt = PARAM(light_tree_pmf);
+        count -= PARAM(num_tree_lights);
+        if (pick < pt || count == 0u) {
+            TreePick tp = light_tree_pick(SCENE_ARGS_ x, MINF(pick / pt, 0.99999994f));
+            light = LIGHT(tp.slot);
+            tree_pmf = pt * tp.pmf;
+            by_tree = true;
+        } else {
+            pick = MINF((pick - pt) / (1.0f - pt), 0.99999994f);
+        }
+    }
+    if (!by_tree) {
+        float scaled = pick * F32(count);
+        uint slot = min(U32(scaled), count - 1u);
+        light = LIGHT(slot);
+        if ((scaled - F32(slot)) >= light.prob) light = LIGHT(light.alias);
+    }
+    float pmf = by_tree ? tree_pmf : light.pmf;
     uint prim = light.prim;
     if (HAS_FEATURE(FEATURE_PUNCTUAL_LIGHTS) && (prim & LIGHT_PUNCTUAL_BIT) != 0u) {
-        ls = sample_punctual(SCENE_ARGS_ prim & LIGHT_INDEX_MASK, x, light.pmf);
+        ls = sample_punctual(SCENE_ARGS_ prim & LIGHT_INDEX_MASK, x, pmf);
     } else if (HAS_FEATURE(FEATURE_ENVIRONMENT) && prim == LIGHT_ENVIRONMENT) {
-        ls = sample_environment(SCENE_ARGS_ u.y, u.z, light.pmf);
+        ls = sample_environment(SCENE_ARGS_ u.y, u.z, pmf);
     } else if (HAS_FEATURE(FEATURE_SPHERE_LIGHTS) && (prim & LIGHT_SPHERE_BIT) != 0u) {
         // Sphere: uniform direction in the cone it subtends.
         GpuSphere sph = SPHERE(prim & ~LIGHT_SPHERE_BIT);
@@ -164,7 +209,8 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
         ls.p_error = VABS(ls.n * sph.radius) * gamma_bound(5.0f) + VABS(ls.p) * gamma_bound(2.0f);
         GpuMaterial m = MATERIAL(sph.material);
         ls.le = material_emission(m);
-        ls.pdf = sphere_light_pdf(SCENE_ARGS_ sph, x);
+        ls.pdf = by_tree ? sphere_cone_pdf(sph, x, pmf)
+                         : sphere_light_pdf(SCENE_ARGS_ prim & ~LIGHT_SPHERE_BIT, x);
         ls.valid = ls.pdf > 0.0f;
     } else if (HAS_FEATURE(FEATURE_TRIANGLE_LIGHTS) && (prim & ~LIGHT_INDEX_MASK) == 0u) {
         // Triangle: uniform point, one-sided emission.
@@ -193,7 +239,9 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
             vec4 t = sample_texture(SCENE_ARGS_ m.tex_emission, uv);
             ls.le = ls.le * V3(t.x, t.y, t.z);
         }
-        ls.pdf = emitter_area_pdf(SCENE_ARGS_ m) * dist2 / cos_l;
+        float area_pdf =
+            by_tree ? pmf / triangle_area(tri) : emitter_area_pdf(SCENE_ARGS_ prim, x, m, 1.0f);
+        ls.pdf = area_pdf * dist2 / cos_l;
         ls.valid = true;
     }
     return ls;
@@ -203,11 +251,13 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
 // `hit` from x, for the MIS weight of a BSDF-sampled ray.
 MCPT_FN float emitter_hit_pdf(SCENE_PARAMS_ vec3 x, Ray ray, Hit hit, SurfacePoint s) {
     if (HAS_FEATURE(FEATURE_SPHERE_LIGHTS) && (hit.prim & SPHERE_BIT) != 0u) {
-        return sphere_light_pdf(SCENE_ARGS_ SPHERE(hit.prim & ~SPHERE_BIT), x);
+        return sphere_light_pdf(SCENE_ARGS_ hit.prim & ~SPHERE_BIT, x);
     }
     float cos_l = -dot(s.ng, ray.d);
     vec3 to_l = s.p - x;
-    return emitter_area_pdf(SCENE_ARGS_ MATERIAL(s.material)) * dot(to_l, to_l) / cos_l;
+    float area = LIGHT_TREE_ON ? triangle_area(TRIANGLE(hit.prim)) : 1.0f;
+    return emitter_area_pdf(SCENE_ARGS_ hit.prim, x, MATERIAL(s.material), area) *
+           dot(to_l, to_l) / cos_l;
 }
 
 MCPT_FN PathResult path_result(vec3 radiance, uint rays) {

@@ -43,11 +43,12 @@ MCPT_NAMESPACE_BEGIN
 #define FEATURE_ALPHA_MASK 2048u    // alphaMode MASK: cut-out surfaces rays pass through
 #define FEATURE_PUNCTUAL_LIGHTS 4096u  // point, spot and directional lights (KHR_lights_punctual)
 #define FEATURE_ENVIRONMENT 8192u   // an environment map or constant background (lights.h)
-#define FEATURE_ALL 16383u          // every feature a scene can use: the full kernel
+#define FEATURE_LIGHT_TREE 65536u   // next-event estimation picks local lights by a tree
+#define FEATURE_ALL (16383u | FEATURE_LIGHT_TREE)  // every feature a scene can use: the full kernel
 #define FEATURE_TEST_NAN 16384u     // tests only: poison samples of pixels 0 and 1 (never in ALL)
 #define FEATURE_INDEPENDENT_SAMPLER 32768u  // independent uniforms, not Sobol (A/B, never in ALL)
-#define FEATURE_BITS 65535u         // every bit above
-#define FEATURE_COUNT 16
+#define FEATURE_BITS 131071u        // every bit above
+#define FEATURE_COUNT 17
 
 // The smallest GGX alpha a MAT_PBR material keeps (roughness 0.01): below it the lobe's peak
 // exceeds float range in NEE; roughness 0 metals are MAT_MIRROR.
@@ -170,6 +171,15 @@ MCPT_STRUCT(GpuLight) {
     float pmf;
 };
 
+// A node of the light tree (light_tree.h): the bounds of its lights, their power, and its
+// first child (the second follows it), or LIGHT_TREE_LEAF | the light's slot in the light table.
+MCPT_STRUCT(GpuLightTreeNode) {
+    float min_x, min_y, min_z, power;
+    float max_x, max_y, max_z;
+    uint child;
+};
+#define LIGHT_TREE_LEAF 0x80000000u
+
 // Per-dispatch parameters (OpenCL __constant buffer, Vulkan uniform buffer).
 MCPT_STRUCT(GpuParams) {
     uint width, height;
@@ -219,7 +229,14 @@ MCPT_STRUCT(GpuParams) {
     // they start): FOLD_ADD or FOLD_STORE makes a dispatch add (store) each pixel's float sums,
     // one whole group, to (as) its exact sums and trace nothing; overflow sets the pending word.
     uint fold_sums, exact_vec4;
-    uint pad_params0;  // std140: a multiple of 16 bytes
+    // The light tree (FEATURE_LIGHT_TREE, light_tree.h), words after texels_word: its nodes
+    // (GpuLightTreeNode each, root first) and the (prim, trail) pairs of its lights sorted by
+    // prim; the probability that next-event estimation takes the tree (else the alias table
+    // of lights at infinity); the least squared distance its importance divides by.
+    uint light_tree_word, light_trails_word;
+    float light_tree_pmf, light_tree_eps2;
+    uint num_tree_lights;
+    uint pad_params0, pad_params1, pad_params2, pad_params3;  // std140: a multiple of 16 bytes
 };
 // GpuParams.scene_flags: the triangle buffer holds GpuTriangleAttributes after the triangles;
 // some material has an alpha mask (the traversal reads materials only then).
@@ -257,7 +274,8 @@ static_assert(sizeof(mcpt::gpu::GpuTriangle) % 8 == 0, "GLSL reads triangles as 
 static_assert(sizeof(mcpt::gpu::GpuSphere) == 32, "GpuSphere must be 32 bytes");
 static_assert(sizeof(mcpt::gpu::GpuMaterial) == 64, "GpuMaterial must be 64 bytes");
 static_assert(sizeof(mcpt::gpu::GpuLight) == 16, "GpuLight must be 16 bytes");
-static_assert(sizeof(mcpt::gpu::GpuParams) == 56 * 4, "GpuParams must be 56 words");
+static_assert(sizeof(mcpt::gpu::GpuParams) == 64 * 4, "GpuParams must be 64 words");
+static_assert(sizeof(mcpt::gpu::GpuLightTreeNode) == 32, "GpuLightTreeNode must be 32 bytes");
 static_assert(sizeof(mcpt::gpu::GpuPunctualLight) == 64, "GpuPunctualLight must be 64 bytes");
 static_assert(sizeof(mcpt::gpu::GpuTriangleAttributes) == 40, "GpuTriangleAttributes: 40 bytes");
 static_assert(sizeof(mcpt::gpu::GpuTexture) == 16, "GpuTexture must be 16 bytes");

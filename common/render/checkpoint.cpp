@@ -120,6 +120,9 @@ uint64_t scene_hash(const Scene& s) {
         h = fnv1a(head, sizeof head, h);
         h = fnv1a(e.rgb.data(), e.rgb.size() * sizeof(float), h);
     }
+    // How lights are picked: each sample's value depends on it.
+    const uint8_t tree = s.light_tree ? 1 : 0;
+    h = fnv1a(&tree, 1, h);
     h = fnv1a(&s.camera, sizeof s.camera, h);
     h = fnv1a(&s.has_camera, sizeof s.has_camera, h);
     return fnv1a(&s.max_depth_hint, sizeof s.max_depth_hint, h);

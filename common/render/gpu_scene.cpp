@@ -7,6 +7,7 @@
 #include <numeric>
 
 #include "common/error.h"
+#include "common/render/light_tree.h"
 #include "common/render/scene_features.h"
 #include "common/scene/environment.h"
 
@@ -161,6 +162,94 @@ void pack_punctual_and_environment(const Scene& scene, const std::vector<double>
 
 }  // namespace
 
+namespace {
+
+// The light tree over the local lights (emitters, point and spot lamps), when there is one:
+// the light table is rebuilt with the lights at infinity first (their alias table, pmf scaled
+// by the probability of taking them) and the local lights after them (slots the tree's leaves
+// name); the nodes and the (prim, trail) pairs sorted by prim follow the texels.
+void pack_light_tree(const Scene& scene, const std::vector<double>& weights,
+                     const std::vector<uint32_t>& prims, GpuScene& g) {
+    const auto at_infinity = [&](uint32_t prim) {
+        if (prim == LIGHT_ENVIRONMENT) return true;
+        if ((prim & LIGHT_PUNCTUAL_BIT) == 0) return false;
+        return scene.punctual_lights.at(prim & LIGHT_INDEX_MASK).kind == PunctualKind::Directional;
+    };
+    std::vector<double> far_w;
+    std::vector<uint32_t> far_p, near_p;
+    std::vector<double> near_w;
+    for (size_t i = 0; i < prims.size(); ++i) {
+        if (at_infinity(prims[i]))
+            far_w.push_back(weights[i]), far_p.push_back(prims[i]);
+        else
+            near_w.push_back(weights[i]), near_p.push_back(prims[i]);
+    }
+    if (near_p.empty()) return;  // nothing local: the alias table as it is
+    const double far_total = std::accumulate(far_w.begin(), far_w.end(), 0.0);
+    const double near_total = std::accumulate(near_w.begin(), near_w.end(), 0.0);
+    const double p_tree = near_total / (near_total + far_total);
+    std::vector<gpu::GpuLight> table;
+    build_alias_table(far_w, table);
+    for (size_t i = 0; i < table.size(); ++i)
+        table[i].prim = far_p[i], table[i].pmf = float(double(table[i].pmf) * (1 - p_tree));
+    // Local lights: their bounds and power.
+    std::vector<TreeLight> lights;
+    for (size_t i = 0; i < near_p.size(); ++i) {
+        const uint32_t prim = near_p[i];
+        TreeLight l;
+        if ((prim & LIGHT_PUNCTUAL_BIT) != 0) {
+            l.lo = l.hi = scene.punctual_lights.at(prim & LIGHT_INDEX_MASK).position;
+        } else if ((prim & LIGHT_SPHERE_BIT) != 0) {
+            const Sphere& s = scene.spheres.at(prim & ~LIGHT_SPHERE_BIT);
+            l.lo = s.center - glm::vec3(s.radius), l.hi = s.center + glm::vec3(s.radius);
+        } else {
+            const Triangle& t = scene.triangles.at(prim);
+            l.lo = glm::min(t.v0, glm::min(t.v1, t.v2)), l.hi = glm::max(t.v0, glm::max(t.v1, t.v2));
+        }
+        l.power = near_w[i];
+        l.slot = uint32_t(table.size() + i);
+        lights.push_back(l);
+    }
+    const LightTree tree = build_light_tree(lights);
+    for (size_t i = 0; i < near_p.size(); ++i) {
+        gpu::GpuLight e{};
+        e.prim = near_p[i];
+        e.pmf = 0.f;  // depends on the shading point
+        e.prob = 1.f, e.alias = uint32_t(table.size() + i);
+        table.push_back(e);
+    }
+    g.lights = table;
+    gpu::GpuParams& p = g.params;
+    p.num_lights = uint32_t(g.lights.size());
+    p.num_tree_lights = uint32_t(near_p.size());
+    p.light_tree_pmf = float(p_tree);
+    // The least squared distance: (1e-6 of the scene's size)^2, never 0.
+    const Bounds b = scene.bounds();
+    const double size = b.empty() ? 1.0 : glm::length(glm::dvec3(b.max) - glm::dvec3(b.min));
+    p.light_tree_eps2 = float(std::max(1e-30, size * size * 1e-12));
+    const auto word = [](float f) {
+        uint32_t u;
+        std::memcpy(&u, &f, 4);
+        return u;
+    };
+    while ((p.texels_word + g.texels.size()) % 4 != 0) g.texels.push_back(0);
+    p.light_tree_word = uint32_t(g.texels.size());
+    for (const gpu::GpuLightTreeNode& n : tree.nodes) {
+        for (float f : {n.min_x, n.min_y, n.min_z, n.power, n.max_x, n.max_y, n.max_z})
+            g.texels.push_back(word(f));
+        g.texels.push_back(n.child);
+    }
+    std::vector<std::pair<uint32_t, uint32_t>> trails;
+    for (size_t i = 0; i < near_p.size(); ++i) trails.push_back({near_p[i], tree.trails[i]});
+    std::sort(trails.begin(), trails.end());
+    p.light_trails_word = uint32_t(g.texels.size());
+    for (const auto& [prim, trail] : trails) g.texels.push_back(prim), g.texels.push_back(trail);
+    for (const gpu::GpuLight& l : g.lights)
+        if (l.prim == LIGHT_ENVIRONMENT) p.env_pmf = l.pmf;
+}
+
+}  // namespace
+
 size_t GpuScene::device_bytes() const {
     return nodes.size() * sizeof(gpu::KdNode) + leaf_indices.size() * 4 +
            triangles.size() * sizeof(gpu::GpuTriangle) + spheres.size() * sizeof(gpu::GpuSphere) +
@@ -308,6 +397,7 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
                     4u * p.num_textures;
     p.light_power_total = float(total);
     pack_punctual_and_environment(scene, env_weights, g);
+    if (scene.light_tree) pack_light_tree(scene, weights, prims, g);
     p.scene_min_x = tree.bounds.min.x, p.scene_min_y = tree.bounds.min.y;
     p.scene_min_z = tree.bounds.min.z;
     p.scene_max_x = tree.bounds.max.x, p.scene_max_y = tree.bounds.max.y;

@@ -14,7 +14,8 @@ namespace {
 const char* const kFeatureNames[FEATURE_COUNT] = {
     "triangles",     "spheres",  "diffuse",           "mirror", "glass", "triangle lights",
     "sphere lights", "k-d tree", "microfacet", "shading normals", "textures", "alpha mask",
-    "punctual lights", "environment", "test NaN injection", "independent sampler"};
+    "punctual lights", "environment", "test NaN injection", "independent sampler",
+    "light tree"};
 
 // The features of a material: its kind, then its textures and alpha mask.
 uint32_t material_features(const gpu::GpuMaterial& m) {
@@ -56,6 +57,7 @@ uint32_t scene_features(const GpuScene& g) {
              : l.prim == LIGHT_ENVIRONMENT ? FEATURE_ENVIRONMENT
              : (l.prim & LIGHT_SPHERE_BIT) ? FEATURE_SPHERE_LIGHTS
                                            : FEATURE_TRIANGLE_LIGHTS;
+    if (g.params.num_tree_lights > 0) f |= FEATURE_LIGHT_TREE;
     // The environment is seen by rays that escape, even when it is black.
     if (g.params.env_width > 0) f |= FEATURE_ENVIRONMENT;
     // The tree, when it has more than one leaf.

@@ -1,0 +1,103 @@
+// Picking a local light (emissive triangle or sphere, point or spot lamp) by where the shading
+// point is: a descent of the light tree (common/render/light_tree.h), each child taken with
+// probability proportional to its importance, power / max(d^2, r^2), d the distance from x to
+// the centre of its bounds and r their half diagonal (never 0: at least light_tree_eps2). The
+// pick's probability is the product of the branches taken; for MIS on a BSDF-sampled hit the
+// same walk follows the light's trail. Nodes and trails live after the texels.
+#ifndef MCPT_GPU_LIGHT_TREE_H
+#define MCPT_GPU_LIGHT_TREE_H
+
+#include "lang.h"
+#include "ray_types.h"
+#include "scene_access.h"
+
+MCPT_NAMESPACE_BEGIN
+
+// Importance of node i's lights at x.
+MCPT_FN float light_node_importance(SCENE_PARAMS_ uint i, vec3 x) {
+    vec4 a = SCENE_VEC4(PARAM(light_tree_word) + 8u * i);
+    vec4 b = SCENE_VEC4(PARAM(light_tree_word) + 8u * i + 4u);
+    vec3 lo = V3(a.x, a.y, a.z), hi = V3(b.x, b.y, b.z);
+    vec3 e = hi - lo, d = x - (lo + hi) * 0.5f;
+    float r2 = 0.25f * dot(e, e);
+    return a.w / MAXF(MAXF(dot(d, d), r2), PARAM(light_tree_eps2));
+}
+
+MCPT_FN uint light_node_child(SCENE_PARAMS_ uint i) {
+    return SCENE_WORD(PARAM(light_tree_word) + 8u * i + 7u);
+}
+
+// The probability of taking the first of children c and c + 1 at x.
+MCPT_FN float light_first_child_probability(SCENE_PARAMS_ uint c, vec3 x) {
+    float i0 = light_node_importance(SCENE_ARGS_ c, x);
+    float i1 = light_node_importance(SCENE_ARGS_ c + 1u, x);
+    float sum = i0 + i1;
+    // Both beyond float range or both nothing: alike (never a branch of probability 0 that
+    // holds a light, which MIS would then miss).
+    return sum > 0.0f && sum <= MCPT_FLT_MAX ? i0 / sum : 0.5f;
+}
+
+MCPT_STRUCT(TreePick) {
+    uint slot;  // in the light table
+    float pmf;  // of the pick, within the tree
+};
+
+// A local light for x, by the uniform u.
+MCPT_FN TreePick light_tree_pick(SCENE_PARAMS_ vec3 x, float u) {
+    TreePick p;
+    p.pmf = 1.0f;
+    uint node = 0u;
+    for (uint depth = 0u; depth < 33u; ++depth) {
+        uint child = light_node_child(SCENE_ARGS_ node);
+        if ((child & LIGHT_TREE_LEAF) != 0u) {
+            p.slot = child & ~LIGHT_TREE_LEAF;
+            return p;
+        }
+        float first = light_first_child_probability(SCENE_ARGS_ child, x);
+        if (u < first) {
+            u = u / first;
+            p.pmf *= first;
+            node = child;
+        } else {
+            u = (u - first) / (1.0f - first);
+            p.pmf *= 1.0f - first;
+            node = child + 1u;
+        }
+        u = MINF(u, 0.99999994f);
+    }
+    p.slot = 0u;
+    p.pmf = 0.0f;  // not reached: the builder stops at 32 levels
+    return p;
+}
+
+// The probability that light_tree_pick at x takes the light whose trail is `trail`.
+MCPT_FN float light_tree_pmf(SCENE_PARAMS_ vec3 x, uint trail) {
+    float pmf = 1.0f;
+    uint node = 0u;
+    for (uint depth = 0u; depth < 33u; ++depth) {
+        uint child = light_node_child(SCENE_ARGS_ node);
+        if ((child & LIGHT_TREE_LEAF) != 0u) return pmf;
+        float first = light_first_child_probability(SCENE_ARGS_ child, x);
+        bool second = ((trail >> depth) & 1u) != 0u;
+        pmf *= second ? 1.0f - first : first;
+        node = second ? child + 1u : child;
+    }
+    return 0.0f;
+}
+
+// The trail of the light whose prim (LIGHT_* bits, shared_types.h) is `prim`: a binary search
+// of the (prim, trail) pairs; NO_HIT if it is none of the tree's.
+MCPT_FN uint light_tree_trail(SCENE_PARAMS_ uint prim) {
+    uint lo = 0u, hi = PARAM(num_tree_lights);
+    while (lo < hi) {
+        uint mid = (lo + hi) / 2u;
+        uint p = SCENE_WORD(PARAM(light_trails_word) + 2u * mid);
+        if (p == prim) return SCENE_WORD(PARAM(light_trails_word) + 2u * mid + 1u);
+        if (p < prim) lo = mid + 1u; else hi = mid;
+    }
+    return NO_HIT;
+}
+
+MCPT_NAMESPACE_END
+
+#endif  // MCPT_GPU_LIGHT_TREE_H
