@@ -15,6 +15,18 @@ namespace mcpt {
 
 namespace {
 
+// A float's bits, as the texel region holds them.
+uint32_t float_word(float f) {
+    uint32_t u;
+    std::memcpy(&u, &f, 4);
+    return u;
+}
+
+// Pads the texel region to a 16-byte boundary of the shading buffer (vec4 reads).
+void align_texels16(GpuScene& g) {
+    while ((g.params.texels_word + g.texels.size()) % 4 != 0) g.texels.push_back(0);
+}
+
 gpu::GpuMaterial pack_material(const Material& m) {
     gpu::GpuMaterial g{};
     g.r = m.color.x, g.g = m.color.y, g.b = m.color.z;
@@ -55,10 +67,6 @@ double punctual_power(const PunctualLight& l, double disk) {
 double environment_weights(const Environment& env, std::vector<double>& weights) {
     const size_t w = size_t(env.width), h = size_t(env.height);
     weights.assign(w * h, 0.0);
-    const auto lum = [&](size_t x, size_t y) {
-        const float* c = &env.rgb[3 * (y * w + x)];
-        return env_luminance(c[0], c[1], c[2]);
-    };
     double integral = 0, lum_integral = 0, solid_angle = 0;
     for (size_t y = 0; y < h; ++y) {
         const double sin_theta = std::sin(M_PI * (double(y) + 0.5) / double(h));
@@ -66,8 +74,8 @@ double environment_weights(const Environment& env, std::vector<double>& weights)
         for (size_t x = 0; x < w; ++x) {
             const float* c = &env.rgb[3 * (y * w + x)];
             integral += (double(c[0]) + double(c[1]) + double(c[2])) / 3 * texel_sr;
-            lum_integral += lum(x, y) * texel_sr, solid_angle += texel_sr;
-            weights[y * w + x] = lum(x, y);
+            weights[y * w + x] = env_luminance(c[0], c[1], c[2]);
+            lum_integral += weights[y * w + x] * texel_sr, solid_angle += texel_sr;
         }
     }
     std::vector<double> compensated(w * h, 0.0);
@@ -92,15 +100,7 @@ double environment_weights(const Environment& env, std::vector<double>& weights)
 void pack_punctual_and_environment(const Scene& scene, const std::vector<double>& env_weights,
                                    GpuScene& g) {
     gpu::GpuParams& p = g.params;
-    const auto align16 = [&] {
-        while ((p.texels_word + g.texels.size()) % 4 != 0) g.texels.push_back(0);
-    };
-    const auto word = [](float f) {
-        uint32_t u;
-        std::memcpy(&u, &f, 4);
-        return u;
-    };
-    align16();
+    align_texels16(g);
     p.num_punctual = uint32_t(scene.punctual_lights.size());
     p.punctual_word = uint32_t(g.texels.size());
     for (const PunctualLight& l : scene.punctual_lights) {
@@ -136,16 +136,16 @@ void pack_punctual_and_environment(const Scene& scene, const std::vector<double>
                             std::to_string(env.scale) + ": a texel of " + std::to_string(c[k]) +
                             " becomes " + std::to_string(v) +
                             ", beyond single precision (3.4e38); lower --env-scale");
-            g.texels.push_back(word(float(v)));
+            g.texels.push_back(float_word(float(v)));
         }
-        g.texels.push_back(word(float(pdf)));
+        g.texels.push_back(float_word(float(pdf)));
     }
     // The rows by their total weight, then each row's columns by theirs.
     std::vector<gpu::GpuLight> table;
     const auto append_table = [&](const std::vector<double>& weights) {
         build_alias_table(weights, table);
         for (const gpu::GpuLight& e : table)
-            g.texels.push_back(word(e.prob)), g.texels.push_back(e.alias);
+            g.texels.push_back(float_word(e.prob)), g.texels.push_back(e.alias);
     };
     std::vector<double> rows(h, 0.0);
     for (size_t y = 0; y < h; ++y)
@@ -159,10 +159,6 @@ void pack_punctual_and_environment(const Scene& scene, const std::vector<double>
     for (const gpu::GpuLight& l : g.lights)
         if (l.prim == LIGHT_ENVIRONMENT) p.env_pmf = l.pmf;
 }
-
-}  // namespace
-
-namespace {
 
 // The light tree over the local lights (emitters, point and spot lamps), when there is one:
 // the light table is rebuilt with the lights at infinity first (their alias table, pmf scaled
@@ -227,16 +223,11 @@ void pack_light_tree(const Scene& scene, const std::vector<double>& weights,
     const Bounds b = scene.bounds();
     const double size = b.empty() ? 1.0 : glm::length(glm::dvec3(b.max) - glm::dvec3(b.min));
     p.light_tree_eps2 = float(std::max(1e-30, size * size * 1e-12));
-    const auto word = [](float f) {
-        uint32_t u;
-        std::memcpy(&u, &f, 4);
-        return u;
-    };
-    while ((p.texels_word + g.texels.size()) % 4 != 0) g.texels.push_back(0);
+    align_texels16(g);
     p.light_tree_word = uint32_t(g.texels.size());
     for (const gpu::GpuLightTreeNode& n : tree.nodes) {
         for (float f : {n.min_x, n.min_y, n.min_z, n.power, n.max_x, n.max_y, n.max_z})
-            g.texels.push_back(word(f));
+            g.texels.push_back(float_word(f));
         g.texels.push_back(n.child);
     }
     std::vector<std::pair<uint32_t, uint32_t>> trails;
