@@ -249,8 +249,8 @@ void add_bench_command(CLI::App& app) {
                   "Vulkan/OpenCL, work and bytes per ray");
     sub->add_option("--time", a->seconds, "--throughput: timed seconds per row (default 5)")
         ->check(CLI::PositiveNumber);
-    sub->add_option("--tree", a->tree, "--throughput: auto (per device), sah, median or none")
-        ->check(CLI::IsMember({"auto", "sah", "median", "none"}))
+    sub->add_option("--tree", a->tree, "--throughput: auto (per device), sah, median, none or bvh")
+        ->check(CLI::IsMember({"auto", "sah", "median", "none", "bvh"}))
         ->capture_default_str();
     sub->add_option("--devices", a->device_counts,
                     "--throughput: rows of one image on the first N devices of each API, for "

@@ -343,8 +343,8 @@ void add_compare_command(CLI::App& app) {
         ->capture_default_str();
     sub->add_option("--max-depth", a->max_depth, "Bounces (default 8, or the scene's)");
     sub->add_option("--tree", a->tree,
-                    "auto (each side: the tree its device's cost model picks), sah, median, none")
-        ->check(CLI::IsMember({"auto", "sah", "median", "none"}))
+                    "auto (each side: the tree its device's cost model picks), sah, median, none, bvh")
+        ->check(CLI::IsMember({"auto", "sah", "median", "none", "bvh"}))
         ->capture_default_str();
     sub->add_option("--alpha", a->alpha, "Family-wise false alarm rate")
         ->check(CLI::Range(1e-12, 0.5))

@@ -31,7 +31,7 @@ void run_tree(const TreeArgs& a) {
     const GpuScene g = pack_scene(scene, tree);
     std::printf("%s, %zu triangles, tree %s\n", a.scene.c_str(), scene.triangles.size(),
                 a.tree.c_str());
-    std::printf("%s", describe(tree.stats, scene.triangles.size()).c_str());
+    std::printf("%s", describe(tree.stats, scene.triangles.size(), tree.kind).c_str());
     const double tri_bytes = double(scene.triangles.size() * sizeof(gpu::GpuTriangle));
     std::printf("  bytes per triangle (tree + triangle data): %.1f\n",
                 (double(tree.stats.bytes) + tri_bytes) /
@@ -73,8 +73,8 @@ void add_tree_command(CLI::App& app) {
         app.add_subcommand("tree", "Build a scene's k-d tree, report stats and work/ray");
     sub->add_option("scene", args->scene, "Built-in scene or .gltf/.glb file")
         ->capture_default_str();
-    sub->add_option("--tree", args->tree, "sah, median or none")
-        ->check(CLI::IsMember({"sah", "median", "none"}))
+    sub->add_option("--tree", args->tree, "sah, median, none or bvh")
+        ->check(CLI::IsMember({"sah", "median", "none", "bvh"}))
         ->capture_default_str();
     sub->add_option("--depth", args->depth, "Depth limit (median: default 3)");
     sub->add_option("--rays", args->rays, "Rays per measurement")

@@ -147,8 +147,8 @@ void add_view_command(CLI::App& app) {
     sub->add_option("--seed", a->seed, "Random seed (A and B share it)")->capture_default_str();
     sub->add_option("--max-depth", a->max_depth, "Bounces (default 8, or the scene's)")
         ->check(CLI::Range(0, 1000000));
-    sub->add_option("--tree", a->tree, "auto, sah, median or none")
-        ->check(CLI::IsMember({"auto", "sah", "median", "none"}))
+    sub->add_option("--tree", a->tree, "auto, sah, median, none or bvh (the wide BVH)")
+        ->check(CLI::IsMember({"auto", "sah", "median", "none", "bvh"}))
         ->capture_default_str();
     sub->add_option("--listen", a->listen,
                     "Address to serve on (127.0.0.1: this machine only; 0.0.0.0: every network, "

@@ -24,7 +24,7 @@ gpu::Hit cpu_trace(const GpuScene& s, const gpu::Ray& ray, bool any_hit) {
 gpu::Hit cpu_trace_tree(const KdTree& tree, const std::vector<gpu::GpuTriangle>& triangles,
                         const gpu::Ray& ray, bool any_hit, uint32_t scene_flags) {
     gpu::GpuParams p{};
-    p.scene_flags = scene_flags;
+    p.scene_flags = scene_flags | (tree.kind == TreeKind::Bvh ? SCENE_BVH : 0u);
     p.num_triangles = uint32_t(triangles.size());
     p.num_nodes = uint32_t(tree.nodes.size());
     p.scene_min_x = tree.bounds.min.x, p.scene_max_x = tree.bounds.max.x;

@@ -41,6 +41,7 @@
 #include <system_error>
 #include <thread>
 
+#include "common/accel/wide_bvh.h"
 #include "common/error.h"
 #include "common/io/host_cpus.h"
 
@@ -700,7 +701,8 @@ TreeKind parse_tree_kind(const std::string& name) {
     if (name == "median") return TreeKind::Median;
     if (name == "none") return TreeKind::None;
     if (name == "auto") return TreeKind::Auto;
-    throw Error("unknown tree kind '" + name + "' (valid: auto, sah, median, none)");
+    if (name == "bvh") return TreeKind::Bvh;
+    throw Error("unknown tree kind '" + name + "' (valid: auto, sah, median, none, bvh)");
 }
 
 const char* tree_kind_name(TreeKind kind) {
@@ -713,11 +715,14 @@ const char* tree_kind_name(TreeKind kind) {
             return "none";
         case TreeKind::Auto:
             return "auto";
+        case TreeKind::Bvh:
+            return "bvh";
     }
     return "unknown";
 }
 
 KdTree build_kdtree(const std::vector<Triangle>& triangles, const TreeOptions& options) {
+    if (options.kind == TreeKind::Bvh) return build_wide_bvh(triangles, options);
     if (options.kind == TreeKind::Auto) {
         // The SAH tree, kept unless the cost model prefers none.
         TreeOptions o = options;
@@ -795,16 +800,17 @@ KdTree build_kdtree(const std::vector<Triangle>& triangles, const TreeOptions& o
     return tree;
 }
 
-std::string describe(const TreeStats& s, size_t triangle_count) {
+std::string describe(const TreeStats& s, size_t triangle_count, TreeKind kind) {
     const double per_tri = double(std::max<size_t>(triangle_count, 1));
     const bool large = s.bytes >= 1024 * 1024;
     char buf[512];
     std::snprintf(buf, sizeof buf,
-                  "  k-d tree: %zu nodes, %zu leaves (%zu empty), depth %d\n"
+                  "  %s: %zu nodes, %zu leaves (%zu empty), depth %d\n"
                   "  references: %zu (%.2f per triangle, %.2f per non-empty leaf)\n"
                   "  memory: %.2f %s nodes + leaf indices (%.1f bytes per triangle)\n"
                   "  build: %.3f s on %d thread%s\n",
-                  s.nodes, s.leaves, s.empty_leaves, s.max_depth, s.references,
+                  kind == TreeKind::Bvh ? "8-wide BVH" : "k-d tree", s.nodes, s.leaves,
+                  s.empty_leaves, s.max_depth, s.references,
                   double(s.references) / per_tri, s.mean_leaf_size,
                   double(s.bytes) / (large ? 1024.0 * 1024.0 : 1024.0), large ? "MiB" : "KiB",
                   double(s.bytes) / per_tri, s.build_seconds, s.threads, s.threads == 1 ? "" : "s");

@@ -11,9 +11,10 @@
 namespace mcpt {
 
 // Auto: the SAH tree, or none where the cost model says testing every triangle is cheaper.
-enum class TreeKind { Sah, Median, None, Auto };
+// Bvh: the compressed 8-wide BVH (wide_bvh.h), which travels in the same struct.
+enum class TreeKind { Sah, Median, None, Auto, Bvh };
 
-// "sah" | "median" | "none" | "auto"; throws mcpt::Error otherwise.
+// "sah" | "median" | "none" | "auto" | "bvh"; throws mcpt::Error otherwise.
 TreeKind parse_tree_kind(const std::string& name);
 const char* tree_kind_name(TreeKind kind);
 
@@ -52,7 +53,9 @@ struct TreeStats {
 };
 
 struct KdTree {
-    std::vector<gpu::KdNode> nodes;      // pre-order; nodes[0] is the root
+    // Pre-order k-d nodes, nodes[0] the root; or, for TreeKind::Bvh, the BVH's nodes
+    // (gpu::BvhNode, BVH_NODE_UNITS entries each: the tree buffer's 8-byte units).
+    std::vector<gpu::KdNode> nodes;
     std::vector<uint32_t> leaf_indices;  // triangle indices referenced by leaves
     Bounds bounds;                       // of all triangles (may be empty)
     TreeStats stats;
@@ -63,7 +66,7 @@ struct KdTree {
 };
 
 // Builds the tree. TreeKind::None gives a single leaf holding every triangle, so the same
-// traversal code runs without a tree.
+// traversal code runs without a tree; TreeKind::Bvh the wide BVH (build_wide_bvh).
 KdTree build_kdtree(const std::vector<Triangle>& triangles, const TreeOptions& options);
 
 // Expected cost of one ray through a tree, from surface areas (the SAH's own model, without
@@ -81,7 +84,7 @@ struct TreeChoice {
 };
 TreeChoice choose_tree(const KdTree& sah_tree, size_t triangle_count, const TreeCostModel& model);
 
-// Multi-line human-readable statistics.
-std::string describe(const TreeStats& stats, size_t triangle_count);
+// Multi-line human-readable statistics of a tree of `kind`.
+std::string describe(const TreeStats& stats, size_t triangle_count, TreeKind kind = TreeKind::Sah);
 
 }  // namespace mcpt

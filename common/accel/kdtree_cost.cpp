@@ -1,10 +1,12 @@
 // --tree auto: the expected cost of a ray through a tree, from the surface area heuristic's
 // own model, and the choice between the SAH tree and none that follows from it.
 #include <cstdio>
+#include <algorithm>
 #include <cstring>
 #include <vector>
 
 #include "common/accel/kdtree.h"
+#include "common/accel/wide_bvh.h"
 
 namespace mcpt {
 
@@ -17,8 +19,34 @@ double half_area(const float lo[3], const float hi[3]) {
 
 }  // namespace
 
+// The BVH: every node is entered with probability area(node) / area(root), its children's
+// boxes all tested there, and a leaf's triangles with its box's probability.
+TreeCost expected_bvh_cost(const KdTree& tree) {
+    TreeCost c;
+    const auto area = [](const double lo[3], const double hi[3]) {
+        const double dx = hi[0] - lo[0], dy = hi[1] - lo[1], dz = hi[2] - lo[2];
+        return dx * dy + dy * dz + dz * dx;
+    };
+    const double lo[3] = {tree.bounds.min.x, tree.bounds.min.y, tree.bounds.min.z};
+    const double hi[3] = {tree.bounds.max.x, tree.bounds.max.y, tree.bounds.max.z};
+    const double root_area = area(lo, hi);
+    c.node_visits = 1;
+    const uint32_t n = bvh_node_count(tree);
+    for (uint32_t i = 0; i < n; ++i) {
+        for (const BvhChild& ch : bvh_children(bvh_node(tree, i))) {
+            const double p = root_area > 0 ? std::min(1.0, area(ch.lo, ch.hi) / root_area) : 1.0;
+            if (ch.internal)
+                c.node_visits += p;
+            else
+                c.triangle_tests += p * ch.triangles;
+        }
+    }
+    return c;
+}
+
 TreeCost expected_tree_cost(const KdTree& tree) {
     TreeCost c;
+    if (tree.kind == TreeKind::Bvh) return tree.bounds.empty() ? c : expected_bvh_cost(tree);
     if (tree.nodes.empty() || tree.bounds.empty()) return c;
     struct Item {
         uint32_t node;

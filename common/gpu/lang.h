@@ -18,6 +18,7 @@
 #define V4(x, y, z, w) vec4(float(x), float(y), float(z), float(w))
 #define V4S(s) vec4(float(s))
 #define UV4(x, y, z, w) uvec4(uint(x), uint(y), uint(z), uint(w))
+#define UV2(x, y) uvec2(uint(x), uint(y))
 #define F32(x) float(x)
 #define U32(x) uint(x)
 #define I32(x) int(x)
@@ -29,6 +30,8 @@
 #define SINF(x) std::sin(x)
 #define COSF(x) std::cos(x)
 #define SELECT3(a, b, c) ((c) ? (b) : (a))
+#define FIND_MSB(x) uint(31 - __builtin_clz(x))  // x != 0
+#define BIT_COUNT(x) uint(__builtin_popcount(x))
 
 // ---------------------------------------------------------------- OpenCL C
 #elif defined(MCPT_OPENCL)
@@ -38,6 +41,7 @@
 #define V4(x, y, z, w) ((float4)((float)(x), (float)(y), (float)(z), (float)(w)))
 #define V4S(s) ((float4)((float)(s)))
 #define UV4(x, y, z, w) ((uint4)((uint)(x), (uint)(y), (uint)(z), (uint)(w)))
+#define UV2(x, y) ((uint2)((uint)(x), (uint)(y)))
 #define F32(x) ((float)(x))
 #define U32(x) ((uint)(x))
 #define I32(x) ((int)(x))
@@ -69,6 +73,8 @@
 #define uint_as_float(x) as_float(x)
 #define fmax3(a, b, c) fmax(a, fmax(b, c))
 #define SELECT3(a, b, c) ((c) ? (b) : (a))
+#define FIND_MSB(x) (31u - clz(x))
+#define BIT_COUNT(x) popcount(x)
 
 // ---------------------------------------------------------------- GLSL (Vulkan)
 #else
@@ -78,6 +84,7 @@
 #define V4(x, y, z, w) vec4(float(x), float(y), float(z), float(w))
 #define V4S(s) vec4(float(s))
 #define UV4(x, y, z, w) uvec4(uint(x), uint(y), uint(z), uint(w))
+#define UV2(x, y) uvec2(uint(x), uint(y))
 #define F32(x) float(x)
 #define U32(x) uint(x)
 #define I32(x) int(x)
@@ -92,6 +99,8 @@
 #define uint_as_float(x) uintBitsToFloat(x)
 #define fmax3(a, b, c) max(a, max(b, c))
 #define SELECT3(a, b, c) ((c) ? (b) : (a))
+#define FIND_MSB(x) uint(findMSB(x))
+#define BIT_COUNT(x) uint(bitCount(x))
 #endif
 
 #endif  // MCPT_GPU_LANG_H

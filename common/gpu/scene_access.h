@@ -30,6 +30,9 @@ layout(std140, binding = BINDING_PARAMS) uniform ParamsBlock { GpuParams params;
 // The shared buffers of shared_types.h, each declared once per element type (aliases).
 layout(std430, binding = BINDING_TREE) readonly buffer NodesBlock { KdNode nodes[]; };
 layout(std430, binding = BINDING_TREE) readonly buffer TreeWordsBlock { uint tree_words[]; };
+// BVH nodes as 16-byte quads (traverse_bvh.h), in both modules.
+layout(std430, binding = BINDING_TREE) readonly buffer BvhBlock { uvec4 bvh_quads[]; };
+#define BVH_QUAD(i) bvh_quads[i]
 // Triangles as 8-byte words (triangle_from_words).
 layout(std430, binding = BINDING_TRIANGLES) readonly buffer TriBlock { uvec2 triangle_words[]; };
 layout(std430, binding = BINDING_SHADING) readonly buffer SphereBlock { GpuSphere spheres[]; };
@@ -156,6 +159,17 @@ layout(std430, binding = BINDING_SHADING) readonly buffer Vec4Block { vec4 shadi
     params, nodes, leaf_indices, triangles, spheres, materials, lights, attributes, textures, texels,
 #define PARAM(x) params->x
 #define NODE(i) nodes[i]
+// BVH nodes as 16-byte quads of the tree buffer (traverse_bvh.h).
+#if defined(MCPT_OPENCL)
+#define BVH_QUAD(i) (((__global const uint4*)nodes)[i])
+#else
+#define BVH_QUAD(i) bvh_quad(reinterpret_cast<const uint*>(nodes), i)
+MCPT_NAMESPACE_BEGIN
+inline uvec4 bvh_quad(const uint* words, uint i) {
+    return uvec4(words[4u * i], words[4u * i + 1u], words[4u * i + 2u], words[4u * i + 3u]);
+}
+MCPT_NAMESPACE_END
+#endif
 #define LEAF_INDEX(i) leaf_indices[i]
 #define SPHERE(i) spheres[i]
 #define MATERIAL(i) materials[i]

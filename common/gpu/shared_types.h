@@ -44,11 +44,12 @@ MCPT_NAMESPACE_BEGIN
 #define FEATURE_PUNCTUAL_LIGHTS 4096u  // point, spot and directional lights (KHR_lights_punctual)
 #define FEATURE_ENVIRONMENT 8192u   // an environment map or constant background (lights.h)
 #define FEATURE_LIGHT_TREE 65536u   // next-event estimation picks local lights by a tree
-#define FEATURE_ALL (16383u | FEATURE_LIGHT_TREE)  // every feature a scene can use: the full kernel
+#define FEATURE_BVH 131072u         // compressed 8-wide BVH traversal (traverse_bvh.h)
+#define FEATURE_ALL (16383u | FEATURE_LIGHT_TREE | FEATURE_BVH)  // every feature: the full kernel
 #define FEATURE_TEST_NAN 16384u     // tests only: poison samples of pixels 0 and 1 (never in ALL)
 #define FEATURE_INDEPENDENT_SAMPLER 32768u  // independent uniforms, not Sobol (A/B, never in ALL)
-#define FEATURE_BITS 131071u        // every bit above
-#define FEATURE_COUNT 17
+#define FEATURE_BITS 262143u        // every bit above
+#define FEATURE_COUNT 18
 
 // The smallest GGX alpha a MAT_PBR material keeps (roughness 0.01): below it the lobe's peak
 // exceeds float range in NEE; roughness 0 metals are MAT_MIRROR.
@@ -101,6 +102,26 @@ MCPT_STRUCT(KdNode) {
     uint split_or_offset;
     uint flags;
 };
+
+// A node of the compressed 8-wide BVH (Ylitie, Karras & Laine, HPG 2017), five 16-byte
+// quads; the tree buffer holds them in place of k-d nodes (GpuParams.num_nodes counts 8-byte
+// units, ten a node), then the leaf index array. Child boxes are quantized to 8 bits per
+// plane on a grid of 2^e from origin p, conservatively, with a cell of margin on every side.
+//   q0: p.x, p.y, p.z (floats); e_x | e_y << 8 | e_z << 16 (biased by 127) | imask << 24
+//   q1: first internal child's node index, first leaf index of the leaf children, meta 0-3,
+//       meta 4-7 (one byte per slot, slot k in byte k % 4 of word 2 + k / 4)
+//   q2: lo_x slots 0-3, lo_x slots 4-7, hi_x 0-3, hi_x 4-7; q3 the same for y, q4 for z
+// imask bit s: slot s holds an internal node; those are stored contiguously from the first
+// child's index, in slot order. meta: 0 for an empty slot; an internal child (1 << 5) | (24 +
+// s); a leaf child of 1-3 triangles (0b1, 0b11, 0b111 << 5) | its first triangle's offset
+// from the node's first leaf index (0-21). Slot s holds the child nearest along the octant
+// of directions whose negative axes are its bits (x = 4, y = 2, z = 1).
+MCPT_STRUCT(BvhNode) {
+    uint words[20];
+};
+#define BVH_NODE_UNITS 10u  // 8-byte units of the tree buffer per BvhNode
+#define BVH_WIDTH 8u
+#define BVH_LEAF_MAX 3u     // triangles per leaf child
 
 // A triangle in world space with its material; 40 bytes, scalar-aligned.
 MCPT_STRUCT(GpuTriangle) {
@@ -243,6 +264,7 @@ MCPT_STRUCT(GpuParams) {
 #define SCENE_VERTEX_DATA 1u
 #define SCENE_ALPHA_MASK 2u
 #define SCENE_KD_OVERLAP 4u  // the C++ build only (tests): overlapped traversal steps (traverse.h)
+#define SCENE_BVH 8u         // the tree buffer holds a BVH (BvhNode), not a k-d tree
 
 // Accumulation buffer: two vec4 per pixel (every pixel, or the window's state_slots pixels
 // from state_base when accum_window is set).
@@ -269,6 +291,7 @@ MCPT_NAMESPACE_END
 
 #if defined(MCPT_CPP)
 static_assert(sizeof(mcpt::gpu::KdNode) == 8, "KdNode must be 8 bytes");
+static_assert(sizeof(mcpt::gpu::BvhNode) == BVH_NODE_UNITS * 8, "BvhNode must be 80 bytes");
 static_assert(sizeof(mcpt::gpu::GpuTriangle) == 40, "GpuTriangle must be 40 bytes");
 static_assert(sizeof(mcpt::gpu::GpuTriangle) % 8 == 0, "GLSL reads triangles as uvec2 words");
 static_assert(sizeof(mcpt::gpu::GpuSphere) == 32, "GpuSphere must be 32 bytes");

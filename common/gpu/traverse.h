@@ -64,16 +64,20 @@ MCPT_NAMESPACE_BEGIN
 #define KD_TRI_STEPS_BEGIN {
 #endif
 
-// Triangle tri_index against the ray, up to the nearest hit so far: the updated hit.
+// Triangle tri_index against the ray, up to the nearest hit so far: the updated hit. Of two
+// triangles at the same distance the lower index wins, so the hit does not depend on the
+// order a traversal tests them in (the k-d tree, the BVH and brute force agree exactly).
 MCPT_FN Hit closer_triangle_hit(SCENE_PARAMS_ Ray ray, WoopRay wr, uint tri_index, uint skip,
                                 Hit hit) {
 #ifdef MCPT_COUNTERS
     hit.tri_tests += 1u;
 #endif
     Ray r = ray;
-    r.tmax = hit.t;
+    bool tie_wins = (hit.prim & SPHERE_BIT) == 0u && tri_index < hit.prim;
+    r.tmax = tie_wins ? uint_as_float(float_as_uint(hit.t) + 1u) : hit.t;  // t > 0: one ulp up
     TriHit th = intersect_triangle(r, wr, TRIANGLE(tri_index));
     if (th.hit && tri_index == skip) th.hit = false;  // the cut-out the ray passed through
+    if (th.hit && th.t == hit.t && !tie_wins) th.hit = false;
     if (th.hit) {
         hit.t = th.t;
         hit.b1 = th.b1;
@@ -110,6 +114,10 @@ MCPT_FN LeafHit leaf_triangle_hit(SCENE_PARAMS_ Ray ray, WoopRay wr, uint tri, u
     return r;
 }
 
+MCPT_NAMESPACE_END
+#include "traverse_bvh.h"
+MCPT_NAMESPACE_BEGIN
+
 // Nearest hit with t < ray.tmax, ignoring triangle `skip`; with any_hit, the first hit found.
 MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
     Hit hit;
@@ -137,6 +145,10 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
     if (s < num_spheres) hit.status = TRACE_INCOMPLETE;
     if (!HAS_FEATURE(FEATURE_TRIANGLES) || PARAM(num_triangles) == 0u) return hit;
     WoopRay wr = woop_setup(ray.d);
+
+    // The BVH, where the scene has one (traverse_bvh.h).
+    if (HAS_FEATURE(FEATURE_BVH) && (PARAM(scene_flags) & SCENE_BVH) != 0u)
+        return trace_bvh(SCENE_ARGS_ ray, wr, any_hit, skip, hit);
 
     // Without a tree: every triangle, no stack.
     if (!HAS_FEATURE(FEATURE_KDTREE)) {

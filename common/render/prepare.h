@@ -11,7 +11,7 @@
 
 namespace mcpt {
 
-// A tree kind name ("auto", "sah", "median", "none") and depth limit (-1: the kind's default).
+// A tree kind name ("auto", "sah", "median", "none", "bvh") and depth limit (-1: the kind's default).
 TreeOptions tree_options(const std::string& kind, int depth = -1);
 
 // Builds the tree (TreeKind::Auto with `device`'s cost model), packs the scene and checks it

@@ -15,7 +15,7 @@ const char* const kFeatureNames[FEATURE_COUNT] = {
     "triangles",     "spheres",  "diffuse",           "mirror", "glass", "triangle lights",
     "sphere lights", "k-d tree", "microfacet", "shading normals", "textures", "alpha mask",
     "punctual lights", "environment", "test NaN injection", "independent sampler",
-    "light tree"};
+    "light tree", "wide BVH"};
 
 // The features of a material: its kind, then its textures and alpha mask.
 uint32_t material_features(const gpu::GpuMaterial& m) {
@@ -60,9 +60,13 @@ uint32_t scene_features(const GpuScene& g) {
     if (g.params.num_tree_lights > 0) f |= FEATURE_LIGHT_TREE;
     // The environment is seen by rays that escape, even when it is black.
     if (g.params.env_width > 0) f |= FEATURE_ENVIRONMENT;
-    // The tree, when it has more than one leaf.
-    for (const gpu::KdNode& n : g.nodes)
-        if ((n.flags & 3u) != KD_LEAF) f |= FEATURE_KDTREE;
+    // The tree: the BVH, or the k-d tree when it has more than one leaf.
+    if (g.tree_kind == TreeKind::Bvh) {
+        f |= FEATURE_BVH;
+    } else {
+        for (const gpu::KdNode& n : g.nodes)
+            if ((n.flags & 3u) != KD_LEAF) f |= FEATURE_KDTREE;
+    }
     return f;
 }
 

@@ -1,0 +1,451 @@
+// Construction of the compressed 8-wide BVH (common/accel/wide_bvh.h):
+//  1. a binary BVH by binned SAH over triangle box centroids (16 bins per axis), leaves of at
+//     most BVH_LEAF_MAX triangles, the two children of large nodes built on two threads;
+//  2. each wide node collapsed from a binary subtree: the child of largest surface area
+//     opened until eight children or none left to open;
+//  3. children placed in slots greedily by their centre along each octant's direction, the
+//     internal ones stored contiguously in breadth-first order, the leaves' triangles
+//     contiguously per node;
+//  4. child boxes quantized per axis to a grid 2^e from p = the node's lower corner less a cell,
+//     every box widened by a further cell, so the traversal's rounding never shrinks a box.
+#include "common/accel/wide_bvh.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <deque>
+#include <future>
+#include <limits>
+
+#include "common/error.h"
+#include "common/io/host_cpus.h"
+
+namespace mcpt {
+
+namespace {
+
+constexpr int kBins = 16;
+constexpr size_t kParallelMin = 16384;  // a node this large builds its children on two threads
+constexpr double kNodeCost = 1.0;       // a node visit, in triangle tests (the SAH's split cost)
+
+struct Prim {
+    float lo[3], hi[3];
+};
+
+// A binary node: a leaf (count > 0) of refs[first, first + count), or children left, right.
+struct BinNode {
+    float lo[3], hi[3];
+    uint32_t left = 0, right = 0, first = 0, count = 0;
+};
+
+float half_area(const float lo[3], const float hi[3]) {
+    const float dx = hi[0] - lo[0], dy = hi[1] - lo[1], dz = hi[2] - lo[2];
+    return dx * dy + dy * dz + dz * dx;
+}
+
+struct BinaryBuilder {
+    const std::vector<Prim>& prims;
+    std::vector<uint32_t>& refs;
+
+    // The subtree over refs[begin, end) appended to `out`; returns its root's index there.
+    uint32_t build(uint32_t begin, uint32_t end, std::vector<BinNode>& out, int threads) {
+        BinNode node;
+        float clo[3], chi[3];
+        bounds(begin, end, node, clo, chi);
+        const uint32_t at = uint32_t(out.size());
+        out.push_back(node);
+        const uint32_t count = end - begin;
+        const uint32_t mid = split(begin, end, node, clo, chi);
+        if (mid == begin) {
+            out[at].first = begin, out[at].count = count;
+            return at;
+        }
+        if (threads > 1 && count >= kParallelMin) {
+            // The left child on another thread, into its own array, linked in after.
+            std::vector<BinNode> left_nodes;
+            auto left = std::async(std::launch::async, [&] {
+                build(begin, mid, left_nodes, threads / 2);
+            });
+            std::vector<BinNode> right_nodes;
+            build(mid, end, right_nodes, threads - threads / 2);
+            left.get();
+            append(left_nodes, out);
+            out[at].left = at + 1;
+            out[at].right = uint32_t(out.size());
+            append(right_nodes, out);
+        } else {
+            out[at].left = build(begin, mid, out, 1);
+            out[at].right = build(mid, end, out, 1);
+        }
+        return at;
+    }
+
+    static void append(const std::vector<BinNode>& sub, std::vector<BinNode>& out) {
+        const uint32_t base = uint32_t(out.size());
+        for (BinNode n : sub) {
+            if (n.count == 0) n.left += base, n.right += base;
+            out.push_back(n);
+        }
+    }
+
+    // The node's box and its references' centroid box.
+    void bounds(uint32_t begin, uint32_t end, BinNode& node, float clo[3], float chi[3]) const {
+        for (int a = 0; a < 3; ++a) {
+            node.lo[a] = clo[a] = std::numeric_limits<float>::max();
+            node.hi[a] = chi[a] = -std::numeric_limits<float>::max();
+        }
+        for (uint32_t i = begin; i < end; ++i) {
+            const Prim& p = prims[refs[i]];
+            for (int a = 0; a < 3; ++a) {
+                node.lo[a] = std::min(node.lo[a], p.lo[a]);
+                node.hi[a] = std::max(node.hi[a], p.hi[a]);
+                const float c = 0.5f * (p.lo[a] + p.hi[a]);
+                clo[a] = std::min(clo[a], c), chi[a] = std::max(chi[a], c);
+            }
+        }
+    }
+
+    // Partitions refs[begin, end) by the best binned SAH plane; returns the first of the
+    // upper part, or begin for a leaf.
+    uint32_t split(uint32_t begin, uint32_t end, const BinNode& node, const float clo[3],
+                   const float chi[3]) {
+        const uint32_t count = end - begin;
+        if (count <= 1) return begin;
+        struct Bin {
+            float lo[3], hi[3];
+            uint32_t n;
+        };
+        double best_cost = std::numeric_limits<double>::infinity();
+        int best_axis = -1, best_bin = 0;
+        for (int a = 0; a < 3; ++a) {
+            const float extent = chi[a] - clo[a];
+            if (!(extent > 0.f)) continue;
+            Bin bins[kBins];
+            for (Bin& b : bins) {
+                b.n = 0;
+                for (int k = 0; k < 3; ++k)
+                    b.lo[k] = std::numeric_limits<float>::max(),
+                    b.hi[k] = -std::numeric_limits<float>::max();
+            }
+            const float scale = float(kBins) / extent;
+            for (uint32_t i = begin; i < end; ++i) {
+                const Prim& p = prims[refs[i]];
+                const float c = 0.5f * (p.lo[a] + p.hi[a]);
+                const int b = std::min(kBins - 1, int((c - clo[a]) * scale));
+                Bin& bin = bins[b];
+                bin.n += 1;
+                for (int k = 0; k < 3; ++k)
+                    bin.lo[k] = std::min(bin.lo[k], p.lo[k]),
+                    bin.hi[k] = std::max(bin.hi[k], p.hi[k]);
+            }
+            // Sweep: areas and counts left of each boundary, then right of it.
+            double left_cost[kBins];
+            Bin acc = bins[0];
+            uint32_t n = 0;
+            for (int b = 0; b < kBins - 1; ++b) {
+                if (b > 0)
+                    for (int k = 0; k < 3; ++k)
+                        acc.lo[k] = std::min(acc.lo[k], bins[b].lo[k]),
+                        acc.hi[k] = std::max(acc.hi[k], bins[b].hi[k]);
+                n += bins[b].n;
+                left_cost[b] = n ? double(half_area(acc.lo, acc.hi)) * n : 0.0;
+            }
+            acc = bins[kBins - 1];
+            n = 0;
+            for (int b = kBins - 1; b > 0; --b) {
+                if (b < kBins - 1)
+                    for (int k = 0; k < 3; ++k)
+                        acc.lo[k] = std::min(acc.lo[k], bins[b].lo[k]),
+                        acc.hi[k] = std::max(acc.hi[k], bins[b].hi[k]);
+                n += bins[b].n;
+                const double cost = left_cost[b - 1] + (n ? double(half_area(acc.lo, acc.hi)) * n : 0.0);
+                if (cost < best_cost && n > 0 && n < count) best_cost = cost, best_axis = a, best_bin = b;
+            }
+        }
+        const double area = half_area(node.lo, node.hi);
+        if (count <= BVH_LEAF_MAX) {
+            // A leaf unless splitting is expected to test fewer triangles.
+            if (best_axis < 0 || !(area > 0) || double(count) <= kNodeCost + best_cost / area)
+                return begin;
+        }
+        if (best_axis < 0) return begin + count / 2;  // one centroid: halve by index
+        const int a = best_axis;
+        const float scale = float(kBins) / (chi[a] - clo[a]);
+        const float c0 = clo[a];
+        uint32_t* mid = std::partition(refs.data() + begin, refs.data() + end, [&](uint32_t r) {
+            const Prim& p = prims[r];
+            const float c = 0.5f * (p.lo[a] + p.hi[a]);
+            return std::min(kBins - 1, int((c - c0) * scale)) < best_bin;
+        });
+        return uint32_t(mid - refs.data());
+    }
+};
+
+// The largest float not above x.
+float round_down(double x) {
+    float f = float(x);
+    if (double(f) > x) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
+    return f;
+}
+
+// Per axis: the grid (exponent, origin p) and the planes of each child.
+struct AxisGrid {
+    int e = 0;
+    float p = 0;
+};
+AxisGrid axis_grid(double lo, double hi) {
+    AxisGrid g;
+    const double extent = hi - lo;
+    g.e = extent > 0 ? int(std::ceil(std::log2(extent / 250.0))) : -100;
+    g.e = std::clamp(g.e, -100, 126);
+    for (;; ++g.e) {
+        const double cell = std::ldexp(1.0, g.e);
+        g.p = round_down(lo - cell);
+        if (std::ceil((hi - double(g.p)) / cell) + 1.0 <= 255.0 || g.e >= 126) return g;
+    }
+}
+
+void put_byte(uint32_t& word, int k, uint32_t v) {
+    word = (word & ~(0xffu << (8 * k))) | ((v & 0xffu) << (8 * k));
+}
+uint32_t get_byte(uint32_t word, int k) { return (word >> (8 * k)) & 0xffu; }
+
+// Word and byte of a plane: q2 (x), q3 (y), q4 (z) hold lo slots 0-3, 4-7, hi 0-3, 4-7.
+int plane_word(int axis, bool high, int slot) { return 8 + 4 * axis + (high ? 2 : 0) + slot / 4; }
+
+struct Collapser {
+    const std::vector<BinNode>& bin;
+    const std::vector<uint32_t>& refs;
+    std::vector<gpu::BvhNode> nodes;
+    std::vector<uint32_t> leaf_indices;
+    TreeStats stats;
+
+    void run() {
+        // Breadth-first: (binary node, wide node index, depth).
+        struct Item {
+            uint32_t bin, wide;
+            int depth;
+        };
+        std::deque<Item> queue{{0, 0, 0}};
+        nodes.resize(1);
+        while (!queue.empty()) {
+            const Item it = queue.front();
+            queue.pop_front();
+            stats.max_depth = std::max(stats.max_depth, it.depth);
+            std::vector<uint32_t> kids = collapse(it.bin);
+            const std::vector<int> slot_of = assign_slots(it.bin, kids);
+            std::vector<int> kid_in_slot(BVH_WIDTH, -1);
+            for (size_t k = 0; k < kids.size(); ++k) kid_in_slot[slot_of[k]] = int(k);
+            gpu::BvhNode out;
+            std::memset(&out, 0, sizeof out);
+            out.words[4] = uint32_t(nodes.size());
+            out.words[5] = uint32_t(leaf_indices.size());
+            // Internal children first (their indices), then the leaves' triangles.
+            uint32_t imask = 0;
+            std::vector<uint32_t> internal;
+            for (int s = 0; s < int(BVH_WIDTH); ++s) {
+                if (kid_in_slot[s] < 0) continue;
+                const BinNode& c = bin[kids[size_t(kid_in_slot[s])]];
+                uint32_t meta;
+                if (c.count == 0) {
+                    imask |= 1u << s;
+                    meta = (1u << 5) | uint32_t(24 + s);
+                    internal.push_back(kids[size_t(kid_in_slot[s])]);
+                } else {
+                    const uint32_t offset = uint32_t(leaf_indices.size()) - out.words[5];
+                    meta = (((1u << c.count) - 1u) << 5) | offset;
+                    for (uint32_t i = 0; i < c.count; ++i) leaf_indices.push_back(refs[c.first + i]);
+                    stats.leaves += 1;
+                }
+                put_byte(out.words[6 + s / 4], s % 4, meta);
+            }
+            for (uint32_t b : internal) {
+                queue.push_back({b, uint32_t(nodes.size()), it.depth + 1});
+                nodes.emplace_back();
+            }
+            quantize(out, kids, kid_in_slot, imask);
+            nodes[it.wide] = out;
+        }
+        stats.nodes = nodes.size();
+        stats.references = leaf_indices.size();
+        stats.mean_leaf_size = stats.leaves ? double(stats.references) / double(stats.leaves) : 0;
+        stats.bytes = nodes.size() * sizeof(gpu::BvhNode) + leaf_indices.size() * 4;
+    }
+
+    // The children of the wide node made from binary node b: largest area opened first.
+    std::vector<uint32_t> collapse(uint32_t b) const {
+        if (bin[b].count > 0) return {b};  // a leaf root (at most BVH_LEAF_MAX triangles)
+        std::vector<uint32_t> kids{bin[b].left, bin[b].right};
+        while (kids.size() < BVH_WIDTH) {
+            int best = -1;
+            float best_area = -1;
+            for (size_t k = 0; k < kids.size(); ++k) {
+                const BinNode& c = bin[kids[k]];
+                const float a = half_area(c.lo, c.hi);
+                if (c.count == 0 && a > best_area) best = int(k), best_area = a;
+            }
+            if (best < 0) break;
+            const BinNode& c = bin[kids[size_t(best)]];
+            kids[size_t(best)] = c.left;
+            kids.push_back(c.right);
+        }
+        return kids;
+    }
+
+    // Slot of each child: greedily, the (child, slot) pair with the child nearest along the
+    // slot's octant direction first.
+    std::vector<int> assign_slots(uint32_t b, const std::vector<uint32_t>& kids) const {
+        const BinNode& parent = bin[b];
+        float centre[3];
+        for (int a = 0; a < 3; ++a) centre[a] = 0.5f * (parent.lo[a] + parent.hi[a]);
+        float cost[BVH_WIDTH][BVH_WIDTH];
+        for (size_t k = 0; k < kids.size(); ++k) {
+            const BinNode& c = bin[kids[k]];
+            for (int s = 0; s < int(BVH_WIDTH); ++s) {
+                float d = 0;
+                for (int a = 0; a < 3; ++a) {
+                    const float sign = (s >> (2 - a)) & 1 ? -1.f : 1.f;
+                    d += sign * (0.5f * (c.lo[a] + c.hi[a]) - centre[a]);
+                }
+                cost[k][s] = d;
+            }
+        }
+        std::vector<int> slot_of(kids.size(), -1);
+        bool slot_used[BVH_WIDTH] = {};
+        for (size_t round = 0; round < kids.size(); ++round) {
+            int bk = -1, bs = -1;
+            for (size_t k = 0; k < kids.size(); ++k) {
+                if (slot_of[k] >= 0) continue;
+                for (int s = 0; s < int(BVH_WIDTH); ++s)
+                    if (!slot_used[s] && (bk < 0 || cost[k][s] < cost[bk][bs])) bk = int(k), bs = s;
+            }
+            slot_of[size_t(bk)] = bs;
+            slot_used[bs] = true;
+        }
+        return slot_of;
+    }
+
+    void quantize(gpu::BvhNode& out, const std::vector<uint32_t>& kids,
+                  const std::vector<int>& kid_in_slot, uint32_t imask) const {
+        float lo[3], hi[3];
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = std::numeric_limits<float>::max(), hi[a] = -std::numeric_limits<float>::max();
+            for (uint32_t k : kids) lo[a] = std::min(lo[a], bin[k].lo[a]), hi[a] = std::max(hi[a], bin[k].hi[a]);
+        }
+        uint32_t exps = 0;
+        for (int a = 0; a < 3; ++a) {
+            const AxisGrid g = axis_grid(lo[a], hi[a]);
+            std::memcpy(&out.words[a], &g.p, 4);
+            exps |= uint32_t(g.e + 127) << (8 * a);
+            const double cell = std::ldexp(1.0, g.e);
+            for (int s = 0; s < int(BVH_WIDTH); ++s) {
+                if (kid_in_slot[s] < 0) continue;
+                const BinNode& c = bin[kids[size_t(kid_in_slot[s])]];
+                const double qlo = std::max(0.0, std::floor((double(c.lo[a]) - g.p) / cell) - 1.0);
+                const double qhi = std::min(255.0, std::ceil((double(c.hi[a]) - g.p) / cell) + 1.0);
+                put_byte(out.words[plane_word(a, false, s)], s % 4, uint32_t(qlo));
+                put_byte(out.words[plane_word(a, true, s)], s % 4, uint32_t(qhi));
+            }
+        }
+        out.words[3] = exps | (imask << 24);
+    }
+};
+
+}  // namespace
+
+KdTree build_wide_bvh(const std::vector<Triangle>& triangles, const TreeOptions& options) {
+    const auto start = std::chrono::steady_clock::now();
+    if (triangles.size() >= (size_t(1) << 30))
+        throw Error("too many triangles for the BVH (at most 2^30 - 1)");
+    KdTree tree;
+    tree.kind = TreeKind::Bvh;
+    // Finite triangles only (as the k-d tree: one with a NaN or infinite corner is never hit).
+    std::vector<Prim> prims(triangles.size());
+    std::vector<uint32_t> refs;
+    refs.reserve(triangles.size());
+    for (size_t i = 0; i < triangles.size(); ++i) {
+        const Triangle& t = triangles[i];
+        bool finite = true;
+        for (const glm::vec3& v : {t.v0, t.v1, t.v2})
+            finite = finite && std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+        if (!finite) continue;
+        const glm::vec3 lo = glm::min(t.v0, glm::min(t.v1, t.v2));
+        const glm::vec3 hi = glm::max(t.v0, glm::max(t.v1, t.v2));
+        prims[i] = {{lo.x, lo.y, lo.z}, {hi.x, hi.y, hi.z}};
+        tree.bounds.extend(lo), tree.bounds.extend(hi);
+        refs.push_back(uint32_t(i));
+    }
+    const int threads = options.threads > 0 ? options.threads : int(usable_cpus());
+    std::vector<BinNode> bin;
+    if (refs.empty()) {
+        // No triangle: a root without children.
+        tree.nodes.resize(BVH_NODE_UNITS);
+        tree.stats.nodes = 1;
+        tree.stats.bytes = sizeof(gpu::BvhNode);
+    } else {
+        bin.reserve(2 * refs.size());
+        BinaryBuilder{prims, refs}.build(0, uint32_t(refs.size()), bin, threads);
+        Collapser col{bin, refs, {}, {}, {}};
+        col.run();
+        tree.nodes.resize(col.nodes.size() * BVH_NODE_UNITS);
+        std::memcpy(tree.nodes.data(), col.nodes.data(), col.nodes.size() * sizeof(gpu::BvhNode));
+        tree.leaf_indices = std::move(col.leaf_indices);
+        tree.stats = col.stats;
+    }
+    tree.stats.threads = threads;
+    tree.stats.build_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return tree;
+}
+
+uint32_t bvh_node_count(const KdTree& tree) {
+    return uint32_t(tree.nodes.size() / BVH_NODE_UNITS);
+}
+
+gpu::BvhNode bvh_node(const KdTree& tree, uint32_t i) {
+    gpu::BvhNode n;
+    std::memcpy(&n, tree.nodes.data() + size_t(i) * BVH_NODE_UNITS, sizeof n);
+    return n;
+}
+
+void set_bvh_node(KdTree& tree, uint32_t i, const gpu::BvhNode& node) {
+    std::memcpy(tree.nodes.data() + size_t(i) * BVH_NODE_UNITS, &node, sizeof node);
+}
+
+uint32_t bvh_plane(const gpu::BvhNode& node, int axis, bool high, int slot) {
+    return get_byte(node.words[plane_word(axis, high, slot)], slot % 4);
+}
+
+void set_bvh_plane(gpu::BvhNode& node, int axis, bool high, int slot, uint32_t q) {
+    put_byte(node.words[plane_word(axis, high, slot)], slot % 4, q);
+}
+
+std::vector<BvhChild> bvh_children(const gpu::BvhNode& n) {
+    std::vector<BvhChild> out;
+    const uint32_t imask = n.words[3] >> 24;
+    for (int s = 0; s < int(BVH_WIDTH); ++s) {
+        const uint32_t meta = get_byte(n.words[6 + s / 4], s % 4);
+        if (meta == 0) continue;
+        BvhChild c;
+        c.slot = s;
+        c.internal = (imask >> s) & 1u;
+        if (c.internal) {
+            c.index = n.words[4] + uint32_t(__builtin_popcount(imask & ((1u << s) - 1u)));
+        } else {
+            c.index = n.words[5] + (meta & 31u);
+            c.triangles = uint32_t(__builtin_popcount(meta >> 5));
+        }
+        for (int a = 0; a < 3; ++a) {
+            float p;
+            std::memcpy(&p, &n.words[a], 4);
+            const int e = int(get_byte(n.words[3], a)) - 127;
+            c.lo[a] = p + std::ldexp(double(bvh_plane(n, a, false, s)), e);
+            c.hi[a] = p + std::ldexp(double(bvh_plane(n, a, true, s)), e);
+        }
+        out.push_back(c);
+    }
+    return out;
+}
+
+}  // namespace mcpt

@@ -1,0 +1,138 @@
+// Closest-hit and any-hit traversal of the compressed 8-wide BVH (shared_types.h: BvhNode),
+// after Ylitie, Karras & Laine, "Efficient Incoherent Ray Traversal on GPUs Through
+// Compressed Wide BVHs" (HPG 2017): a node's eight quantized child boxes tested at once, the
+// hits kept as bit masks (internal children and leaf triangles) and visited nearest-octant
+// first, one 8-byte stack entry per node left with unvisited hits. Included by traverse.h,
+// whose closer_triangle_hit() tests the triangles; docs/traversal.md: what was measured.
+#ifndef MCPT_GPU_TRAVERSE_BVH_H
+#define MCPT_GPU_TRAVERSE_BVH_H
+
+MCPT_NAMESPACE_BEGIN
+
+// Relative slack on child-box entry and exit distances: the quantized boxes carry a grid cell
+// of margin for the rounding of large terms (the origin inside a node), this covers the
+// rounding relative to the distance itself.
+#define BVH_SLACK 1.0e-6f
+// Direction components smaller than this take its value (with their sign): finite
+// reciprocals, so no 0 * inf in the box tests.
+#define BVH_MIN_DIR 1.0e-20f
+
+// Byte `slot % 4` of the word pair (a, b) holding slots 0-3 and 4-7.
+MCPT_FN uint bvh_byte(uvec2 w, uint slot) {
+    uint word = slot < 4u ? w.x : w.y;
+    return (word >> ((slot & 3u) * 8u)) & 0xffu;
+}
+
+// Distance along one axis to a quantized plane q: q * (2^e / d) + (p - o) / d.
+MCPT_FN float bvh_plane_t(uint q, float scale, float origin) { return F32(q) * scale + origin; }
+
+// The node's children the ray enters before t_max: internal children as bits 24 + (slot ^
+// oct_inv) (so the highest bit is the nearest octant's child), leaf triangles as bits at
+// their offsets from the node's first leaf index.
+MCPT_FN uint bvh_child_hits(uvec4 q0, uvec4 q1, uvec4 q2, uvec4 q3, uvec4 q4, vec3 o,
+                            vec3 inv_d, uint oct_inv, float t_max) {
+    // Per axis: the grid's cell in t, the origin's offset in t, and the near and far planes
+    // (hi is nearer when the direction is negative).
+    float sx = uint_as_float((q0.w & 0xffu) << 23u) * inv_d.x;
+    float sy = uint_as_float(((q0.w >> 8u) & 0xffu) << 23u) * inv_d.y;
+    float sz = uint_as_float(((q0.w >> 16u) & 0xffu) << 23u) * inv_d.z;
+    float ox = (uint_as_float(q0.x) - o.x) * inv_d.x;
+    float oy = (uint_as_float(q0.y) - o.y) * inv_d.y;
+    float oz = (uint_as_float(q0.z) - o.z) * inv_d.z;
+    bool nx = inv_d.x < 0.0f, ny = inv_d.y < 0.0f, nz = inv_d.z < 0.0f;
+    uvec2 lo_x = UV2(q2.x, q2.y), hi_x = UV2(q2.z, q2.w);
+    uvec2 lo_y = UV2(q3.x, q3.y), hi_y = UV2(q3.z, q3.w);
+    uvec2 lo_z = UV2(q4.x, q4.y), hi_z = UV2(q4.z, q4.w);
+    uvec2 near_x = nx ? hi_x : lo_x, far_x = nx ? lo_x : hi_x;
+    uvec2 near_y = ny ? hi_y : lo_y, far_y = ny ? lo_y : hi_y;
+    uvec2 near_z = nz ? hi_z : lo_z, far_z = nz ? lo_z : hi_z;
+    uvec2 meta = UV2(q1.z, q1.w);
+    float t_far_max = t_max * (1.0f + BVH_SLACK);
+    uint hits = 0u;
+    for (uint slot = 0u; slot < BVH_WIDTH; ++slot) {
+        uint m = bvh_byte(meta, slot);
+        if (m == 0u) continue;  // empty slot
+        float t0 = MAXF(MAXF(bvh_plane_t(bvh_byte(near_x, slot), sx, ox),
+                             bvh_plane_t(bvh_byte(near_y, slot), sy, oy)),
+                        MAXF(bvh_plane_t(bvh_byte(near_z, slot), sz, oz), 0.0f));
+        float t1 = MINF(MINF(bvh_plane_t(bvh_byte(far_x, slot), sx, ox),
+                             bvh_plane_t(bvh_byte(far_y, slot), sy, oy)),
+                        bvh_plane_t(bvh_byte(far_z, slot), sz, oz));
+        if (t0 * (1.0f - BVH_SLACK) > MINF(t1 * (1.0f + BVH_SLACK), t_far_max)) continue;
+        uint bit = m & 31u;
+        if (bit >= 24u) bit = 24u + ((bit - 24u) ^ oct_inv);
+        hits |= (m >> 5u) << bit;
+    }
+    return hits;
+}
+
+// Nearest triangle hit closer than hit.t (with any_hit, the first), ignoring `skip`.
+MCPT_FN Hit trace_bvh(SCENE_PARAMS_ Ray ray, WoopRay wr, bool any_hit, uint skip, Hit hit) {
+    vec3 d = ray.d;
+    d.x = ABSF(d.x) < BVH_MIN_DIR ? (d.x < 0.0f ? -BVH_MIN_DIR : BVH_MIN_DIR) : d.x;
+    d.y = ABSF(d.y) < BVH_MIN_DIR ? (d.y < 0.0f ? -BVH_MIN_DIR : BVH_MIN_DIR) : d.y;
+    d.z = ABSF(d.z) < BVH_MIN_DIR ? (d.z < 0.0f ? -BVH_MIN_DIR : BVH_MIN_DIR) : d.z;
+    vec3 inv_d = V3(1.0f / d.x, 1.0f / d.y, 1.0f / d.z);
+    // Slot s is nearest for directions whose negative axes are its bits; XOR with the
+    // complement of the ray's octant makes that slot's bit the highest.
+    uint oct_inv = (d.x < 0.0f ? 0u : 4u) | (d.y < 0.0f ? 0u : 2u) | (d.z < 0.0f ? 0u : 1u);
+
+    // A group: (first node index, hit bits << 24 | imask) or (first leaf index, triangle
+    // bits). The root is the only child of a pseudo-node at index 0.
+    uvec2 node_group = UV2(0u, 0x80000000u);
+    uvec2 tri_group = UV2(0u, 0u);
+    uvec2 stack[KD_STACK_SIZE];
+    uint sp = 0u;
+    bool finished = false;  // set at the one real exit (see TRACE_INCOMPLETE)
+    while (true) {
+        if ((node_group.y & 0xff000000u) != 0u) {
+            // The nearest hit child of the group; the rest stays on the stack.
+            uint bit = FIND_MSB(node_group.y);
+            uint slot = (bit - 24u) ^ oct_inv;
+            uint below = node_group.y & 0xffu & ~(0xffffffffu << slot);
+            uint child = node_group.x + BIT_COUNT(below);
+            node_group.y &= ~(1u << bit);
+            if ((node_group.y & 0xff000000u) != 0u) {
+                if (sp >= KD_STACK_SIZE) {
+                    hit.status = TRACE_STACK_OVERFLOW;
+                    return hit;
+                }
+                stack[sp] = node_group;
+                sp += 1u;
+            }
+#ifdef MCPT_COUNTERS
+            hit.node_visits += 1u;
+#endif
+            // Its children: a node group and a triangle group.
+            uint base = BVH_NODE_UNITS / 2u * child;
+            uvec4 q0 = BVH_QUAD(base), q1 = BVH_QUAD(base + 1u);
+            uint hits = bvh_child_hits(q0, q1, BVH_QUAD(base + 2u), BVH_QUAD(base + 3u),
+                                       BVH_QUAD(base + 4u), ray.o, inv_d, oct_inv, hit.t);
+            node_group = UV2(q1.x, (hits & 0xff000000u) | (q0.w >> 24u));
+            tri_group = UV2(q1.y, hits & 0x00ffffffu);
+        }
+        // The triangles of the node's hit leaves.
+        while (tri_group.y != 0u) {
+            uint bit = FIND_MSB(tri_group.y);
+            tri_group.y &= ~(1u << bit);
+            float nearest = hit.t;
+            hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, LEAF_INDEX(tri_group.x + bit), skip, hit);
+            if (any_hit && hit.t < nearest) return hit;
+        }
+        // Next: the group's other children, else the nearest group left on the stack.
+        if ((node_group.y & 0xff000000u) == 0u) {
+            if (sp == 0u) {
+                finished = true;
+                break;
+            }
+            sp -= 1u;
+            node_group = stack[sp];
+        }
+    }
+    if (!finished) hit.status = TRACE_INCOMPLETE;
+    return hit;
+}
+
+MCPT_NAMESPACE_END
+
+#endif  // MCPT_GPU_TRAVERSE_BVH_H
