@@ -33,10 +33,11 @@ struct Prim {
     float lo[3], hi[3];
 };
 
-// A binary node: a leaf (count > 0) of refs[first, first + count), or children left, right.
+// A binary node: a leaf (count > 0) of refs[first, first + count), or children left, right;
+// `below` triangles in its subtree, whose references are refs[first, first + below).
 struct BinNode {
     float lo[3], hi[3];
-    uint32_t left = 0, right = 0, first = 0, count = 0;
+    uint32_t left = 0, right = 0, first = 0, count = 0, below = 0;
 };
 
 float half_area(const float lo[3], const float hi[3]) {
@@ -54,11 +55,12 @@ struct BinaryBuilder {
         float clo[3], chi[3];
         bounds(begin, end, node, clo, chi);
         const uint32_t at = uint32_t(out.size());
+        node.first = begin, node.below = end - begin;
         out.push_back(node);
         const uint32_t count = end - begin;
         const uint32_t mid = split(begin, end, node, clo, chi);
         if (mid == begin) {
-            out[at].first = begin, out[at].count = count;
+            out[at].count = count;
             return at;
         }
         if (threads > 1 && count >= kParallelMin) {
@@ -248,14 +250,14 @@ struct Collapser {
                 if (kid_in_slot[s] < 0) continue;
                 const BinNode& c = bin[kids[size_t(kid_in_slot[s])]];
                 uint32_t meta;
-                if (c.count == 0) {
+                if (!is_leaf(kids[size_t(kid_in_slot[s])])) {
                     imask |= 1u << s;
                     meta = (1u << 5) | uint32_t(24 + s);
                     internal.push_back(kids[size_t(kid_in_slot[s])]);
                 } else {
                     const uint32_t offset = uint32_t(leaf_indices.size()) - out.words[5];
-                    meta = (((1u << c.count) - 1u) << 5) | offset;
-                    for (uint32_t i = 0; i < c.count; ++i) leaf_indices.push_back(refs[c.first + i]);
+                    meta = (((1u << c.below) - 1u) << 5) | offset;
+                    for (uint32_t i = 0; i < c.below; ++i) leaf_indices.push_back(refs[c.first + i]);
                     stats.leaves += 1;
                 }
                 put_byte(out.words[6 + s / 4], s % 4, meta);
@@ -273,9 +275,13 @@ struct Collapser {
         stats.bytes = nodes.size() * sizeof(gpu::BvhNode) + leaf_indices.size() * 4;
     }
 
+    // A child: a leaf when its subtree holds at most BVH_LEAF_MAX triangles (one slot
+    // instead of a node of small leaves).
+    bool is_leaf(uint32_t b) const { return bin[b].below <= BVH_LEAF_MAX; }
+
     // The children of the wide node made from binary node b: largest area opened first.
     std::vector<uint32_t> collapse(uint32_t b) const {
-        if (bin[b].count > 0) return {b};  // a leaf root (at most BVH_LEAF_MAX triangles)
+        if (is_leaf(b)) return {b};  // a leaf root (at most BVH_LEAF_MAX triangles)
         std::vector<uint32_t> kids{bin[b].left, bin[b].right};
         while (kids.size() < BVH_WIDTH) {
             int best = -1;
@@ -283,7 +289,7 @@ struct Collapser {
             for (size_t k = 0; k < kids.size(); ++k) {
                 const BinNode& c = bin[kids[k]];
                 const float a = half_area(c.lo, c.hi);
-                if (c.count == 0 && a > best_area) best = int(k), best_area = a;
+                if (!is_leaf(kids[k]) && a > best_area) best = int(k), best_area = a;
             }
             if (best < 0) break;
             const BinNode& c = bin[kids[size_t(best)]];

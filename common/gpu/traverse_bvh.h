@@ -17,18 +17,15 @@ MCPT_NAMESPACE_BEGIN
 // reciprocals, so no 0 * inf in the box tests.
 #define BVH_MIN_DIR 1.0e-20f
 
-// Byte `slot % 4` of the word pair (a, b) holding slots 0-3 and 4-7.
-MCPT_FN uint bvh_byte(uvec2 w, uint slot) {
-    uint word = slot < 4u ? w.x : w.y;
-    return (word >> ((slot & 3u) * 8u)) & 0xffu;
-}
-
-// Distance along one axis to a quantized plane q: q * (2^e / d) + (p - o) / d.
-MCPT_FN float bvh_plane_t(uint q, float scale, float origin) { return F32(q) * scale + origin; }
+// Byte k of a word, as a float (NVIDIA: one conversion with a byte select; building the float
+// from 2^23's mantissa instead ran NVIDIA's Vulkan 7-10% slower, docs/traversal.md).
+#define BVH_BYTE_FLOAT(w, k) F32(((w) >> (8u * (k))) & 0xffu)
 
 // The node's children the ray enters before t_max: internal children as bits 24 + (slot ^
 // oct_inv) (so the highest bit is the nearest octant's child), leaf triangles as bits at
-// their offsets from the node's first leaf index.
+// their offsets from the node's first leaf index. Four slots per meta word: a byte of meta
+// is internal when its bits 3 and 4 are set (24 + slot), and its hit bits are its top three
+// (0b1 for a node, 0b1, 0b11 or 0b111 for a leaf of 1-3 triangles; 0 for an empty slot).
 MCPT_FN uint bvh_child_hits(uvec4 q0, uvec4 q1, uvec4 q2, uvec4 q3, uvec4 q4, vec3 o,
                             vec3 inv_d, uint oct_inv, float t_max) {
     // Per axis: the grid's cell in t, the origin's offset in t, and the near and far planes
@@ -40,28 +37,28 @@ MCPT_FN uint bvh_child_hits(uvec4 q0, uvec4 q1, uvec4 q2, uvec4 q3, uvec4 q4, ve
     float oy = (uint_as_float(q0.y) - o.y) * inv_d.y;
     float oz = (uint_as_float(q0.z) - o.z) * inv_d.z;
     bool nx = inv_d.x < 0.0f, ny = inv_d.y < 0.0f, nz = inv_d.z < 0.0f;
-    uvec2 lo_x = UV2(q2.x, q2.y), hi_x = UV2(q2.z, q2.w);
-    uvec2 lo_y = UV2(q3.x, q3.y), hi_y = UV2(q3.z, q3.w);
-    uvec2 lo_z = UV2(q4.x, q4.y), hi_z = UV2(q4.z, q4.w);
-    uvec2 near_x = nx ? hi_x : lo_x, far_x = nx ? lo_x : hi_x;
-    uvec2 near_y = ny ? hi_y : lo_y, far_y = ny ? lo_y : hi_y;
-    uvec2 near_z = nz ? hi_z : lo_z, far_z = nz ? lo_z : hi_z;
-    uvec2 meta = UV2(q1.z, q1.w);
     float t_far_max = t_max * (1.0f + BVH_SLACK);
     uint hits = 0u;
-    for (uint slot = 0u; slot < BVH_WIDTH; ++slot) {
-        uint m = bvh_byte(meta, slot);
-        if (m == 0u) continue;  // empty slot
-        float t0 = MAXF(MAXF(bvh_plane_t(bvh_byte(near_x, slot), sx, ox),
-                             bvh_plane_t(bvh_byte(near_y, slot), sy, oy)),
-                        MAXF(bvh_plane_t(bvh_byte(near_z, slot), sz, oz), 0.0f));
-        float t1 = MINF(MINF(bvh_plane_t(bvh_byte(far_x, slot), sx, ox),
-                             bvh_plane_t(bvh_byte(far_y, slot), sy, oy)),
-                        bvh_plane_t(bvh_byte(far_z, slot), sz, oz));
-        if (t0 * (1.0f - BVH_SLACK) > MINF(t1 * (1.0f + BVH_SLACK), t_far_max)) continue;
-        uint bit = m & 31u;
-        if (bit >= 24u) bit = 24u + ((bit - 24u) ^ oct_inv);
-        hits |= (m >> 5u) << bit;
+    for (uint h = 0u; h < 2u; ++h) {
+        uint meta4 = h == 0u ? q1.z : q1.w;
+        uint inner4 = (meta4 & (meta4 << 1u)) & 0x10101010u;
+        uint bit4 = (meta4 ^ ((inner4 >> 4u) * oct_inv)) & 0x1f1f1f1fu;
+        uint child4 = (meta4 >> 5u) & 0x07070707u;
+        uint lo_x = h == 0u ? q2.x : q2.y, hi_x = h == 0u ? q2.z : q2.w;
+        uint lo_y = h == 0u ? q3.x : q3.y, hi_y = h == 0u ? q3.z : q3.w;
+        uint lo_z = h == 0u ? q4.x : q4.y, hi_z = h == 0u ? q4.z : q4.w;
+        uint near_x = nx ? hi_x : lo_x, far_x = nx ? lo_x : hi_x;
+        uint near_y = ny ? hi_y : lo_y, far_y = ny ? lo_y : hi_y;
+        uint near_z = nz ? hi_z : lo_z, far_z = nz ? lo_z : hi_z;
+        for (uint k = 0u; k < 4u; ++k) {
+            float t0 = MAXF(MAXF(BVH_BYTE_FLOAT(near_x, k) * sx + ox, BVH_BYTE_FLOAT(near_y, k) * sy + oy),
+                            MAXF(BVH_BYTE_FLOAT(near_z, k) * sz + oz, 0.0f));
+            float t1 = MINF(MINF(BVH_BYTE_FLOAT(far_x, k) * sx + ox, BVH_BYTE_FLOAT(far_y, k) * sy + oy),
+                            BVH_BYTE_FLOAT(far_z, k) * sz + oz);
+            bool enter = t0 * (1.0f - BVH_SLACK) <= MINF(t1 * (1.0f + BVH_SLACK), t_far_max);
+            uint bits = ((child4 >> (8u * k)) & 0xffu) << ((bit4 >> (8u * k)) & 0xffu);
+            hits |= enter ? bits : 0u;
+        }
     }
     return hits;
 }
@@ -84,6 +81,10 @@ MCPT_FN Hit trace_bvh(SCENE_PARAMS_ Ray ray, WoopRay wr, bool any_hit, uint skip
     uvec2 stack[KD_STACK_SIZE];
     uint sp = 0u;
     bool finished = false;  // set at the one real exit (see TRACE_INCOMPLETE)
+    // A node per iteration, then the triangles of its hit leaves, then the next node: its
+    // parent's next hit child, else the last group left on the stack. (One step per
+    // iteration, a triangle or a node as the k-d traversal takes them, ran 3-7% slower on
+    // NVIDIA: docs/traversal.md.)
     while (true) {
         if ((node_group.y & 0xff000000u) != 0u) {
             // The nearest hit child of the group; the rest stays on the stack.
@@ -119,7 +120,7 @@ MCPT_FN Hit trace_bvh(SCENE_PARAMS_ Ray ray, WoopRay wr, bool any_hit, uint skip
             hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, LEAF_INDEX(tri_group.x + bit), skip, hit);
             if (any_hit && hit.t < nearest) return hit;
         }
-        // Next: the group's other children, else the nearest group left on the stack.
+        // Next: the group's other hit children, else the last group left on the stack.
         if ((node_group.y & 0xff000000u) == 0u) {
             if (sp == 0u) {
                 finished = true;
