@@ -95,18 +95,19 @@ TEST(TreeAuto, FollowsTheDeviceCostModel) {
     const Scene cornell = make_builtin_scene("cornell");
     TreeOptions o;
     o.kind = TreeKind::Auto;
-    // 12 triangles: none on SIMT devices, the tree on scalar ones (measured, kdtree.h).
+    // 12 triangles: none on SIMT devices, the BVH on scalar ones (measured, kdtree.h).
     o.auto_model = kSimtCostModel;
-    EXPECT_EQ(build_kdtree(cornell.triangles, o).stats.nodes, 1u);
+    EXPECT_EQ(build_kdtree(cornell.triangles, o).kind, TreeKind::None);
     o.auto_model = kScalarCostModel;
-    EXPECT_GT(build_kdtree(cornell.triangles, o).stats.nodes, 1u);
-    // 20,000 triangles: the tree everywhere.
+    EXPECT_EQ(build_kdtree(cornell.triangles, o).kind, TreeKind::Bvh);
+    // 20,000 triangles: the BVH everywhere.
     const Scene mesh = make_bumpy_sphere_scene(100);
     for (const TreeCostModel& m : {kSimtCostModel, kScalarCostModel}) {
         o.auto_model = m;
         const KdTree t = build_kdtree(mesh.triangles, o);
-        EXPECT_GT(t.stats.nodes, 1000u) << m.name;
-        EXPECT_NE(t.auto_choice.find("sah"), std::string::npos) << t.auto_choice;
+        EXPECT_EQ(t.kind, TreeKind::Bvh) << m.name;
+        EXPECT_GT(t.stats.nodes, 100u) << m.name;
+        EXPECT_NE(t.auto_choice.find("tree auto: bvh"), std::string::npos) << t.auto_choice;
     }
 }
 

@@ -724,18 +724,18 @@ const char* tree_kind_name(TreeKind kind) {
 KdTree build_kdtree(const std::vector<Triangle>& triangles, const TreeOptions& options) {
     if (options.kind == TreeKind::Bvh) return build_wide_bvh(triangles, options);
     if (options.kind == TreeKind::Auto) {
-        // The SAH tree, kept unless the cost model prefers none.
+        // The BVH, kept unless the cost model prefers none.
         TreeOptions o = options;
-        o.kind = TreeKind::Sah;
-        KdTree sah = build_kdtree(triangles, o);
-        const TreeChoice choice = choose_tree(sah, triangles.size(), options.auto_model);
-        if (choice.kind == TreeKind::Sah) {
-            sah.auto_choice = choice.reason;
-            return sah;
+        o.kind = TreeKind::Bvh;
+        KdTree bvh = build_kdtree(triangles, o);
+        const TreeChoice choice = choose_tree(bvh, triangles.size(), options.auto_model);
+        if (choice.kind == TreeKind::Bvh) {
+            bvh.auto_choice = choice.reason;
+            return bvh;
         }
         o.kind = TreeKind::None;
         KdTree none = build_kdtree(triangles, o);
-        none.stats.build_seconds += sah.stats.build_seconds;
+        none.stats.build_seconds += bvh.stats.build_seconds;
         none.auto_choice = choice.reason;
         return none;
     }

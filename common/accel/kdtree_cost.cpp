@@ -86,18 +86,19 @@ TreeCost expected_tree_cost(const KdTree& tree) {
     return c;
 }
 
-TreeChoice choose_tree(const KdTree& sah_tree, size_t triangle_count, const TreeCostModel& m) {
+TreeChoice choose_tree(const KdTree& tree, size_t triangle_count, const TreeCostModel& m) {
     TreeChoice ch;
-    const TreeCost c = expected_tree_cost(sah_tree);
-    ch.cost_tree = m.tree_entry + m.node_visit * c.node_visits + c.triangle_tests;
+    const TreeCost c = expected_tree_cost(tree);
+    const double visit = tree.kind == TreeKind::Bvh ? m.wide_node_visit : m.node_visit;
+    ch.cost_tree = m.tree_entry + visit * c.node_visits + c.triangle_tests;
     ch.cost_none = double(triangle_count);
-    ch.kind = ch.cost_tree < ch.cost_none ? TreeKind::Sah : TreeKind::None;
+    ch.kind = ch.cost_tree < ch.cost_none ? tree.kind : TreeKind::None;
     char buf[256];
     std::snprintf(buf, sizeof buf,
-                  "tree auto: %s (%s device; expected cost per ray in triangle tests: SAH tree "
+                  "tree auto: %s (%s device; expected cost per ray in triangle tests: %s "
                   "%.1f, from %.1f node visits and %.1f triangle tests; no tree %.0f)",
-                  tree_kind_name(ch.kind), m.name, ch.cost_tree, c.node_visits, c.triangle_tests,
-                  ch.cost_none);
+                  tree_kind_name(ch.kind), m.name, tree_kind_name(tree.kind), ch.cost_tree,
+                  c.node_visits, c.triangle_tests, ch.cost_none);
     ch.reason = buf;
     return ch;
 }
