@@ -167,14 +167,18 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
                 a.width, a.height, a.tree.c_str(), a.warmup_seconds, a.seconds);
     std::fflush(stdout);
     std::vector<ThroughputRow> rows;
+    std::vector<std::string> trees;
+    std::stringstream tree_list(a.tree);
+    for (std::string t; std::getline(tree_list, t, ',');) trees.push_back(t);
     for (const auto& [name, scene] : scenes) {
         const size_t first = rows.size();
-        for (size_t k = 0; k < sessions.size(); ++k) {
+        for (size_t run = 0; run < trees.size() * sessions.size(); ++run) {
+            const size_t k = run % sessions.size();
             Session& s = *sessions[k];
             Backend& backend = s.backend();
             s.set_scene(scene);
             s.settings().width = a.width, s.settings().height = a.height;
-            s.settings().tree = a.tree;
+            s.settings().tree = trees[run / sessions.size()];
             // Warm-up (compilation done, clocks up, dispatch sizes settled), then the timed run
             // from zero.
             s.settings().seed = 1;
@@ -212,7 +216,8 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
         for (size_t i = first; i < rows.size(); ++i)
             for (size_t j = first; j < rows.size(); ++j)
                 if (rows[i].devices > 1 && rows[j].devices == 1 &&
-                    rows[j].backend == rows[i].backend && rows[j].mrays > 0)
+                    rows[j].backend == rows[i].backend && rows[j].tree == rows[i].tree &&
+                    rows[j].mrays > 0)
                     rows[i].speedup = rows[i].mrays / rows[j].mrays;
         // Vulkan against OpenCL per scene: the same device, else the same kind of device (and
         // as many devices).
@@ -221,6 +226,7 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
             for (int same_name = 1; same_name >= 0 && rows[i].ratio == 0; --same_name) {
                 for (size_t j = first; j < rows.size() && rows[i].ratio == 0; ++j) {
                     const bool match = rows[j].devices == rows[i].devices &&
+                                       rows[j].tree == rows[i].tree &&
                                        (same_name ? rows[j].device == rows[i].device
                                                   : rows[j].type == rows[i].type);
                     if (rows[j].backend == "opencl" && match && rows[j].mrays > 0)

@@ -14,7 +14,7 @@ struct ThroughputBenchArgs {
     double seconds = 5;         // timed, per scene and backend
     double warmup_seconds = 1;  // untimed, before it
     bool quick = false;         // the Cornell box and a small generated mesh
-    std::string tree = "auto";  // auto (per device), sah, median or none
+    std::string tree = "auto";  // auto (per device), sah, median, none or bvh; a comma list: each
     // Rows of one image on several devices: for each API and kind of device (GPUs, CPUs), its
     // first N devices of those given (or found), for every N here; empty: a row per device.
     std::vector<int> device_counts;

@@ -51,7 +51,9 @@ struct TreeConfig {
     const char* kind;
     int depth;
 };
-const TreeConfig kTrees[] = {{"none", "none", -1}, {"median-3", "median", 3}, {"sah", "sah", -1}};
+// The thesis' trees (none, the median tree of depth 3, the SAH k-d tree), then the BVH.
+const TreeConfig kTrees[] = {
+    {"none", "none", -1}, {"median-3", "median", 3}, {"sah", "sah", -1}, {"bvh", "bvh", -1}};
 
 struct Row {
     std::string model, tree, backend, device;
@@ -249,8 +251,16 @@ void add_bench_command(CLI::App& app) {
                   "Vulkan/OpenCL, work and bytes per ray");
     sub->add_option("--time", a->seconds, "--throughput: timed seconds per row (default 5)")
         ->check(CLI::PositiveNumber);
-    sub->add_option("--tree", a->tree, "--throughput: auto (per device), sah, median, none or bvh")
-        ->check(CLI::IsMember({"auto", "sah", "median", "none", "bvh"}))
+    sub->add_option("--tree", a->tree,
+                    "--throughput: auto (per device), sah, median, none or bvh; several "
+                    "separated by commas (rows for each)")
+        ->check([](const std::string& v) {
+            std::stringstream list(v);
+            for (std::string t; std::getline(list, t, ',');)
+                if (t != "auto" && t != "sah" && t != "median" && t != "none" && t != "bvh")
+                    return "unknown tree '" + t + "' (auto, sah, median, none, bvh)";
+            return std::string();
+        })
         ->capture_default_str();
     sub->add_option("--devices", a->device_counts,
                     "--throughput: rows of one image on the first N devices of each API, for "

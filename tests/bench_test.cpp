@@ -39,7 +39,7 @@ TEST(BenchCli, QuickTableHasEveryRow) {
         std::string::npos)
         << r.output;
     for (const char* model : {"cornell", "generated-sphere"}) {
-        for (const char* tree : {"none", "median-3", "sah"}) {
+        for (const char* tree : {"none", "median-3", "sah", "bvh"}) {
             const std::string head = std::string("| ") + model + " | ";
             const std::string tree_cell = std::string(" | ") + tree + " | opencl: ";
             size_t rows = 0;
@@ -57,11 +57,11 @@ TEST(BenchCli, QuickTableHasEveryRow) {
     // The files: the same table, one CSV line per row, an SVG with a curve per tree.
     EXPECT_NE(read_file(prefix + ".md").find("| cornell | 12 | sah |"), std::string::npos);
     const std::string csv = read_file(prefix + ".csv");
-    EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 7) << csv;
+    EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 9) << csv;
     const std::string svg = read_file(prefix + ".svg");
     EXPECT_EQ(svg.rfind("<svg", 0), 0u);
     EXPECT_EQ(std::count(svg.begin(), svg.end(), '\n') > 10, true);
-    for (const char* tree : {"none @ opencl", "median-3 @ opencl", "sah @ opencl"})
+    for (const char* tree : {"none @ opencl", "median-3 @ opencl", "sah @ opencl", "bvh @ opencl"})
         EXPECT_NE(svg.find(tree), std::string::npos) << tree;
 }
 
@@ -76,7 +76,7 @@ TEST(BenchCli, SpecializeTableHasEveryScene) {
     ASSERT_EQ(r.status, 0) << r.output;
     const std::string kMaterialBits =
         "microfacet, shading normals, textures, alpha mask, punctual lights, environment, "
-        "light tree";
+        "light tree, wide BVH";
     const std::string expected[][2] = {
         {"walls only (diffuse mesh)", "spheres, mirror, glass, sphere lights, " + kMaterialBits},
         {"cornell", "sphere lights, " + kMaterialBits},
@@ -137,7 +137,7 @@ TEST(BenchCli, ThroughputTableHasRatios) {
 #if MCPT_WITH_VULKAN
     backends += " --backend vulkan";
 #endif
-    const CliRun r = run_mcpt("bench --throughput --quick --tree sah --time 0.2 --models " +
+    const CliRun r = run_mcpt("bench --throughput --quick --tree sah,bvh --time 0.2 --models " +
                               (dir / "no-models").string() + backends + " -o " + prefix);
     ASSERT_EQ(r.status, 0) << r.output;
     const std::string csv = read_file(prefix + ".csv");
@@ -160,13 +160,16 @@ TEST(BenchCli, ThroughputTableHasRatios) {
         cells.push_back(cell);
         ASSERT_EQ(cells.size(), 17u) << line;
         EXPECT_EQ(cells[15], "1") << line;  // one device
-        EXPECT_EQ(cells[2], "sah") << line;
+        EXPECT_TRUE(cells[2] == "sah" || cells[2] == "bvh") << line;
         EXPECT_GT(std::stod(cells[9]), 0.0) << line;   // M rays/s
         EXPECT_GT(std::stod(cells[12]), 0.0) << line;  // triangle tests per ray
         rows.push_back(cells);
     }
+    // Per scene, each tree's rows in turn.
+    for (size_t i = 0; i < rows.size(); ++i)
+        EXPECT_EQ(rows[i][2], (i / (rows.size() / 4)) % 2 == 0 ? "sah" : "bvh") << i;
 #if MCPT_WITH_VULKAN
-    ASSERT_EQ(rows.size(), 4u) << csv;
+    ASSERT_EQ(rows.size(), 8u) << csv;
     for (size_t i = 0; i < rows.size(); i += 2) {
         EXPECT_EQ(rows[i][3], "opencl");
         EXPECT_EQ(rows[i + 1][3], "vulkan");
@@ -174,7 +177,7 @@ TEST(BenchCli, ThroughputTableHasRatios) {
                     1e-3 * std::stod(rows[i + 1][10]) + 1e-3);
     }
 #else
-    ASSERT_EQ(rows.size(), 2u) << csv;
+    ASSERT_EQ(rows.size(), 4u) << csv;
 #endif
 }
 

@@ -295,7 +295,7 @@ TEST(CApi, MemoryEqualsFileAndRecordsTheTree) {
         ASSERT_EQ(mcpt_session_scene_info(s.s, &si), MCPT_OK);
         EXPECT_EQ(si.triangles, 24u);
         EXPECT_EQ(si.max_bounces, 8);
-        EXPECT_TRUE(std::string(si.tree) == "sah" || std::string(si.tree) == "none") << si.tree;
+        EXPECT_TRUE(std::string(si.tree) == "bvh" || std::string(si.tree) == "none") << si.tree;
         EXPECT_NE(std::string(si.tree_reason).find(si.tree), std::string::npos) << si.tree_reason;
     }
     EXPECT_EQ(images[0], images[1]);

@@ -72,9 +72,12 @@ TEST(PhoneProfile, SceneBeyondTheProfileNamesBufferSizeAndLimit) {
 }
 
 // Desktop limits (A) against the phone profile (B) on one device, independent seeds.
-Agreement desktop_vs_phone(Scene scene, float phone_light_scale = 1.f) {
+Agreement desktop_vs_phone(Scene scene, float phone_light_scale = 1.f,
+                           TreeKind tree = TreeKind::Sah) {
     validate_scene(scene);
-    const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, TreeOptions{}));
+    TreeOptions to;
+    to.kind = tree;
+    const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, to));
     RenderOptions o;
     o.width = 32, o.height = 32, o.max_depth = 8;
     BatchOptions bo;
@@ -97,6 +100,11 @@ TEST(PhoneProfile, AgreesWithDesktopOnCornell) {
 
 TEST(PhoneProfile, AgreesWithDesktopOnADeepMeshTree) {
     const Agreement g = desktop_vs_phone(make_bumpy_sphere_scene(100));
+    EXPECT_TRUE(g.agree) << g.verdict();
+}
+
+TEST(PhoneProfile, AgreesWithDesktopOnADeepMeshBvh) {
+    const Agreement g = desktop_vs_phone(make_bumpy_sphere_scene(100), 1.f, TreeKind::Bvh);
     EXPECT_TRUE(g.agree) << g.verdict();
 }
 

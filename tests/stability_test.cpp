@@ -1,5 +1,6 @@
 // Numerical stability: the same image at any scale and position within the documented
-// range, on every backend (PoCL and lavapipe in CI).
+// range, on every backend (PoCL and lavapipe in CI), through the k-d tree and (the extreme
+// placements) the BVH.
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -12,9 +13,12 @@
 namespace mcpt {
 namespace {
 
-BatchSet render_scene(const std::string& api, Scene scene, uint32_t seed_base) {
+BatchSet render_scene(const std::string& api, Scene scene, uint32_t seed_base,
+                      TreeKind tree = TreeKind::Sah) {
     validate_scene(scene);
-    const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, TreeOptions{}));
+    TreeOptions to;
+    to.kind = tree;
+    const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, to));
     auto backend = test::test_backend(api);
     RenderOptions o;
     o.width = 32, o.height = 32;
@@ -28,6 +32,7 @@ BatchSet render_scene(const std::string& api, Scene scene, uint32_t seed_base) {
 struct Placement {
     double scale;
     double offset;
+    bool bvh = false;  // the moved scene through the BVH (the unit scene: the k-d tree)
 };
 
 class ScaleAndPosition : public ::testing::TestWithParam<std::tuple<std::string, Placement>> {};
@@ -40,7 +45,7 @@ TEST_P(ScaleAndPosition, CornellImageUnchanged) {
     const Scene moved =
         test::transform_scene(make_builtin_scene("cornell"), pl.scale,
                               glm::dvec3(pl.offset, -0.5 * pl.offset, 0.25 * pl.offset));
-    const BatchSet b = render_scene(api, moved, 777);
+    const BatchSet b = render_scene(api, moved, 777, pl.bvh ? TreeKind::Bvh : TreeKind::Sah);
     const Agreement g = test_agreement(unit[api], b, 0.01);
     EXPECT_TRUE(g.agree) << api << ": scale " << pl.scale << " offset " << pl.offset << ": "
                          << g.verdict();
@@ -52,12 +57,14 @@ INSTANTIATE_TEST_SUITE_P(
                        ::testing::Values(Placement{1e-4, 0}, Placement{1e-2, 0}, Placement{1e2, 0},
                                          Placement{1e5, 0}, Placement{1, 10}, Placement{1, 1e2},
                                          Placement{1, 1e3}, Placement{1e-4, 1e-2},
-                                         Placement{1e5, 1e6}, Placement{1, 1e4})),
+                                         Placement{1e5, 1e6}, Placement{1, 1e4},
+                                         Placement{1e-4, 0, true}, Placement{1e5, 1e6, true},
+                                         Placement{1, 1e4, true})),
     [](const auto& info) {
         const Placement& p = std::get<1>(info.param);
         char buf[96];
-        std::snprintf(buf, sizeof buf, "%s_Scale%gOffset%g", std::get<0>(info.param).c_str(),
-                      p.scale, p.offset);
+        std::snprintf(buf, sizeof buf, "%s_Scale%gOffset%g%s", std::get<0>(info.param).c_str(),
+                      p.scale, p.offset, p.bvh ? "Bvh" : "");
         std::string s(buf);
         for (char& c : s)
             if (!isalnum(static_cast<unsigned char>(c))) c = '_';

@@ -33,6 +33,9 @@ struct Prim {
     float lo[3], hi[3];
 };
 
+// A box's centre on axis a (halves first: no overflow at 3.4e38).
+float centroid(const Prim& p, int a) { return 0.5f * p.lo[a] + 0.5f * p.hi[a]; }
+
 // A binary node: a leaf (count > 0) of refs[first, first + count), or children left, right;
 // `below` triangles in its subtree, whose references are refs[first, first + below).
 struct BinNode {
@@ -40,9 +43,17 @@ struct BinNode {
     uint32_t left = 0, right = 0, first = 0, count = 0, below = 0;
 };
 
-float half_area(const float lo[3], const float hi[3]) {
-    const float dx = hi[0] - lo[0], dy = hi[1] - lo[1], dz = hi[2] - lo[2];
+// In double: float boxes up to 3.4e38 wide stay finite.
+double half_area(const float lo[3], const float hi[3]) {
+    const double dx = double(hi[0]) - lo[0], dy = double(hi[1]) - lo[1], dz = double(hi[2]) - lo[2];
     return dx * dy + dy * dz + dz * dx;
+}
+
+// The bin of centroid coordinate c over [lo, lo + kBins / scale), in double (finite for any
+// finite floats, denormal extents included).
+int bin_of(float c, float lo, double scale) {
+    const double x = (double(c) - lo) * scale;
+    return x >= double(kBins - 1) ? kBins - 1 : (x > 0 ? int(x) : 0);
 }
 
 struct BinaryBuilder {
@@ -102,7 +113,7 @@ struct BinaryBuilder {
             for (int a = 0; a < 3; ++a) {
                 node.lo[a] = std::min(node.lo[a], p.lo[a]);
                 node.hi[a] = std::max(node.hi[a], p.hi[a]);
-                const float c = 0.5f * (p.lo[a] + p.hi[a]);
+                const float c = centroid(p, a);
                 clo[a] = std::min(clo[a], c), chi[a] = std::max(chi[a], c);
             }
         }
@@ -121,8 +132,7 @@ struct BinaryBuilder {
         double best_cost = std::numeric_limits<double>::infinity();
         int best_axis = -1, best_bin = 0;
         for (int a = 0; a < 3; ++a) {
-            const float extent = chi[a] - clo[a];
-            if (!(extent > 0.f)) continue;
+            if (!(chi[a] > clo[a])) continue;
             Bin bins[kBins];
             for (Bin& b : bins) {
                 b.n = 0;
@@ -130,11 +140,10 @@ struct BinaryBuilder {
                     b.lo[k] = std::numeric_limits<float>::max(),
                     b.hi[k] = -std::numeric_limits<float>::max();
             }
-            const float scale = float(kBins) / extent;
+            const double scale = double(kBins) / (double(chi[a]) - clo[a]);
             for (uint32_t i = begin; i < end; ++i) {
                 const Prim& p = prims[refs[i]];
-                const float c = 0.5f * (p.lo[a] + p.hi[a]);
-                const int b = std::min(kBins - 1, int((c - clo[a]) * scale));
+                const int b = bin_of(centroid(p, a), clo[a], scale);
                 Bin& bin = bins[b];
                 bin.n += 1;
                 for (int k = 0; k < 3; ++k)
@@ -173,12 +182,10 @@ struct BinaryBuilder {
         }
         if (best_axis < 0) return begin + count / 2;  // one centroid: halve by index
         const int a = best_axis;
-        const float scale = float(kBins) / (chi[a] - clo[a]);
+        const double scale = double(kBins) / (double(chi[a]) - clo[a]);
         const float c0 = clo[a];
         uint32_t* mid = std::partition(refs.data() + begin, refs.data() + end, [&](uint32_t r) {
-            const Prim& p = prims[r];
-            const float c = 0.5f * (p.lo[a] + p.hi[a]);
-            return std::min(kBins - 1, int((c - c0) * scale)) < best_bin;
+            return bin_of(centroid(prims[r], a), c0, scale) < best_bin;
         });
         return uint32_t(mid - refs.data());
     }
@@ -207,6 +214,9 @@ AxisGrid axis_grid(double lo, double hi) {
         if (std::ceil((hi - double(g.p)) / cell) + 1.0 <= 255.0 || g.e >= 126) return g;
     }
 }
+
+// A grid plane as a byte, 0-255 (NaN: 0; only boxes beyond float range reach the ends).
+uint32_t grid_byte(double q) { return q >= 255.0 ? 255u : (q > 0 ? uint32_t(q) : 0u); }
 
 void put_byte(uint32_t& word, int k, uint32_t v) {
     word = (word & ~(0xffu << (8 * k))) | ((v & 0xffu) << (8 * k));
@@ -285,10 +295,10 @@ struct Collapser {
         std::vector<uint32_t> kids{bin[b].left, bin[b].right};
         while (kids.size() < BVH_WIDTH) {
             int best = -1;
-            float best_area = -1;
+            double best_area = -1;
             for (size_t k = 0; k < kids.size(); ++k) {
                 const BinNode& c = bin[kids[k]];
-                const float a = half_area(c.lo, c.hi);
+                const double a = half_area(c.lo, c.hi);
                 if (!is_leaf(kids[k]) && a > best_area) best = int(k), best_area = a;
             }
             if (best < 0) break;
@@ -348,10 +358,10 @@ struct Collapser {
             for (int s = 0; s < int(BVH_WIDTH); ++s) {
                 if (kid_in_slot[s] < 0) continue;
                 const BinNode& c = bin[kids[size_t(kid_in_slot[s])]];
-                const double qlo = std::max(0.0, std::floor((double(c.lo[a]) - g.p) / cell) - 1.0);
-                const double qhi = std::min(255.0, std::ceil((double(c.hi[a]) - g.p) / cell) + 1.0);
-                put_byte(out.words[plane_word(a, false, s)], s % 4, uint32_t(qlo));
-                put_byte(out.words[plane_word(a, true, s)], s % 4, uint32_t(qhi));
+                const double qlo = std::floor((double(c.lo[a]) - g.p) / cell) - 1.0;
+                const double qhi = std::ceil((double(c.hi[a]) - g.p) / cell) + 1.0;
+                put_byte(out.words[plane_word(a, false, s)], s % 4, grid_byte(qlo));
+                put_byte(out.words[plane_word(a, true, s)], s % 4, grid_byte(qhi));
             }
         }
         out.words[3] = exps | (imask << 24);

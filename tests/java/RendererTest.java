@@ -137,7 +137,7 @@ public final class RendererTest {
             expectError("null byte[]", -1, "null", () -> r.loadScene(null));
             expectError("render before a scene", -3, "no scene loaded", () -> r.render(10, 0, 1));
             expectError("size 0", -1, "between 1x1", () -> r.setSize(0, 0));
-            expectError("unknown tree", -1, "unknown tree kind", () -> r.setTree("bvh", -1));
+            expectError("unknown tree", -1, "unknown tree kind", () -> r.setTree("octree", -1));
             expectError("unknown sampler", -1, "unknown sampler", () -> r.setSampler("halton"));
             expectError("unknown built-in", -4, "cornell", () -> r.loadBuiltin("teapot"));
             expectError("image before render", -3, "nothing rendered", () -> r.readRgba8());
