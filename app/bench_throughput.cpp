@@ -27,6 +27,7 @@ namespace {
 // Bytes the traversal reads per node visit and per triangle test (an 8-byte node; a leaf index
 // and a 40-byte triangle): a lower bound on the memory traffic a ray causes.
 constexpr double kNodeBytes = sizeof(gpu::KdNode);
+constexpr double kBvhNodeBytes = sizeof(gpu::BvhNode);
 constexpr double kTestBytes = sizeof(uint32_t) + sizeof(gpu::GpuTriangle);
 
 struct ThroughputRow {
@@ -40,7 +41,8 @@ struct ThroughputRow {
     // device (a CPU driver against a CPU driver); 0: none.
     double ratio = 0;
     double bytes_per_ray() const {
-        return visits_per_ray * kNodeBytes + tests_per_ray * kTestBytes;
+        return visits_per_ray * (tree == "bvh" ? kBvhNodeBytes : kNodeBytes) +
+               tests_per_ray * kTestBytes;
     }
     double gbytes_per_s() const { return bytes_per_ray() * mrays * 1e-3; }
 };
@@ -239,10 +241,10 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
     std::printf("\n%s", table.c_str());
     std::printf(
         "\nnode visits and triangle tests per ray: full paths, counted on the CPU; bytes/ray: "
-        "%.0f per node visit, %.0f per triangle test (leaf index and triangle); GB/s: bytes/ray "
-        "x rays/s, a lower bound on the traffic; Vulkan/OpenCL: rays/s against OpenCL on the "
-        "same device, else on the same kind of device\n",
-        kNodeBytes, kTestBytes);
+        "%.0f per k-d node visit, %.0f per BVH node visit, %.0f per triangle test (leaf index "
+        "and triangle); GB/s: bytes/ray x rays/s, a lower bound on the traffic; Vulkan/OpenCL: "
+        "rays/s against OpenCL on the same device, else on the same kind of device\n",
+        kNodeBytes, kBvhNodeBytes, kTestBytes);
     write_text_atomically(a.output + ".md", table);
     write_csv(a.output + ".csv", rows, a.width, a.height);
     write_plot(a.output + ".svg", rows);
