@@ -305,20 +305,21 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
 
 // Nearest hit with t < ray.tmax; with any_hit, the first hit found. In scenes with alphaMode
 // MASK materials, the nearest hit is found, and passed through while its material is cut out
-// there (outside the traversal loop, which stays as lean as without masks).
+// there (outside the traversal loop, which stays as lean as without masks). One call of the
+// traversal, so each query inlines one copy of it (with one copy for the masks' loop and one
+// for the rest, the textured scene's BVH kernel ran 10% slower on NVIDIA's Vulkan).
 MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
-    if (!HAS_FEATURE(FEATURE_ALPHA_MASK) || (PARAM(scene_flags) & SCENE_ALPHA_MASK) == 0u)
-        return trace_opaque(SCENE_ARGS_ ray, any_hit, NO_HIT);
+    bool masks = HAS_FEATURE(FEATURE_ALPHA_MASK) && (PARAM(scene_flags) & SCENE_ALPHA_MASK) != 0u;
     Ray r = ray;
     float t_base = 0.0f;
     uint skip = NO_HIT, tri_tests = 0u, node_visits = 0u;
     for (uint k = 0u; k < MAX_CUTOUTS; ++k) {
-        Hit hit = trace_opaque(SCENE_ARGS_ r, false, skip);
+        Hit hit = trace_opaque(SCENE_ARGS_ r, any_hit && !masks, skip);
         tri_tests += hit.tri_tests;
         node_visits += hit.node_visits;
-        if (hit.prim == NO_HIT || hit.status != 0u || (hit.prim & SPHERE_BIT) != 0u ||
+        if (!masks || hit.prim == NO_HIT || hit.status != 0u || (hit.prim & SPHERE_BIT) != 0u ||
             opaque_at(SCENE_ARGS_ TRIANGLE(hit.prim).material, hit.prim, hit.b1, hit.b2)) {
-            hit.t += t_base;
+            if (masks) hit.t += t_base;
             hit.tri_tests = tri_tests;
             hit.node_visits = node_visits;
             return hit;
