@@ -5,6 +5,7 @@
 // kernels/pathtrace.cl, with the same function names).
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
 #define MCPT_GLSL 1
 #include "../common/gpu/fold_sums.h"
 #include "../common/gpu/integrator.h"

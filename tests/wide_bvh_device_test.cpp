@@ -1,5 +1,6 @@
 // The BVH on devices (PoCL and lavapipe in CI), beside the k-d tree: a same-seed render is the
-// same image bit for bit through either tree on each API (the traversals find the same hits,
+// same image bit for bit through either tree on each API (a box with glass and mirrors, a
+// mesh, a textured Blender scene with cut-outs) (the traversals find the same hits,
 // ties included), and the BVH's images agree statistically across the APIs. Negative
 // controls: a BVH whose leaf boxes miss half their triangles changes the same-seed image on
 // both APIs, and fails the statistical comparison against the k-d tree's.
@@ -44,8 +45,7 @@ struct Scenes {
 std::vector<Scenes> scenes() {
     std::vector<Scenes> s;
     s.push_back({"cornell", make_builtin_scene("cornell")});
-    s.push_back({"materials", make_builtin_scene("materials")});
-    s.push_back({"bumpy sphere", make_bumpy_sphere_scene(60)});
+    s.push_back({"bumpy sphere", make_bumpy_sphere_scene(40)});
     s.push_back({"textured", load_gltf(std::string(MCPT_TEST_DATA_DIR) + "/textured.glb")});
     for (Scenes& c : s) validate_scene(c.scene);
     return s;

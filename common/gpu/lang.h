@@ -32,6 +32,7 @@
 #define SELECT3(a, b, c) ((c) ? (b) : (a))
 #define FIND_MSB(x) uint(31 - __builtin_clz(x))  // x != 0
 #define BIT_COUNT(x) uint(__builtin_popcount(x))
+#define NO_UNROLL  // before a loop the compiler should keep rolled (code size)
 
 // ---------------------------------------------------------------- OpenCL C
 #elif defined(MCPT_OPENCL)
@@ -75,6 +76,7 @@
 #define SELECT3(a, b, c) ((c) ? (b) : (a))
 #define FIND_MSB(x) (31u - clz(x))
 #define BIT_COUNT(x) popcount(x)
+#define NO_UNROLL _Pragma("unroll 1")
 
 // ---------------------------------------------------------------- GLSL (Vulkan)
 #else
@@ -101,6 +103,7 @@
 #define SELECT3(a, b, c) ((c) ? (b) : (a))
 #define FIND_MSB(x) uint(findMSB(x))
 #define BIT_COUNT(x) uint(bitCount(x))
+#define NO_UNROLL [[dont_unroll]]  // GL_EXT_control_flow_attributes (shaders/pathtrace.comp)
 #endif
 
 #endif  // MCPT_GPU_LANG_H
