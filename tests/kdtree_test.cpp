@@ -256,22 +256,24 @@ std::string label(const std::string& mesh, TreeKind kind, int depth) {
     return mesh + "/" + tree_kind_name(kind) + "/depth " + std::to_string(depth);
 }
 
-// Depths tried per kind; the median tree duplicates stacked triangles 2^depth times.
+// Depths tried per kind; the median tree duplicates stacked triangles 2^depth times (the BVH
+// has no depth option).
 std::vector<int> depths_for(TreeKind kind) {
-    if (kind == TreeKind::None) return {-1};
+    if (kind == TreeKind::None || kind == TreeKind::Bvh) return {-1};
     if (kind == TreeKind::Median) return {-1, 0, 1, 5, 8};
     return {-1, 0, 1, 4, 12, 40};
 }
 
 
-// Every test mesh, each kind and depth of tree, and rays from test_rays(mesh, seed) as device
-// rays: check(label, device triangles, tree, ray, device ray); stops at the first fatal failure.
+// Every test mesh, each kind and depth of tree (the BVH too: the device traversal's checks
+// hold for it), and rays from test_rays(mesh, seed) as device rays: check(label, device
+// triangles, tree, ray, device ray); stops at the first fatal failure.
 template <class Check>
 void for_each_device_ray(uint32_t seed, Check check) {
     for (const NamedMesh& m : test_meshes()) {
         const std::vector<gpu::GpuTriangle> g = device_triangles(m.tris);
         const std::vector<TestRay> rays = test_rays(m.tris, seed);
-        for (TreeKind kind : {TreeKind::Sah, TreeKind::Median, TreeKind::None}) {
+        for (TreeKind kind : {TreeKind::Sah, TreeKind::Median, TreeKind::None, TreeKind::Bvh}) {
             for (int depth : depths_for(kind)) {
                 const std::string what = label(m.name, kind, depth);
                 const KdTree tree = build_kdtree(m.tris, options(kind, depth));

@@ -43,7 +43,7 @@ gpu::Hit brute_force_hit(const std::vector<gpu::GpuTriangle>& triangles, const g
         gpu::Ray r = ray;
         r.tmax = best.t;
         const gpu::TriHit th = gpu::intersect_triangle(r, wr, triangles[i]);
-        if (th.hit) best.t = th.t, best.prim = i;
+        if (th.hit) best.t = th.t, best.b1 = th.b1, best.b2 = th.b2, best.prim = i;
     }
     return best;
 }

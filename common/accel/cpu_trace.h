@@ -20,7 +20,8 @@ gpu::Hit cpu_trace_tree(const KdTree& tree, const std::vector<gpu::GpuTriangle>&
                         const gpu::Ray& ray, bool any_hit = false, uint32_t scene_flags = 0);
 
 // The oracle it is checked against (tests, fuzzing): every triangle in index order with the
-// same triangle test, no tree; prim is NO_HIT when the ray misses them all.
+// same triangle test, no tree (ties: the lower index); prim is NO_HIT when the ray misses
+// them all. t, prim and the barycentrics b1, b2 of the hit.
 gpu::Hit brute_force_hit(const std::vector<gpu::GpuTriangle>& triangles, const gpu::Ray& ray);
 
 // The camera ray through (fx, fy) in [-1, 1]^2 of params' camera, through the shared

@@ -12,7 +12,8 @@ namespace mcpt {
 
 namespace {
 
-double half_area(const float lo[3], const float hi[3]) {
+template <class T>
+double half_area(const T lo[3], const T hi[3]) {
     const double dx = double(hi[0]) - lo[0], dy = double(hi[1]) - lo[1], dz = double(hi[2]) - lo[2];
     return dx * dy + dy * dz + dz * dx;
 }
@@ -23,18 +24,14 @@ double half_area(const float lo[3], const float hi[3]) {
 // boxes all tested there, and a leaf's triangles with its box's probability.
 TreeCost expected_bvh_cost(const KdTree& tree) {
     TreeCost c;
-    const auto area = [](const double lo[3], const double hi[3]) {
-        const double dx = hi[0] - lo[0], dy = hi[1] - lo[1], dz = hi[2] - lo[2];
-        return dx * dy + dy * dz + dz * dx;
-    };
     const double lo[3] = {tree.bounds.min.x, tree.bounds.min.y, tree.bounds.min.z};
     const double hi[3] = {tree.bounds.max.x, tree.bounds.max.y, tree.bounds.max.z};
-    const double root_area = area(lo, hi);
+    const double root_area = half_area(lo, hi);
     c.node_visits = 1;
     const uint32_t n = bvh_node_count(tree);
     for (uint32_t i = 0; i < n; ++i) {
         for (const BvhChild& ch : bvh_children(bvh_node(tree, i))) {
-            const double p = root_area > 0 ? std::min(1.0, area(ch.lo, ch.hi) / root_area) : 1.0;
+            const double p = root_area > 0 ? std::min(1.0, half_area(ch.lo, ch.hi) / root_area) : 1.0;
             if (ch.internal)
                 c.node_visits += p;
             else

@@ -319,7 +319,7 @@ MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
         node_visits += hit.node_visits;
         if (!masks || hit.prim == NO_HIT || hit.status != 0u || (hit.prim & SPHERE_BIT) != 0u ||
             opaque_at(SCENE_ARGS_ TRIANGLE(hit.prim).material, hit.prim, hit.b1, hit.b2)) {
-            if (masks) hit.t += t_base;
+            hit.t += t_base;  // + 0 without masks: the same bits
             hit.tri_tests = tri_tests;
             hit.node_visits = node_visits;
             return hit;
