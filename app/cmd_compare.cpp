@@ -2,6 +2,7 @@
 // the images agree, statistically (independent seeds) and with the same seed.
 // Exit status: 0 agree, 2 differ, 1 error.
 #include <array>
+#include <chrono>
 #include <cstdio>
 #include <thread>
 
@@ -46,6 +47,9 @@ struct Side {
     double device_seconds = 0;  // of the batches, 0 if the device cannot time itself
     size_t devices = 1;         // rendering this side together
     std::string tree;           // the k-d tree it rendered with
+    // Wall time of its steps: devices opened and kernels built, batches with the same-seed
+    // render (on the first device, while the others start on batches), the same-seed render.
+    double open_s = 0, batches_s = 0, same_seed_s = 0;
 };
 
 using SpeedRow = std::array<std::string, 3>;  // name, A, B
@@ -142,6 +146,7 @@ void write_compare_report(const CompareArgs& args, const Side (&sides)[2],
 }
 
 void run_compare(const CompareArgs& args) {
+    const auto start = std::chrono::steady_clock::now();
     refuse_mpirun("compare");
     if (!args.report.empty()) prepare_report_dir(args.report);  // before any rendering
     Scene scene = load_scene_argument(args.scene);
@@ -165,6 +170,10 @@ void run_compare(const CompareArgs& args) {
         // One device, or several: each renders whole batches (independent renders), handed
         // to whichever is free; the first renders the same-seed image.
         const std::vector<std::string> devices = device_list(specs[s]);
+        const auto t0 = std::chrono::steady_clock::now();
+        const auto since = [](std::chrono::steady_clock::time_point t) {
+            return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+        };
         sides[s].session = std::make_unique<Session>(open_device(devices[0], opt));
         for (size_t k = 1; k < devices.size(); ++k)
             sides[s].helpers.push_back(std::make_unique<Session>(open_device(devices[k], opt)));
@@ -179,22 +188,51 @@ void run_compare(const CompareArgs& args) {
             one->settings().light_scale = side_ro.light_scale;
             // The tree: as asked, or (auto) the one this side's device cost model picks.
             one->settings().tree = args.tree;
-            one->commit();
         }
+        // Trees and kernels: every device at once.
+        std::vector<std::string> failures(all.size());
+        std::vector<std::thread> commits;
+        for (size_t k = 0; k < all.size(); ++k)
+            commits.emplace_back([&, k] {
+                try {
+                    all[k]->commit();
+                } catch (const std::exception& e) {
+                    failures[k] = e.what();
+                }
+            });
+        for (std::thread& t : commits) t.join();
+        for (size_t k = 0; k < all.size(); ++k)
+            if (!failures[k].empty())
+                throw Error(all.size() == 1 ? failures[k]
+                                            : devices[k] + ": " + failures[k]);
         sides[s].tree = tree_kind_name(session.prepared().tree_kind);
+        sides[s].open_s = since(t0);
+        // The same-seed image, on the first device while the others (if any) start on the
+        // batches.
+        double same_seed_device_s = 0;
+        const auto same_seed = [&](Session& first) {
+            const auto t2 = std::chrono::steady_clock::now();
+            const double before = first.backend().device_seconds();
+            first.settings().seed = 7;
+            first.reset();
+            RenderGoal goal;
+            goal.spp = args.same_seed_spp;
+            render_until(first, goal);
+            sides[s].same_seed = first.result();
+            same_seed_device_s = first.backend().device_seconds() - before;
+            sides[s].same_seed_s = since(t2);
+        };
+        const auto t1 = std::chrono::steady_clock::now();
         BatchOptions side_bo = bo;
         side_bo.seed_base = 1000u + 100000u * uint32_t(s);
         const double device_before = session.backend().device_seconds();
-        sides[s].batches = render_batches(all, side_bo);
+        sides[s].batches = render_batches(all, side_bo, same_seed);
         // (Several devices: only the first's timers are at hand; no device time then.)
         sides[s].device_seconds =
-            devices.size() > 1 ? 0 : session.backend().device_seconds() - device_before;
-        session.settings().seed = 7;
-        session.reset();
-        RenderGoal goal;
-        goal.spp = args.same_seed_spp;
-        render_until(session, goal);
-        sides[s].same_seed = session.result();
+            devices.size() > 1
+                ? 0
+                : session.backend().device_seconds() - device_before - same_seed_device_s;
+        sides[s].batches_s = since(t1);
     };
     if (args.parallel) {
         // A and B on their devices at once; a failure of either is reported after both end.
@@ -275,6 +313,7 @@ void run_compare(const CompareArgs& args) {
     if (args.parallel) speed_ratio += " (A and B rendered at once)";
 
     // Statistical agreement.
+    const auto tests_start = std::chrono::steady_clock::now();
     const Agreement agreement = test_agreement(sides[0].batches, sides[1].batches, args.alpha);
     std::printf("mean radiance B vs A: %+.3f%%\n", 100 * agreement.mean_relative_diff);
     std::printf("statistical (alpha %.3g, %zu pixels tested): %s\n", args.alpha,
@@ -294,6 +333,16 @@ void run_compare(const CompareArgs& args) {
         (unsigned long long)args.same_seed_spp, same_seed_agrees ? "AGREE" : "DIFFER", d.diverged,
         d.pixels, d.tolerance, 100 * d.fraction_diverged(), 100 * args.same_seed_limit,
         d.max_abs_diff);
+    // Where the command's time went (wall time).
+    const auto seconds_since = [](std::chrono::steady_clock::time_point t) {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+    };
+    std::printf(
+        "wall time (s): A open+compile %.2f, batches and same seed %.2f (same seed %.2f); B "
+        "%.2f, %.2f (%.2f); tests %.2f; total %.2f\n",
+        sides[0].open_s, sides[0].batches_s, sides[0].same_seed_s, sides[1].open_s,
+        sides[1].batches_s, sides[1].same_seed_s, seconds_since(tests_start),
+        seconds_since(start));
     if (!args.output.empty()) {
         // p-value, signed z (B - A), mean difference per pixel.
         std::vector<float> img(3 * agreement.p_image.size());

@@ -325,6 +325,15 @@ void run_converge(const ConvergeArgs& a) {
                 run.checkpoints =
                     render_progressive(session, po, ref, &total,
                                        [&](const Checkpoint& c) { print_checkpoint(run, c); });
+                // What the checkpoints cost in render time: read-backs (one device) or rounds
+                // whose sums are collected (several).
+                if (specs.size() > 1)
+                    std::printf("  %llu rounds, %.3f s collecting their sums\n",
+                                (unsigned long long)session.rounds(), session.collect_seconds());
+                else
+                    std::printf("  %llu read-backs, %.3f s\n",
+                                (unsigned long long)session.readbacks(),
+                                session.readback_seconds());
                 run.report =
                     analyze_convergence(run.checkpoints, ref.mean_value(), effective_pixels(total));
                 if (!a.report.empty()) run.image = total.mean_image();

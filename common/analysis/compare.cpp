@@ -9,37 +9,59 @@
 
 #include "common/analysis/stats.h"
 #include "common/error.h"
+#include "common/io/host_cpus.h"
 
 namespace mcpt {
 
-BatchSet batch_means(const std::vector<RenderResult>& renders) {
-    if (renders.size() < 2) throw Error("need at least 2 batches");
-    BatchSet set;
-    set.width = renders[0].width, set.height = renders[0].height;
-    set.batches = int(renders.size());
-    set.spp_per_batch = renders[0].spp;
-    const size_t npix = size_t(set.width) * size_t(set.height);
-    std::vector<double> sum(npix, 0.0), sum_sq(npix, 0.0);
-    for (const RenderResult& r : renders) {
-        if (r.width != set.width || r.height != set.height)
-            throw Error("batches of different image sizes");
-        const std::vector<float> img = r.mean_image();
-        for (size_t i = 0; i < npix; ++i) {
-            const double m = (double(img[3 * i]) + img[3 * i + 1] + img[3 * i + 2]) / 3.0;
-            sum[i] += m, sum_sq[i] += m * m;
+BatchMean batch_mean(const RenderResult& r) {
+    BatchMean b;
+    b.width = r.width, b.height = r.height, b.spp = r.spp;
+    b.nonfinite = r.nonfinite_total, b.seconds = r.seconds, b.rays = r.rays;
+    const size_t npix = size_t(r.width) * size_t(r.height);
+    b.mean.resize(npix);
+    // The mean of r, g, b, each as the image shows it (float).
+    for_ranges(npix, [&](size_t begin, size_t end) {
+        for (size_t i = begin; i < end; ++i) {
+            double m = 0;
+            for (int c = 0; c < 3; ++c) m += double(float(channel_stats(r, i, c).mean));
+            b.mean[i] = m / 3.0;
         }
-        set.nonfinite += r.nonfinite_total;
-        set.seconds += r.seconds;
-        set.rays += r.rays;
+    });
+    return b;
+}
+
+BatchSet batch_means(const std::vector<BatchMean>& batches) {
+    if (batches.size() < 2) throw Error("need at least 2 batches");
+    BatchSet set;
+    set.width = batches[0].width, set.height = batches[0].height;
+    set.batches = int(batches.size());
+    set.spp_per_batch = batches[0].spp;
+    const size_t npix = size_t(set.width) * size_t(set.height);
+    for (const BatchMean& b : batches) {
+        if (b.width != set.width || b.height != set.height || b.mean.size() != npix)
+            throw Error("batches of different image sizes");
+        set.nonfinite += b.nonfinite;
+        set.seconds += b.seconds;
+        set.rays += b.rays;
     }
-    // Mean and unbiased variance of the batch means.
+    // Mean and unbiased variance of the batch means; per pixel the batches in order.
     const double k = set.batches;
     set.mean.resize(npix), set.var.resize(npix);
-    for (size_t i = 0; i < npix; ++i) {
-        set.mean[i] = sum[i] / k;
-        set.var[i] = std::max(0.0, (sum_sq[i] - k * set.mean[i] * set.mean[i]) / (k - 1));
-    }
+    for_ranges(npix, [&](size_t begin, size_t end) {
+        for (size_t i = begin; i < end; ++i) {
+            double sum = 0, sum_sq = 0;
+            for (const BatchMean& b : batches) sum += b.mean[i], sum_sq += b.mean[i] * b.mean[i];
+            set.mean[i] = sum / k;
+            set.var[i] = std::max(0.0, (sum_sq - k * set.mean[i] * set.mean[i]) / (k - 1));
+        }
+    });
     return set;
+}
+
+BatchSet batch_means(const std::vector<RenderResult>& renders) {
+    std::vector<BatchMean> batches;
+    for (const RenderResult& r : renders) batches.push_back(batch_mean(r));
+    return batch_means(batches);
 }
 
 BatchSet render_batches(Backend& backend, const GpuScene& scene, const Camera& camera,
@@ -48,61 +70,58 @@ BatchSet render_batches(Backend& backend, const GpuScene& scene, const Camera& c
     backend.load(scene, options.width, options.height, options.group_spp > 0);
     options.spp = batch.spp_per_batch;
     // One batch: an independent render with its own seed.
-    std::vector<RenderResult> renders;
+    std::vector<BatchMean> batches;
     for (int b = 0; b < batch.batches; ++b) {
         options.seed = batch.seed_base + uint32_t(b);
-        renders.push_back(render_loaded(backend, scene, camera, options));
+        batches.push_back(batch_mean(render_loaded(backend, scene, camera, options)));
     }
-    return batch_means(renders);
+    return batch_means(batches);
 }
 
 BatchSet render_batches(Session& session, const BatchOptions& batch) {
-    if (batch.batches < 2) throw Error("need at least 2 batches");
-    std::vector<RenderResult> renders;
-    for (int b = 0; b < batch.batches; ++b) {
-        session.settings().seed = batch.seed_base + uint32_t(b);
-        session.reset();
-        RenderGoal goal;
-        goal.spp = batch.spp_per_batch;
-        render_until(session, goal);
-        renders.push_back(session.result());
-    }
-    return batch_means(renders);
+    return render_batches(std::vector<Session*>{&session}, batch);
 }
 
-BatchSet render_batches(const std::vector<Session*>& sessions, const BatchOptions& batch) {
+BatchSet render_batches(const std::vector<Session*>& sessions, const BatchOptions& batch,
+                        const std::function<void(Session&)>& first) {
     if (batch.batches < 2) throw Error("need at least 2 batches");
     if (sessions.empty()) throw Error("no session to render the batches");
-    if (sessions.size() == 1) return render_batches(*sessions[0], batch);
-    std::vector<RenderResult> renders(size_t(batch.batches));
+    std::vector<BatchMean> batches(size_t(batch.batches));
     std::atomic<int> next{0};
     std::vector<std::string> failures(sessions.size());
     const auto start = std::chrono::steady_clock::now();
-    std::vector<std::thread> threads;
-    for (size_t k = 0; k < sessions.size(); ++k)
-        threads.emplace_back([&, k] {
-            Session& session = *sessions[k];
-            try {
-                for (int b; (b = next.fetch_add(1)) < batch.batches;) {
-                    session.settings().seed = batch.seed_base + uint32_t(b);
-                    session.reset();
-                    RenderGoal goal;
-                    goal.spp = batch.spp_per_batch;
-                    render_until(session, goal);
-                    renders[size_t(b)] = session.result();
-                }
-            } catch (const std::exception& e) {
-                failures[k] = e.what();
-                next.store(batch.batches);  // the others stop after their batch
+    // Each session in a thread of its own (one: this thread), taking the next batch when free.
+    const auto work = [&](size_t k) {
+        Session& session = *sessions[k];
+        try {
+            if (k == 0 && first) first(session);
+            for (int b; (b = next.fetch_add(1)) < batch.batches;) {
+                session.settings().seed = batch.seed_base + uint32_t(b);
+                session.reset();
+                RenderGoal goal;
+                goal.spp = batch.spp_per_batch;
+                render_until(session, goal);
+                batches[size_t(b)] = batch_mean(session.result());
             }
-        });
+        } catch (const std::exception& e) {
+            failures[k] = e.what();
+            next.store(batch.batches);  // the others stop after their batch
+        }
+    };
+    std::vector<std::thread> threads;
+    for (size_t k = 1; k < sessions.size(); ++k) threads.emplace_back(work, k);
+    work(0);
     for (std::thread& t : threads) t.join();
     for (size_t k = 0; k < sessions.size(); ++k)
         if (!failures[k].empty())
-            throw Error("device " + std::to_string(k) + " (" + sessions[k]->device().label() +
-                        "): " + failures[k]);
-    BatchSet set = batch_means(renders);
-    set.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+            throw Error(sessions.size() == 1 ? failures[k]
+                                             : "device " + std::to_string(k) + " (" +
+                                                   sessions[k]->device().label() +
+                                                   "): " + failures[k]);
+    BatchSet set = batch_means(batches);
+    if (sessions.size() > 1)
+        set.seconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return set;
 }
 

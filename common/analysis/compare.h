@@ -3,6 +3,7 @@
 // plus global tests for a small uniform bias), and same-seed agreement (identical random
 // streams: what differs is float rounding and compiler behaviour).
 #pragma once
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -26,7 +27,17 @@ struct BatchOptions {
     uint32_t seed_base = 1;  // batch b uses seed seed_base + b
 };
 
+// One batch as the test needs it: per pixel the mean of r, g and b; its totals.
+struct BatchMean {
+    int width = 0, height = 0;
+    uint64_t spp = 0, nonfinite = 0;
+    double seconds = 0, rays = 0;
+    std::vector<double> mean;
+};
+BatchMean batch_mean(const RenderResult& render);
+
 // Batch means from independent renders of one size (two at least).
+BatchSet batch_means(const std::vector<BatchMean>& batches);
 BatchSet batch_means(const std::vector<RenderResult>& renders);
 
 // Loads the scene once, then renders the batches with independent seeds.
@@ -37,8 +48,10 @@ BatchSet render_batches(Backend& backend, const GpuScene& scene, const Camera& c
 BatchSet render_batches(Session& session, const BatchOptions& batch);
 // The same batches on several sessions at once (each a device: batches are independent
 // renders, handed to whichever session is free); batch b is the render of seed_base + b
-// whichever renders it. `seconds` is the wall time of them all.
-BatchSet render_batches(const std::vector<Session*>& sessions, const BatchOptions& batch);
+// whichever renders it. `seconds` is the wall time of them all. `first`, if set, runs on the
+// first session before it takes a batch (the others start on batches meanwhile).
+BatchSet render_batches(const std::vector<Session*>& sessions, const BatchOptions& batch,
+                        const std::function<void(Session&)>& first = {});
 
 struct Agreement {
     size_t pixels_tested = 0;  // pixels with variance or differing means

@@ -44,7 +44,10 @@ std::optional<Chunk> Coordinator::next(size_t w) {
     // With a sample count: the rest shared among the workers, so they finish together.
     if (lim_.end > 0) {
         const double left = double(lim_.end - next_first_);
-        size = std::min(size, std::max(g, std::ceil(left / double(workers_.size()) / g) * g));
+        double sharers = double(workers_.size());
+        if (rate > 0 && lim_.min_share_seconds > 0)
+            sharers = std::clamp(std::floor(left / (rate * lim_.min_share_seconds)), 1.0, sharers);
+        size = std::min(size, std::max(g, std::ceil(left / sharers / g) * g));
         size = std::min(size, left);
     }
     const uint64_t n = std::max<uint64_t>(lim_.granule, uint64_t(size / g) * lim_.granule);
@@ -98,6 +101,14 @@ void Coordinator::run(const std::atomic<bool>* cancel) {
                 }
                 done(w, *chunk,
                      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+            }
+            // No chunk left for it: its read-back overlaps the others' last chunks.
+            try {
+                workers_[w]->finish_round();
+            } catch (const DeviceLost& e) {
+                failed(w, e.what(), true);
+            } catch (const std::exception& e) {
+                failed(w, e.what(), false);
             }
             std::lock_guard<std::mutex> lock(mutex_);
             ++finished;

@@ -35,6 +35,9 @@ class Worker {
     // Renders samples [chunk.first, chunk.end) of every pixel into the round's sums. Throws
     // mcpt::Error (mcpt::DeviceLost) when it fails.
     virtual void render(const Chunk& chunk) = 0;
+    // Its last chunk of the round is done: the sums may move to the host now, while other
+    // devices still render (called on the worker's own thread; add_round_to() follows).
+    virtual void finish_round() {}
     // Adds the round's sums (every chunk since the last call; samples counted, not placed) to
     // `total`, and starts a new round.
     virtual void add_round_to(RenderResult& total) = 0;
@@ -45,6 +48,10 @@ struct JobLimits {
     double seconds = 0;          // hand out no chunk that would end after this; 0: no limit
     uint32_t granule = 1;        // chunks start and end at multiples of this (group_spp)
     double chunk_seconds = 0.5;  // a chunk's duration on the device that takes it
+    // With an end: the rest is shared by no more devices than get this long a share each (a
+    // device that joins a round adds its sums at the end: a tiny share costs more than it
+    // saves). 0: shared by all.
+    double min_share_seconds = 0;
 };
 
 struct WorkerStats {

@@ -17,16 +17,20 @@ namespace mcpt {
 std::vector<float> RenderResult::mean_image() const {
     const size_t n = size_t(width) * size_t(height);
     std::vector<float> img(3 * n);
-    for (size_t i = 0; i < n; ++i)
-        for (int c = 0; c < 3; ++c) img[3 * i + c] = channel_stats(*this, i, c).mean;
+    for_ranges(n, [&](size_t begin, size_t end) {
+        for (size_t i = begin; i < end; ++i)
+            for (int c = 0; c < 3; ++c) img[3 * i + c] = channel_stats(*this, i, c).mean;
+    });
     return img;
 }
 
 std::vector<float> RenderResult::std_error_image() const {
     const size_t n = size_t(width) * size_t(height);
     std::vector<float> err(3 * n);
-    for (size_t i = 0; i < n; ++i)
-        for (int c = 0; c < 3; ++c) err[3 * i + c] = channel_stats(*this, i, c).std_error;
+    for_ranges(n, [&](size_t begin, size_t end) {
+        for (size_t i = begin; i < end; ++i)
+            for (int c = 0; c < 3; ++c) err[3 * i + c] = channel_stats(*this, i, c).std_error;
+    });
     return err;
 }
 
@@ -41,33 +45,35 @@ double RenderResult::relative_error() const {
     // One pass, nothing allocated (sessions ask after every render() call).
     const size_t n = size_t(width) * size_t(height);
     if (spp < 2 || n == 0) return HUGE_VAL;
+    // Sums per block of pixels on threads, then the blocks in order: the same bits on any
+    // number of threads.
+    constexpr size_t kBlock = size_t(1) << 14;
+    const size_t blocks = (n + kBlock - 1) / kBlock;
+    std::vector<double> block_err(blocks), block_radiance(blocks);
+    for_ranges(
+        blocks,
+        [&](size_t begin, size_t end) {
+            for (size_t b = begin; b < end; ++b) {
+                double err = 0, radiance = 0;
+                for (size_t i = b * kBlock; i < std::min(n, (b + 1) * kBlock); ++i)
+                    for (int c = 0; c < 3; ++c) {
+                        const ChannelStats st = channel_stats(*this, i, c);
+                        radiance += st.mean, err += st.std_error;
+                    }
+                block_err[b] = err, block_radiance[b] = radiance;
+            }
+        },
+        16);
     double err = 0, radiance = 0;
-    for (size_t i = 0; i < n; ++i)
-        for (int c = 0; c < 3; ++c) {
-            const ChannelStats st = channel_stats(*this, i, c);
-            radiance += st.mean, err += st.std_error;
-        }
+    for (size_t b = 0; b < blocks; ++b) err += block_err[b], radiance += block_radiance[b];
     if (!(radiance > 0)) return HUGE_VAL;
     return err / radiance;
 }
 
-namespace {
-// Runs fn(begin, end) over pixel ranges in threads of their own: a 4096x4096 image's sums are
-// a gigabyte, added and converted at the memory's speed, not one core's.
-template <typename Fn>
-void for_pixel_ranges(size_t npix, const Fn& fn) {
-    const size_t parts = std::clamp<size_t>(npix >> 18, 1, size_t(usable_cpus()));
-    std::vector<std::thread> threads;
-    for (size_t t = 1; t < parts; ++t)
-        threads.emplace_back(fn, npix * t / parts, npix * (t + 1) / parts);
-    fn(size_t(0), npix / parts);
-    for (std::thread& t : threads) t.join();
-}
-}  // namespace
 
 void RenderResult::materialize() {
     if (exact.empty()) return;
-    for_pixel_ranges(size_t(width) * size_t(height), [this](size_t begin, size_t end) {
+    for_ranges(size_t(width) * size_t(height), [this](size_t begin, size_t end) {
         for (size_t i = begin; i < end; ++i)
             for (int c = 0; c < 3; ++c) {
                 sum[3 * i + c] = from_exact(exact[6 * i + c]);
@@ -91,7 +97,7 @@ void accumulate_sums(RenderResult& to, const RenderResult& part) {
         throw Error("exact (reproducible) and inexact sums cannot be added");
     // Pixel ranges in threads of their own.
     std::atomic<bool> fits{true};
-    for_pixel_ranges(to.nonfinite.size(), [&](size_t begin, size_t end) {
+    for_ranges(to.nonfinite.size(), [&](size_t begin, size_t end) {
         if (!to.exact.empty()) {
             for (size_t k = 6 * begin; k < 6 * end; ++k)
                 if (!add_exact(to.exact[k], part.exact[k])) fits.store(false);
@@ -188,7 +194,7 @@ void ProgressiveRender::add_device_sums(RenderResult& to) const {
     // exact additions); reproducible: the group's float sums added exactly (exact_sums.h).
     const bool exact = !to.exact.empty();
     std::atomic<bool> fits{true};
-    for_pixel_ranges(npix_, [&](size_t begin, size_t end) {
+    for_ranges(npix_, [&](size_t begin, size_t end) {
         bool ok = true;
         for (size_t i = begin; i < end; ++i) {
             const float* a = &device_sums_[8 * i];
@@ -266,7 +272,7 @@ void ProgressiveRender::sync_exact() {
         const uint32_t n = std::min(chunk, npix_ - first);
         backend_.read_exact(exact_words_, first, n);
         std::atomic<uint64_t> chunk_nonfinite{0}, chunk_rays{0};
-        for_pixel_ranges(n, [&](size_t begin, size_t end) {
+        for_ranges(n, [&](size_t begin, size_t end) {
             bool ok = true;
             uint64_t nf = 0, ry = 0;
             for (size_t k = begin; k < end; ++k) {
@@ -324,7 +330,7 @@ void ProgressiveRender::show_settled() {
     // Copied in pixel ranges on threads (r_'s arrays are image-sized already).
     r_.sum.resize(settled_.sum.size()), r_.sum_sq.resize(settled_.sum_sq.size());
     r_.nonfinite.resize(settled_.nonfinite.size());
-    for_pixel_ranges(npix_, [this](size_t begin, size_t end) {
+    for_ranges(npix_, [this](size_t begin, size_t end) {
         std::copy(settled_.sum.begin() + 3 * begin, settled_.sum.begin() + 3 * end,
                   r_.sum.begin() + 3 * begin);
         std::copy(settled_.sum_sq.begin() + 3 * begin, settled_.sum_sq.begin() + 3 * end,
@@ -382,7 +388,7 @@ void ProgressiveRender::begin_at(uint64_t first) {
                     " samples, not at " + std::to_string(first));
     // Zeros in place (the arrays are image-sized and reused chunk after chunk).
     const auto zero = [&](RenderResult& r) {
-        for_pixel_ranges(npix_, [&r](size_t begin, size_t end) {
+        for_ranges(npix_, [&r](size_t begin, size_t end) {
             std::fill(r.sum.begin() + 3 * begin, r.sum.begin() + 3 * end, 0.0);
             std::fill(r.sum_sq.begin() + 3 * begin, r.sum_sq.begin() + 3 * end, 0.0);
             std::fill(r.nonfinite.begin() + begin, r.nonfinite.begin() + end, 0.0);

@@ -57,6 +57,7 @@ class SessionWorker : public Worker {
     explicit SessionWorker(Session& s) : s_(s) {}
     std::string name() const override { return s_.device().label(); }
     void render(const Chunk& chunk) override { s_.render_chunk(chunk.first, chunk.end); }
+    void finish_round() override { s_.finish_round(); }
     void add_round_to(RenderResult& total) override { s_.add_round_to(total); }
 
   private:
@@ -206,7 +207,7 @@ void Session::commit() {
     total_.first = part_.first;
     device_stats_.clear();
     rounds_ = 0, collect_total_s_ = 0;
-    round_open_ = false;
+    round_open_ = round_flushed_ = false;
     if (part_.first > 0) progressive_->begin_at(part_.first);
     committed_settings_ = s;
     dirty_ = false;
@@ -221,7 +222,7 @@ void Session::render_chunk(uint64_t first, uint64_t end) {
         pr.continue_at(first);
     else
         pr.begin_at(first);
-    round_open_ = true;
+    round_open_ = true, round_flushed_ = false;
     RenderResult& r = pr.result();
     const uint64_t before = r.spp, n = end - first;
     try {
@@ -232,11 +233,22 @@ void Session::render_chunk(uint64_t first, uint64_t end) {
     }
 }
 
+void Session::finish_round() {
+    if (!round_open_ || round_flushed_) return;
+    try {
+        progressive_->flush();
+    } catch (const DeviceLost& e) {
+        lost_ = e.what();
+        throw;
+    }
+    round_flushed_ = true;
+}
+
 void Session::add_round_to(RenderResult& total) {
     if (!round_open_) return;
-    progressive_->flush();
+    finish_round();
     accumulate_sums(total, progressive_->settled_sums());
-    round_open_ = false;
+    round_open_ = round_flushed_ = false;
 }
 
 double Session::round_seconds() const {
@@ -298,6 +310,8 @@ PassStats Session::render_on_devices(double budget_s, double target_error, uint6
         }
         lim.granule = s.reproducible ? kReproducibleGroupSpp : 1;
         lim.chunk_seconds = s.chunk_seconds;
+        // A device joins a round for no less than the last round's collection took.
+        lim.min_share_seconds = reduce_seconds_;
         Coordinator round(total_, lim, workers, rates_);
         try {
             round.run(&cancel_);
@@ -308,8 +322,8 @@ PassStats Session::render_on_devices(double budget_s, double target_error, uint6
             throw;
         } catch (...) {
             // The round adds nothing: its samples are dropped on every device.
-            round_open_ = false;
-            for (auto& h : helpers_) h->round_open_ = false;
+            round_open_ = round_flushed_ = false;
+            for (auto& h : helpers_) h->round_open_ = h->round_flushed_ = false;
             total_.seconds = seconds_before + elapsed();
             add_stats(round.stats());
             throw;
@@ -454,7 +468,7 @@ void Session::reset() {
         return;
     }
     progressive_->begin_at(part_.first);
-    round_open_ = false;
+    round_open_ = round_flushed_ = false;
 }
 
 const RenderResult& Session::result() const {

@@ -131,6 +131,8 @@ class Session {
     // pixel on this session's device alone, into the round's sums (not the image). `first`
     // must be a multiple of kReproducibleGroupSpp when reproducible.
     void render_chunk(uint64_t first, uint64_t end);
+    // The round's chunks are done: reads its sums back (Worker::finish_round).
+    void finish_round();
     // Adds the round's sums to `total` (coordinator.h, Worker::add_round_to) and starts a new
     // round.
     void add_round_to(RenderResult& total);
@@ -176,6 +178,7 @@ class Session {
   private:
     PassStats render_on_devices(double budget_s, double target_error, uint64_t max_spp);
     bool round_open_ = false;    // render_chunk() added samples since add_round_to()
+    bool round_flushed_ = false;  // and finish_round() read them back
     double reduce_seconds_ = 0;  // collecting the last round's sums
     double collect_s_ = 0;       // one device: the last read-back and error estimate
     uint64_t readbacks_ = 0;
