@@ -145,10 +145,26 @@ void write_compare_report(const CompareArgs& args, const Side (&sides)[2],
     std::printf("wrote %s/index.html\n", args.report.c_str());
 }
 
+// Under mpirun each rank takes one device a side: the one the side names, or (the API alone)
+// its GPU at its local rank (rank_device()).
+std::string rank_side_device(const std::string& side, const MpiJob& mpi) {
+    const std::vector<std::string> devices = device_list(side);
+    if (devices.size() > 1)
+        throw Error("under mpirun each rank takes one device a side: '" + side + "' names " +
+                    std::to_string(devices.size()));
+    const std::string& d = devices[0];
+    const size_t comma = d.find(',');
+    const std::string device = d.substr(0, comma);
+    if (device.find(':') != std::string::npos) return d;
+    return rank_device(device, mpi) + (comma == std::string::npos ? "" : d.substr(comma));
+}
+
 void run_compare(const CompareArgs& args) {
     const auto start = std::chrono::steady_clock::now();
-    refuse_mpirun("compare");
-    if (!args.report.empty()) prepare_report_dir(args.report);  // before any rendering
+    const MpiJob& mpi = mpi_job();
+    if (mpi.size > 1 && args.parallel)
+        throw Error("under mpirun every rank renders A's batches, then B's: not with --parallel");
+    if (mpi.rank == 0 && !args.report.empty()) prepare_report_dir(args.report);  // before rendering
     Scene scene = load_scene_argument(args.scene);
     scene.environment = lighting_environment(args.lighting);
     scene.light_tree = args.lighting.light_sampling == "tree";
@@ -160,16 +176,39 @@ void run_compare(const CompareArgs& args) {
     bo.batches = args.batches;
     bo.spp_per_batch = args.spp;
 
-    Side sides[2];
     const std::string specs[2] = {args.a, args.b};
+    // A side's device options, and the settings each of its sessions renders with.
+    const auto side_options = [&](int s) {
+        BackendOptions opt;
+        if (s == 1) opt.extra_defines = args.b_defines;
+        return opt;
+    };
+    const auto configure = [&](Session& one, int s) {
+        one.set_scene(scene);
+        one.settings().width = args.width, one.settings().height = args.height;
+        one.settings().max_depth = int(ro.max_depth);
+        one.settings().light_scale = s == 1 ? args.b_light_scale : 1.f;
+        // The tree: as asked, or (auto) the one this side's device cost model picks.
+        one.settings().tree = args.tree;
+    };
+    // Ranks above 0 of an MPI job: A's batches, then B's, as rank 0 hands them out.
+    if (mpi.rank > 0) {
+        for (int s = 0; s < 2; ++s) {
+            Session session(open_device(rank_side_device(specs[s], mpi), side_options(s)));
+            configure(session, s);
+            mpi_serve_batches(session);
+        }
+        return;
+    }
+    Side sides[2];
     const auto run_side = [&](int s) {
         // Independent seeds per side, then one same-seed render.
-        BackendOptions opt;
-        RenderOptions side_ro = ro;
-        if (s == 1) opt.extra_defines = args.b_defines, side_ro.light_scale = args.b_light_scale;
+        const BackendOptions opt = side_options(s);
         // One device, or several: each renders whole batches (independent renders), handed
         // to whichever is free; the first renders the same-seed image.
-        const std::vector<std::string> devices = device_list(specs[s]);
+        const std::vector<std::string> devices = mpi.size > 1
+                                                     ? std::vector{rank_side_device(specs[s], mpi)}
+                                                     : device_list(specs[s]);
         const auto t0 = std::chrono::steady_clock::now();
         const auto since = [](std::chrono::steady_clock::time_point t) {
             return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
@@ -181,14 +220,7 @@ void run_compare(const CompareArgs& args) {
         Session& session = *sides[s].session;
         std::vector<Session*> all{&session};
         for (auto& h : sides[s].helpers) all.push_back(h.get());
-        for (Session* one : all) {
-            one->set_scene(scene);
-            one->settings().width = args.width, one->settings().height = args.height;
-            one->settings().max_depth = int(side_ro.max_depth);
-            one->settings().light_scale = side_ro.light_scale;
-            // The tree: as asked, or (auto) the one this side's device cost model picks.
-            one->settings().tree = args.tree;
-        }
+        for (Session* one : all) configure(*one, s);
         // Trees and kernels: every device at once.
         std::vector<std::string> failures(all.size());
         std::vector<std::thread> commits;
@@ -226,10 +258,20 @@ void run_compare(const CompareArgs& args) {
         BatchOptions side_bo = bo;
         side_bo.seed_base = 1000u + 100000u * uint32_t(s);
         const double device_before = session.backend().device_seconds();
-        sides[s].batches = render_batches(all, side_bo, same_seed);
+        // Under mpirun the other ranks render batches too (each said it has the same job).
+        std::vector<std::unique_ptr<BatchRenderer>> ranks;
+        std::vector<BatchRenderer*> remote;
+        if (mpi.size > 1) {
+            RankJob rank_job;
+            rank_job.width = args.width, rank_job.height = args.height;
+            ranks = mpi_batch_renderers(session.fingerprint(), rank_job);
+            for (auto& r : ranks) remote.push_back(r.get());
+            sides[s].devices += ranks.size();
+        }
+        sides[s].batches = render_batches(all, side_bo, same_seed, remote);
         // (Several devices: only the first's timers are at hand; no device time then.)
         sides[s].device_seconds =
-            devices.size() > 1
+            sides[s].devices > 1
                 ? 0
                 : session.backend().device_seconds() - device_before - same_seed_device_s;
         sides[s].batches_s = since(t1);

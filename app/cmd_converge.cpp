@@ -252,19 +252,95 @@ void write_converge_report(const ConvergeArgs& a, const std::string& label, cons
     std::printf("wrote %s/index.html\n", a.report.c_str());
 }
 
+// One backend's run: its devices, and whether the other ranks of an MPI job render it too.
+struct ConvergeJob {
+    std::vector<std::string> specs;
+    bool with_ranks = true;
+};
+
+// Each backend's runs: on its --device list (one image on several devices, coordinator.h), and
+// with --beside-one on the first of them alone too (what the others add). Under mpirun each
+// rank takes one device (rank_device(), or the one --device), and --beside-one's run is rank
+// 0's alone. Every rank computes the same list from the same arguments.
+std::vector<ConvergeJob> converge_jobs(const ConvergeArgs& a, const MpiJob& mpi) {
+    std::vector<ConvergeJob> jobs;
+    for (const std::string& backend : a.backends) {
+        if (mpi.size > 1) {
+            const std::string spec = a.devices.empty() ? rank_device(backend, mpi)
+                                                       : device_specs(backend, a.devices)[0];
+            if (a.beside_one) jobs.push_back({{spec}, false});
+            jobs.push_back({{spec}, true});
+            continue;
+        }
+        const std::vector<std::string> specs = device_specs(backend, a.devices);
+        if (a.beside_one && specs.size() > 1) jobs.push_back({{specs.front()}, false});
+        jobs.push_back({specs, false});
+    }
+    return jobs;
+}
+
+// A session for one job: the scene and the settings every run of it shares.
+std::unique_ptr<Session> open_job_session(const ConvergeArgs& a, const ConvergeJob& job,
+                                          const Scene& scene, uint32_t max_depth) {
+    auto session = std::make_unique<Session>(job.specs, BackendOptions{});
+    session->set_scene(scene);
+    session->settings().width = a.width, session->settings().height = a.height;
+    session->settings().max_depth = int(max_depth);
+    session->settings().tree = a.tree;  // auto: the tree this device's cost model picks
+    return session;
+}
+
+// The seed of run `index` (every run of every job counted, in order).
+uint32_t run_seed(const ConvergeArgs& a, size_t index) {
+    return a.seed + 100000u * uint32_t(index);
+}
+
+// Ranks above 0 of an MPI job: each run that has ranks, rendered as rank 0 hands it out.
+void serve_converge(const ConvergeArgs& a, const std::vector<ConvergeJob>& jobs,
+                    const Scene& scene, uint32_t max_depth) {
+    size_t index = 0;
+    for (const ConvergeJob& job : jobs) {
+        if (!job.with_ranks) {
+            index += a.samplers.size() * a.sampling.size();
+            continue;
+        }
+        std::unique_ptr<Session> session = open_job_session(a, job, scene, max_depth);
+        for (const std::string& sampler : a.samplers)
+            for (const std::string& sampling : a.sampling) {
+                session->settings().sampler = sampler;
+                session->settings().adaptive = sampling == "adaptive";
+                session->settings().seed = run_seed(a, index++);
+                mpi_serve(*session, false);
+            }
+    }
+}
+
 void run_converge(const ConvergeArgs& a) {
-    refuse_mpirun("converge");
-    if (!a.report.empty()) prepare_report_dir(a.report);  // before any rendering
+    const MpiJob& mpi = mpi_job();
+    if (mpi.size > 1 && a.devices.size() > 1)
+        throw Error("under mpirun each rank takes one device: give at most one --device");
+    if (mpi.size > 1)
+        for (const std::string& sampling : a.sampling)
+            if (sampling == "adaptive")
+                throw Error(
+                    "adaptive sampling runs on one device (its plan needs the whole image's "
+                    "noise): not under mpirun");
+    if (mpi.rank == 0 && !a.report.empty()) prepare_report_dir(a.report);  // before rendering
     // Scene, tree, render settings.
     Scene scene = load_scene_argument(a.scene);
     scene.environment = lighting_environment(a.lighting);
     scene.light_tree = a.lighting.light_sampling == "tree";
     check_lit(scene);
-    const TreeOptions tree_opts = tree_options(a.tree);
-    const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, tree_opts));
     RenderOptions ro;
     ro.width = a.width, ro.height = a.height;
     ro.max_depth = uint32_t(a.max_depth >= 0 ? a.max_depth : default_max_depth(scene));
+    const std::vector<ConvergeJob> jobs = converge_jobs(a, mpi);
+    if (mpi.rank > 0) {
+        serve_converge(a, jobs, scene, ro.max_depth);
+        return;
+    }
+    const TreeOptions tree_opts = tree_options(a.tree);
+    const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, tree_opts));
     const std::string label = scene_label(scene, a.scene);
 
     // Reference.
@@ -288,52 +364,52 @@ void run_converge(const ConvergeArgs& a) {
     std::vector<Run> runs;
     std::printf("\n%-18s %-28s %9s %8s %11s %9s %11s %12s\n", "backend", "device", "seconds", "spp",
                 "rmse", "rel rmse", "rel mse", "mean signed");
-    // Each backend's run: on its --device list (one image on several devices, coordinator.h),
-    // and with --beside-one on the first of them alone too (what the others add).
-    std::vector<std::vector<std::string>> jobs;
-    for (const std::string& backend : a.backends) {
-        const std::vector<std::string> specs = device_specs(backend, a.devices);
-        if (a.beside_one && specs.size() > 1) jobs.push_back({specs.front()});
-        jobs.push_back(specs);
-    }
-    for (const std::vector<std::string>& specs : jobs) {
-        Session session(specs, BackendOptions{});
-        session.set_scene(scene);
-        session.settings().width = a.width, session.settings().height = a.height;
-        session.settings().max_depth = int(ro.max_depth);
-        session.settings().tree = a.tree;  // auto: the tree this device's cost model picks
+    RankJob rank_job;
+    rank_job.width = a.width, rank_job.height = a.height;
+    for (const ConvergeJob& job : jobs) {
+        std::unique_ptr<Session> owned = open_job_session(a, job, scene, ro.max_depth);
+        Session& session = *owned;
         const Backend& backend = session.backend();
         for (const std::string& sampler : a.samplers)
             for (const std::string& sampling : a.sampling) {
                 session.settings().sampler = sampler;
                 session.settings().adaptive = sampling == "adaptive";
+                session.settings().seed = run_seed(a, runs.size());
+                // Under mpirun: the other ranks join this run (each said it has the same job).
+                if (job.with_ranks)
+                    for (auto& w : mpi_remote_workers(session.fingerprint(), rank_job))
+                        session.add_worker(std::move(w));
+                const size_t devices = job.with_ranks ? size_t(mpi.size) : job.specs.size();
                 Run run;
                 run.backend = backend.device().backend;
-                if (specs.size() > 1) run.backend += " x" + std::to_string(specs.size());
+                if (devices > 1)
+                    run.backend += " x" + std::to_string(devices) + (job.with_ranks ? " ranks" : "");
                 if (a.samplers.size() > 1) run.backend += "/" + sampler;
                 if (a.sampling.size() > 1) run.backend += "/" + sampling;
                 run.device = backend.device().name;
-                if (specs.size() > 1)
+                if (job.specs.size() > 1)
                     for (size_t d = 1; d < session.device_names().size(); ++d)
                         run.device += " + " + session.device_names()[d];
                 ProgressiveOptions po;
                 po.schedule =
                     a.checkpoints == "time" ? Schedule::TimeDoubling : Schedule::SppDoubling;
                 po.seconds = a.seconds, po.max_spp = a.max_spp;
-                po.seed_base = a.seed + 100000u * uint32_t(runs.size());
+                po.seed_base = session.settings().seed;
                 RenderResult total;
                 run.checkpoints =
                     render_progressive(session, po, ref, &total,
                                        [&](const Checkpoint& c) { print_checkpoint(run, c); });
                 // What the checkpoints cost in render time: read-backs (one device) or rounds
                 // whose sums are collected (several).
-                if (specs.size() > 1)
+                if (devices > 1)
                     std::printf("  %llu rounds, %.3f s collecting their sums\n",
                                 (unsigned long long)session.rounds(), session.collect_seconds());
                 else
                     std::printf("  %llu read-backs, %.3f s\n",
                                 (unsigned long long)session.readbacks(),
                                 session.readback_seconds());
+                // The ranks' part of this run ends (each goes on to the next).
+                session.remove_workers();
                 run.report =
                     analyze_convergence(run.checkpoints, ref.mean_value(), effective_pixels(total));
                 if (!a.report.empty()) run.image = total.mean_image();

@@ -35,7 +35,9 @@ int main(int argc, char** argv) {
         // No subcommand: render the default scene on the best device.
         if (app.get_subcommands().empty()) app.get_subcommand("render")->parse("");
     } catch (const mcpt::ExitStatus& e) {
-        return finish(e.code);
+        // A verdict (compare: DIFFER), given when every rank has done its part.
+        mcpt::mpi_finish();
+        return e.code;
     } catch (const CLI::ParseError& e) {
         // CLI11's message; bad options are bad input: exit status 1 (--help: 0).
         return finish(app.exit(e) == 0 ? 0 : 1);

@@ -59,6 +59,11 @@ std::vector<std::unique_ptr<Worker>> mpi_remote_workers(const Fingerprint&, cons
     return {};
 }
 void mpi_serve(Session&, bool) {}
+std::vector<std::unique_ptr<BatchRenderer>> mpi_batch_renderers(const Fingerprint&,
+                                                                const RankJob&) {
+    return {};
+}
+void mpi_serve_batches(Session&) {}
 
 #else
 
@@ -248,16 +253,14 @@ void mpi_abort(int code) {
     std::exit(code);
 }
 
-std::vector<std::unique_ptr<Worker>> mpi_remote_workers(const Fingerprint& job_fingerprint,
-                                                        const RankJob& job) {
-    std::vector<std::unique_ptr<Worker>> workers;
-    auto group = std::make_shared<RankGroup>();
-    group->job = job, group->size = g_job.size;
-    group->handed.assign(size_t(g_job.size), 0);
-    group->devices.push_back("rank 0");
+namespace {
+
+// Rank 0: each other rank's greeting, in rank order: which device it opened and that it was
+// started for this job, or why it could not. The devices, rank 0's first.
+std::vector<std::string> receive_hellos(const Fingerprint& job_fingerprint, const RankJob& job) {
+    std::vector<std::string> devices{"rank 0"};
     for (int rank = 1; rank < g_job.size; ++rank) {
-        // Each rank says which device it opened and what job it was started for, or why it
-        // could not (ranks compile their kernels first: ten times the floor for that).
+        // (Ranks compile their kernels first: ten times the floor for that.)
         MPI_Status st;
         if (!wait_for(rank, Clock::now() + seconds(10 * job.timeout_floor_s), st))
             throw Error(rank_name(rank) + " did not report its device within " +
@@ -282,25 +285,137 @@ std::vector<std::unique_ptr<Worker>> mpi_remote_workers(const Fingerprint& job_f
                         (key == "scene" ? "; the scene's hash covers its lighting (--env, "
                                           "--background)"
                                         : ""));
-        group->devices.push_back(device);
+        devices.push_back(device);
     }
-    for (int rank = 1; rank < g_job.size; ++rank)
-        workers.push_back(std::make_unique<RankWorker>(rank, group));
-    return workers;
+    return devices;
 }
 
-void mpi_serve(Session& session, bool flat_reduction) {
+// Ranks above 0: commits `session` and greets rank 0 with its device and job; false (rank 0
+// told why) when the commit fails.
+bool send_hello(Session& session, bool flat_reduction) {
     try {
         session.commit();
     } catch (const std::exception& e) {
         send_error(e, false);
-        return;
+        return false;
     }
     Fingerprint job = session.fingerprint();
     job.emplace_back("reduction", flat_reduction ? "flat" : "tree");
     const std::string hello = session.device().label() + "\n" + encode_fingerprint(job);
     MPI_Send(hello.data(), int(std::min<size_t>(hello.size(), kMaxText)), MPI_BYTE, 0, kHello,
              MPI_COMM_WORLD);
+    return true;
+}
+
+// A rank that renders compare's batches, seen from rank 0.
+class RankBatchRenderer : public BatchRenderer {
+  public:
+    RankBatchRenderer(int rank, std::string device, const RankJob& job)
+        : rank_(rank), device_(std::move(device)), job_(job) {}
+    ~RankBatchRenderer() override {
+        if (stopped_) return;
+        std::lock_guard<std::mutex> hold(lock());
+        const uint64_t stop[2] = {0, 0};
+        MPI_Send(stop, 2, MPI_UINT64_T, rank_, kBatch, MPI_COMM_WORLD);
+    }
+    std::string name() const override { return device_ + " (" + rank_name(rank_) + ")"; }
+    BatchMean render(uint32_t seed, uint64_t spp) override {
+        {
+            std::lock_guard<std::mutex> hold(lock());
+            const uint64_t batch[2] = {seed, spp};
+            MPI_Send(batch, 2, MPI_UINT64_T, rank_, kBatch, MPI_COMM_WORLD);
+        }
+        // A chunk's deadline (RankWorker): ten times the expected time, at least the floor;
+        // ten times the floor before a first measurement.
+        const double expected = rate_ > 0 ? double(spp) / rate_ : 0;
+        const double allowed =
+            rate_ > 0 ? std::max(job_.timeout_floor_s, 10 * expected) : 10 * job_.timeout_floor_s;
+        const auto start = Clock::now();
+        BatchMean out;
+        try {
+            if (!receive_batch_mean(rank_, job_.width, job_.height, spp,
+                                    start + seconds(allowed), name(), out)) {
+                char text[160];
+                std::snprintf(text, sizeof text,
+                              " did not deliver a batch of %llu spp within %.1f s: hung or stopped",
+                              (unsigned long long)spp, allowed);
+                throw Error(name() + text);
+            }
+        } catch (...) {
+            stopped_ = true;
+            throw;
+        }
+        const double took = std::chrono::duration<double>(Clock::now() - start).count();
+        if (took > 0) rate_ = double(spp) / took;
+        return out;
+    }
+
+  private:
+    int rank_;
+    std::string device_;
+    RankJob job_;
+    bool stopped_ = false;
+    double rate_ = 0;  // samples per pixel per second in its last batch; 0: unknown
+};
+
+}  // namespace
+
+std::vector<std::unique_ptr<Worker>> mpi_remote_workers(const Fingerprint& job_fingerprint,
+                                                        const RankJob& job) {
+    auto group = std::make_shared<RankGroup>();
+    group->job = job, group->size = g_job.size;
+    group->handed.assign(size_t(g_job.size), 0);
+    group->devices = receive_hellos(job_fingerprint, job);
+    std::vector<std::unique_ptr<Worker>> workers;
+    for (int rank = 1; rank < g_job.size; ++rank)
+        workers.push_back(std::make_unique<RankWorker>(rank, group));
+    return workers;
+}
+
+std::vector<std::unique_ptr<BatchRenderer>> mpi_batch_renderers(
+    const Fingerprint& job_fingerprint, const RankJob& job) {
+    const std::vector<std::string> devices = receive_hellos(job_fingerprint, job);
+    std::vector<std::unique_ptr<BatchRenderer>> renderers;
+    for (int rank = 1; rank < g_job.size; ++rank)
+        renderers.push_back(std::make_unique<RankBatchRenderer>(rank, devices[size_t(rank)], job));
+    return renderers;
+}
+
+void mpi_serve_batches(Session& session) {
+    if (!send_hello(session, false)) return;
+    for (;;) {
+        // Two numbers from rank 0: a seed and a sample count (0: stop).
+        MPI_Status st;
+        MPI_Probe(0, MPI_ANY_TAG, MPI_COMM_WORLD, &st);
+        uint64_t batch[2] = {0, 0};
+        if (st.MPI_TAG != kBatch || count_of(st) != int(sizeof batch)) {
+            send_error(Error("rank 0 sent a message of tag " + std::to_string(st.MPI_TAG) +
+                             " where a batch was due"),
+                       false);
+            return;
+        }
+        MPI_Recv(batch, 2, MPI_UINT64_T, 0, kBatch, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        if (batch[1] == 0) return;
+        try {
+            if (batch[0] > UINT32_MAX) throw Error("rank 0 sent a seed out of range");
+            session.settings().seed = uint32_t(batch[0]);
+            session.reset();
+            RenderGoal goal;
+            goal.spp = batch[1];
+            render_until(session, goal);
+            send_batch_mean(batch_mean(session.result()));
+        } catch (const DeviceLost& e) {
+            send_error(e, true);
+            return;
+        } catch (const std::exception& e) {
+            send_error(e, false);
+            return;
+        }
+    }
+}
+
+void mpi_serve(Session& session, bool flat_reduction) {
+    if (!send_hello(session, flat_reduction)) return;
     const Fault fault = injected_fault();
     bool bad_size = false;
     for (int rounds = 0;;) {

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "common/analysis/compare.h"
 #include "common/render/checkpoint.h"
 #include "common/render/coordinator.h"
 #include "common/render/session.h"
@@ -51,6 +52,16 @@ struct RankJob {
 // checked against what the ranks it holds were handed, by the floor plus a transfer time.
 std::vector<std::unique_ptr<Worker>> mpi_remote_workers(const Fingerprint& job_fingerprint,
                                                         const RankJob& job);
+
+// Rank 0 of `compare`: a batch renderer for each other rank, after the same greeting as
+// mpi_remote_workers(). Each batch gets the deadline a chunk gets; a renderer's end tells its
+// rank to stop.
+std::vector<std::unique_ptr<BatchRenderer>> mpi_batch_renderers(
+    const Fingerprint& job_fingerprint, const RankJob& job);
+
+// Ranks above 0 of `compare`: renders the batches rank 0 asks for on `session` until it says
+// stop; a failure goes to rank 0 with its message.
+void mpi_serve_batches(Session& session);
 
 // Ranks above 0: renders the chunks rank 0 hands out on `session` until it says stop; a
 // failure goes to rank 0 with its message. `flat_reduction` as rank 0's (checked).

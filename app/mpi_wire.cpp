@@ -2,6 +2,8 @@
 
 #ifdef MCPT_WITH_MPI
 #include <algorithm>
+#include <cmath>
+#include <functional>
 #include <thread>
 
 #include "common/error.h"
@@ -18,10 +20,34 @@ struct ResultHeader {
     double rays, seconds;
 };
 
-void send_bytes(const void* data, size_t bytes, int to) {
+struct BatchHeader {
+    uint64_t width, height, spp, nonfinite;
+    double seconds, rays;
+};
+
+void send_bytes(const void* data, size_t bytes, int to, int tag = kResult) {
     const char* p = static_cast<const char*>(data);
     for (size_t at = 0; at < bytes; at += kPiece)
-        MPI_Send(p + at, int(std::min(kPiece, bytes - at)), MPI_BYTE, to, kResult, MPI_COMM_WORLD);
+        MPI_Send(p + at, int(std::min(kPiece, bytes - at)), MPI_BYTE, to, tag, MPI_COMM_WORLD);
+}
+
+// Receives `bytes` from `from` as pieces of `tag`, each of exactly the size due; false when the
+// deadline passes first. Called with the lock held.
+bool receive_bytes(void* data, size_t bytes, int from, int tag, Clock::time_point deadline,
+                   const std::function<Error(const MPI_Status&)>& unexpected) {
+    char* p = static_cast<char*>(data);
+    MPI_Status st;
+    for (size_t at = 0; at < bytes; at += kPiece) {
+        const int piece = int(std::min(kPiece, bytes - at));
+        int flag = 0;
+        while (MPI_Iprobe(from, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st), !flag) {
+            if (Clock::now() >= deadline) return false;
+            std::this_thread::sleep_for(std::chrono::microseconds(200));
+        }
+        if (st.MPI_TAG != tag || count_of(st) != piece) throw unexpected(st);
+        MPI_Recv(p + at, piece, MPI_BYTE, from, tag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    }
+    return true;
 }
 
 }  // namespace
@@ -143,19 +169,8 @@ bool receive_sums(int from, const SumsShape& shape, uint64_t max_spp, Clock::tim
     out.exact.resize(shape.exact ? 6 * n : 0);
     // The arrays, each piece of exactly the size due.
     const auto receive = [&](void* data, size_t bytes) {
-        char* p = static_cast<char*>(data);
-        for (size_t at = 0; at < bytes; at += kPiece) {
-            const int piece = int(std::min(kPiece, bytes - at));
-            int flag = 0;
-            while (MPI_Iprobe(from, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st), !flag) {
-                if (Clock::now() >= deadline) return false;
-                std::this_thread::sleep_for(std::chrono::microseconds(200));
-            }
-            if (st.MPI_TAG != kResult || count_of(st) != piece)
-                throw unexpected(st, "the round's sums");
-            MPI_Recv(p + at, piece, MPI_BYTE, from, kResult, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-        }
-        return true;
+        return receive_bytes(data, bytes, from, kResult, deadline,
+                             [&](const MPI_Status& s) { return unexpected(s, "the round's sums"); });
     };
     if (shape.exact) {
         if (!receive(out.exact.data(), out.exact.size() * sizeof(ExactSum))) return false;
@@ -164,6 +179,53 @@ bool receive_sums(int from, const SumsShape& shape, uint64_t max_spp, Clock::tim
         if (!receive(out.sum_sq.data(), out.sum_sq.size() * sizeof(double))) return false;
     }
     return receive(out.nonfinite.data(), out.nonfinite.size() * sizeof(double));
+}
+
+void send_batch_mean(const BatchMean& b) {
+    const BatchHeader h{uint64_t(b.width), uint64_t(b.height), b.spp, b.nonfinite, b.seconds,
+                        b.rays};
+    MPI_Send(&h, sizeof h, MPI_BYTE, 0, kBatchMean, MPI_COMM_WORLD);
+    send_bytes(b.mean.data(), b.mean.size() * sizeof(double), 0, kBatchMean);
+}
+
+bool receive_batch_mean(int from, int width, int height, uint64_t spp,
+                        Clock::time_point deadline, const std::string& who, BatchMean& out) {
+    const auto unexpected = [&](const MPI_Status& st) {
+        return Error(who + " sent a message of tag " + std::to_string(st.MPI_TAG) + " and " +
+                     std::to_string(count_of(st)) + " bytes where a batch was due");
+    };
+    const auto bad = [&](const std::string& what) {
+        return Error(who + " sent a batch that does not fit the job: " + what);
+    };
+    MPI_Status st;
+    if (!wait_for(from, deadline, st)) return false;
+    std::lock_guard<std::mutex> hold(lock());
+    if (st.MPI_TAG == kError) throw_rank_error(from, st);
+    if (st.MPI_TAG != kBatchMean || count_of(st) != int(sizeof(BatchHeader))) throw unexpected(st);
+    BatchHeader h{};
+    MPI_Recv(&h, sizeof h, MPI_BYTE, from, kBatchMean, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    // The header: this image, the samples asked for, counts in range.
+    const uint64_t n = uint64_t(width) * uint64_t(height);
+    if (h.width != uint64_t(width) || h.height != uint64_t(height))
+        throw bad(std::to_string(h.width) + "x" + std::to_string(h.height) +
+                  " pixels, the image is " + std::to_string(width) + "x" + std::to_string(height));
+    if (h.spp != spp)
+        throw bad(std::to_string(h.spp) + " samples per pixel, " + std::to_string(spp) +
+                  " were asked for");
+    if (!(h.rays >= 0 && h.rays < 1e30 && h.seconds >= 0 && h.seconds < 1e12) ||
+        h.nonfinite / std::max<uint64_t>(spp, 1) > n)
+        throw bad("counts out of range");
+    out = BatchMean{};
+    out.width = width, out.height = height;
+    out.spp = h.spp, out.nonfinite = h.nonfinite, out.seconds = h.seconds, out.rays = h.rays;
+    out.mean.resize(n);
+    if (!receive_bytes(out.mean.data(), n * sizeof(double), from, kBatchMean, deadline,
+                       unexpected))
+        return false;
+    // A mean is finite: non-finite samples are counted, never added.
+    for (double m : out.mean)
+        if (!std::isfinite(m)) throw bad("a mean that is not finite");
+    return true;
 }
 
 int tree_parent(int rank, bool flat) {

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "common/analysis/compare.h"
 #include "common/render/render_loop.h"
 
 namespace mcpt::wire {
@@ -25,6 +26,8 @@ enum Tag : int {
     kRound = 4,   // 0 -> rank: the round ends; add the sums up the tree
     kResult = 5,  // rank -> its parent in the tree: the sums it holds (header, then arrays)
     kError = 6,   // rank -> 0: why it failed (first byte 1: its device was lost)
+    kBatch = 7,   // 0 -> rank: a batch's seed and samples per pixel (0: stop)
+    kBatchMean = 8,  // rank -> 0: the batch's mean per pixel (header, then the array)
 };
 
 // The longest hello or error message taken.
@@ -62,6 +65,15 @@ void send_sums(const RenderResult& r, int to, bool bad_size = false);
 // beginning with `who`.
 bool receive_sums(int from, const SumsShape& shape, uint64_t max_spp, Clock::time_point deadline,
                   const std::string& who, RenderResult& out);
+
+// A batch of `compare` (compare.h) to rank 0.
+void send_batch_mean(const BatchMean& batch);
+// Receives the batch `from` renders, checked: tags and sizes, the image size, `spp` samples
+// per pixel, counts in range, every mean finite; up to `deadline` (false: none came in time).
+// A kError is thrown as its exception; anything else that does not fit throws mcpt::Error
+// beginning with `who`.
+bool receive_batch_mean(int from, int width, int height, uint64_t spp,
+                        Clock::time_point deadline, const std::string& who, BatchMean& out);
 
 // The binomial tree over ranks 0..size-1, rooted at 0: a rank above 0 receives from
 // rank + 1, rank + 2, rank + 4, ... (the powers of two below its lowest set bit) and then

@@ -83,12 +83,13 @@ BatchSet render_batches(Session& session, const BatchOptions& batch) {
 }
 
 BatchSet render_batches(const std::vector<Session*>& sessions, const BatchOptions& batch,
-                        const std::function<void(Session&)>& first) {
+                        const std::function<void(Session&)>& first,
+                        const std::vector<BatchRenderer*>& remote) {
     if (batch.batches < 2) throw Error("need at least 2 batches");
     if (sessions.empty()) throw Error("no session to render the batches");
     std::vector<BatchMean> batches(size_t(batch.batches));
     std::atomic<int> next{0};
-    std::vector<std::string> failures(sessions.size());
+    std::vector<std::string> failures(sessions.size() + remote.size());
     const auto start = std::chrono::steady_clock::now();
     // Each session in a thread of its own (one: this thread), taking the next batch when free.
     const auto work = [&](size_t k) {
@@ -108,18 +109,32 @@ BatchSet render_batches(const std::vector<Session*>& sessions, const BatchOption
             next.store(batch.batches);  // the others stop after their batch
         }
     };
+    const auto work_remote = [&](size_t r) {
+        try {
+            for (int b; (b = next.fetch_add(1)) < batch.batches;)
+                batches[size_t(b)] =
+                    remote[r]->render(batch.seed_base + uint32_t(b), batch.spp_per_batch);
+        } catch (const std::exception& e) {
+            failures[sessions.size() + r] = e.what();
+            next.store(batch.batches);
+        }
+    };
     std::vector<std::thread> threads;
     for (size_t k = 1; k < sessions.size(); ++k) threads.emplace_back(work, k);
+    for (size_t r = 0; r < remote.size(); ++r) threads.emplace_back(work_remote, r);
     work(0);
     for (std::thread& t : threads) t.join();
-    for (size_t k = 0; k < sessions.size(); ++k)
+    const size_t devices = sessions.size() + remote.size();
+    for (size_t k = 0; k < devices; ++k)
         if (!failures[k].empty())
-            throw Error(sessions.size() == 1 ? failures[k]
-                                             : "device " + std::to_string(k) + " (" +
-                                                   sessions[k]->device().label() +
-                                                   "): " + failures[k]);
+            throw Error(devices == 1 ? failures[k]
+                                     : "device " + std::to_string(k) + " (" +
+                                           (k < sessions.size()
+                                                ? sessions[k]->device().label()
+                                                : remote[k - sessions.size()]->name()) +
+                                           "): " + failures[k]);
     BatchSet set = batch_means(batches);
-    if (sessions.size() > 1)
+    if (devices > 1)
         set.seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return set;
@@ -146,27 +161,36 @@ Agreement test_agreement(const BatchSet& a, const BatchSet& b, double alpha) {
     Agreement g;
     g.p_image.assign(npix, 1.f);
     g.z_image.assign(npix, 0.f);
-    // Per-pixel Welch tests on the batch means.
+    // Per-pixel Welch tests on the batch means, on threads; then the sums in pixel order.
+    std::vector<double> p(npix, 1.0), z(npix, 0.0), pixel_signal(npix, 0.0);
+    std::vector<uint8_t> tested(npix, 0);
+    for_ranges(npix, [&](size_t begin, size_t end) {
+        for (size_t i = begin; i < end; ++i) {
+            if (a.var[i] == 0 && b.var[i] == 0 && a.mean[i] == b.mean[i]) continue;  // no info
+            // Rounding variance split over the two sides: adds (tol * mean)^2 to the error^2.
+            const double tol = kRoundingRel * std::max(std::abs(a.mean[i]), std::abs(b.mean[i]));
+            const double sampling_se2 = a.var[i] / a.batches + b.var[i] / b.batches;
+            const stats::Welch w =
+                stats::welch_test(b.mean[i], b.var[i] + 0.5 * tol * tol * b.batches, b.batches,
+                                  a.mean[i], a.var[i] + 0.5 * tol * tol * a.batches, a.batches);
+            tested[i] = 1, p[i] = w.p, z[i] = w.z;
+            // How strongly a relative bias delta would shift this pixel's z: mean / std error
+            // (pixels whose error is mostly rounding, not sampling noise, say nothing of that).
+            if (w.std_error > 0 && sampling_se2 > tol * tol)
+                pixel_signal[i] = 0.5 * (a.mean[i] + b.mean[i]) / w.std_error;
+        }
+    });
     std::vector<double> p_tested;
     double sum_z = 0, sum_z2 = 0, signal = 0, sum_a = 0, sum_b = 0;
     for (size_t i = 0; i < npix; ++i) {
         sum_a += a.mean[i], sum_b += b.mean[i];
-        if (a.var[i] == 0 && b.var[i] == 0 && a.mean[i] == b.mean[i]) continue;  // no information
-        // Rounding variance split over the two sides: adds (tol * mean)^2 to the error^2.
-        const double tol = kRoundingRel * std::max(std::abs(a.mean[i]), std::abs(b.mean[i]));
-        const double sampling_se2 = a.var[i] / a.batches + b.var[i] / b.batches;
-        const stats::Welch w =
-            stats::welch_test(b.mean[i], b.var[i] + 0.5 * tol * tol * b.batches, b.batches,
-                              a.mean[i], a.var[i] + 0.5 * tol * tol * a.batches, a.batches);
-        g.p_image[i] = float(w.p);
-        g.z_image[i] = float(std::clamp(w.z, -1e30, 1e30));
-        p_tested.push_back(w.p);
-        g.min_p = std::min(g.min_p, w.p);
-        sum_z += w.z, sum_z2 += w.z * w.z;
-        // How strongly a relative bias delta would shift this pixel's z: mean / std error
-        // (pixels whose error is mostly rounding, not sampling noise, say nothing of that).
-        if (w.std_error > 0 && sampling_se2 > tol * tol)
-            signal += 0.5 * (a.mean[i] + b.mean[i]) / w.std_error;
+        if (!tested[i]) continue;
+        g.p_image[i] = float(p[i]);
+        g.z_image[i] = float(std::clamp(z[i], -1e30, 1e30));
+        p_tested.push_back(p[i]);
+        g.min_p = std::min(g.min_p, p[i]);
+        sum_z += z[i], sum_z2 += z[i] * z[i];
+        signal += pixel_signal[i];
     }
     const size_t m = p_tested.size();
     g.pixels_tested = m;

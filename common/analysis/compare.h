@@ -46,12 +46,23 @@ BatchSet render_batches(Backend& backend, const GpuScene& scene, const Camera& c
 // The same through a session (its scene and settings; the seeds are set here), each batch
 // rendered from zero by render_until(), the loop of `mcpt render`.
 BatchSet render_batches(Session& session, const BatchOptions& batch);
+// A device elsewhere (an MPI rank) that renders whole batches for render_batches().
+class BatchRenderer {
+  public:
+    virtual ~BatchRenderer() = default;
+    virtual std::string name() const = 0;
+    // The batch of `seed` at `spp` samples per pixel. Throws mcpt::Error.
+    virtual BatchMean render(uint32_t seed, uint64_t spp) = 0;
+};
+
 // The same batches on several sessions at once (each a device: batches are independent
 // renders, handed to whichever session is free); batch b is the render of seed_base + b
 // whichever renders it. `seconds` is the wall time of them all. `first`, if set, runs on the
 // first session before it takes a batch (the others start on batches meanwhile).
+// `remote` render batches too, each in a thread of its own.
 BatchSet render_batches(const std::vector<Session*>& sessions, const BatchOptions& batch,
-                        const std::function<void(Session&)>& first = {});
+                        const std::function<void(Session&)>& first = {},
+                        const std::vector<BatchRenderer*>& remote = {});
 
 struct Agreement {
     size_t pixels_tested = 0;  // pixels with variance or differing means

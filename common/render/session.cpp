@@ -100,6 +100,13 @@ void Session::add_worker(std::unique_ptr<Worker> worker) {
     dirty_ = true;
 }
 
+void Session::remove_workers() {
+    if (remote_.empty()) return;
+    remote_.clear();
+    rates_.clear();
+    dirty_ = true;
+}
+
 std::vector<std::string> Session::device_names() const {
     // Distinct names, in order: what the image depends on in reproducible mode.
     std::vector<std::string> names{device().label()};

@@ -77,6 +77,8 @@ class Session {
     // Renders chunks of this session's image too (an MPI rank, coordinator.h); the session
     // takes it. Commits again at the next render().
     void add_worker(std::unique_ptr<Worker> worker);
+    // Lets every worker added so go (an MPI rank's job ends); commits again at the next render().
+    void remove_workers();
     // The devices rendering this image: this session's first, then the others.
     size_t device_count() const { return 1 + helpers_.size() + remote_.size(); }
     std::vector<std::string> device_names() const;
