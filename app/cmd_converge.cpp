@@ -401,10 +401,11 @@ void run_converge(const ConvergeArgs& a) {
                                        [&](const Checkpoint& c) { print_checkpoint(run, c); });
                 // What the checkpoints cost in render time: read-backs (one device) or rounds
                 // whose sums are collected (several).
-                if (devices > 1)
+                if (devices > 1) {
                     std::printf("  %llu rounds, %.3f s collecting their sums\n",
                                 (unsigned long long)session.rounds(), session.collect_seconds());
-                else
+                    print_device_shares(session);
+                } else
                     std::printf("  %llu read-backs, %.3f s\n",
                                 (unsigned long long)session.readbacks(),
                                 session.readback_seconds());

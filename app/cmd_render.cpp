@@ -230,13 +230,7 @@ void run_render(const RenderArgs& a) {
         std::printf("%zu devices, %llu rounds; collecting their sums took %.3f s\n",
                     session.device_count(), (unsigned long long)session.rounds(),
                     session.collect_seconds());
-    for (size_t d = 0; d < session.device_stats().size(); ++d) {
-        const WorkerStats& w = session.device_stats()[d];
-        std::printf("  device %zu: %s: %llu chunks, %llu spp (%.0f%%), %.2f spp/s\n", d,
-                    w.name.c_str(), (unsigned long long)w.chunks, (unsigned long long)w.samples,
-                    r.spp > 0 ? 100.0 * double(w.samples) / double(r.spp) : 0.0,
-                    w.seconds > 0 ? double(w.samples) / w.seconds : 0.0);
-    }
+    print_device_shares(session);
     if (a.verbose) {
         std::printf("%s layout: %s, submission budget %.0f ms\n", backend.device().backend.c_str(),
                     backend.layout().c_str(), s.dispatch_ms);

@@ -7,6 +7,7 @@
 
 #include "common/render/device_registry.h"
 #include "common/render/prepare.h"
+#include "common/render/session.h"
 #include "common/scene/scene_load.h"
 
 namespace mcpt {
@@ -33,6 +34,9 @@ std::vector<std::string> device_specs(const std::string& backend,
 // {"opencl:0,limits=phone", "opencl:1,limits=phone"}: options (name=value) apply to every
 // device; a bare index or name takes the API before it ("vulkan:0,1").
 std::vector<std::string> device_list(const std::string& side);
+// Several devices: what each rendered of the session's image since its accumulation began,
+// a line each ("  device K: NAME: C chunks, S spp (P%), R spp/s").
+void print_device_shares(const Session& session);
 
 // load_scene(arg) with its warnings printed to stderr.
 Scene load_scene_argument(const std::string& arg);

@@ -89,4 +89,15 @@ std::vector<std::string> device_list(const std::string& side) {
     return devices;
 }
 
+void print_device_shares(const Session& session) {
+    const uint64_t spp = session.result().spp;
+    for (size_t d = 0; d < session.device_stats().size(); ++d) {
+        const WorkerStats& w = session.device_stats()[d];
+        std::printf("  device %zu: %s: %llu chunks, %llu spp (%.0f%%), %.2f spp/s\n", d,
+                    w.name.c_str(), (unsigned long long)w.chunks, (unsigned long long)w.samples,
+                    spp > 0 ? 100.0 * double(w.samples) / double(spp) : 0.0,
+                    w.seconds > 0 ? double(w.samples) / w.seconds : 0.0);
+    }
+}
+
 }  // namespace mcpt

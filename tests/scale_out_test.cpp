@@ -352,21 +352,100 @@ TEST(ScaleOut, MpiRankHungOrLyingIsNamedAndTheRoundsBeforeKept) {
 #endif
 }
 
-// converge, compare and view run in one process: under mpirun each refuses, saying what to use.
-TEST(ScaleOut, CommandsOfOneProcessRefuseMpirun) {
+// view runs in one process: under mpirun it refuses, saying what to use.
+TEST(ScaleOut, ViewRefusesMpirun) {
 #if !MCPT_WITH_MPI
     GTEST_SKIP() << "built without MPI (libopenmpi-dev)";
 #else
-    for (const std::string& args :
-         {std::string("converge furnace --width 8 --height 8 --spp 4"),
-          std::string("compare cornell --width 8 --height 8 --batches 2 --spp 1"),
-          std::string("view cornell --width 8 --height 8 --time 1 --port 0")}) {
-        const test::CliRun r = mpirun(2, args);
-        EXPECT_NE(r.status, 0) << args << "\n" << r.output;
-        EXPECT_NE(r.output.find("runs in one process, not under mpirun"), std::string::npos)
-            << args << "\n"
-            << r.output;
+    const test::CliRun r = mpirun(2, "view cornell --width 8 --height 8 --time 1 --port 0");
+    EXPECT_NE(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("runs in one process, not under mpirun"), std::string::npos)
+        << r.output;
+#endif
+}
+
+// The rmse column of a converge CSV, one value per checkpoint.
+std::vector<double> csv_rmse(const fs::path& path) {
+    std::ifstream in(path);
+    std::vector<double> rmse;
+    std::string line;
+    std::getline(in, line);  // the header
+    while (std::getline(in, line)) {
+        // backend,"device",checkpoint,seconds,spp,rmse,...: the sixth field, past the quotes.
+        const size_t quote = line.rfind('"');
+        size_t at = quote == std::string::npos ? 0 : quote + 1;
+        for (int field = 0; field < 4; ++field) at = line.find(',', at) + 1;
+        rmse.push_back(std::stod(line.substr(at)));
     }
+    return rmse;
+}
+
+// converge under mpirun: each run is one image on every rank, so its curve is one device's
+// with the same seed (the ranks render that seed's samples, not samples of their own); the
+// curve of another seed is told apart at the same tolerance.
+TEST(ScaleOut, MpiConvergeIsOneDevicesCurve) {
+#if !MCPT_WITH_MPI
+    GTEST_SKIP() << "built without MPI (libopenmpi-dev)";
+#else
+    const auto converge = [](const std::string& name, int seed) {
+        return "converge cornell " + test::device_args("opencl") +
+               " --width 24 --height 16 --spp 256 --time 60 --seed " + std::to_string(seed) +
+               " -o " + temp(name).string();
+    };
+    const test::CliRun one = run_mcpt(converge("converge_one", 5));
+    ASSERT_EQ(one.status, 0) << one.output;
+    const test::CliRun other = run_mcpt(converge("converge_other", 6));
+    ASSERT_EQ(other.status, 0) << other.output;
+    const test::CliRun ranks = mpirun(3, converge("converge_ranks", 5));
+    ASSERT_EQ(ranks.status, 0) << ranks.output;
+    EXPECT_NE(ranks.output.find("opencl x3 ranks"), std::string::npos) << ranks.output;
+    EXPECT_TRUE(test::every_device_took_chunks(ranks.output, 3)) << ranks.output;
+    const std::vector<double> a = csv_rmse(temp("converge_one.csv"));
+    const std::vector<double> b = csv_rmse(temp("converge_ranks.csv"));
+    const std::vector<double> c = csv_rmse(temp("converge_other.csv"));
+    ASSERT_EQ(a.size(), 9u) << one.output;  // 1, 2, 4, ... 256 spp
+    ASSERT_EQ(b.size(), a.size()) << ranks.output;
+    ASSERT_EQ(c.size(), a.size()) << other.output;
+    // Float sums added in another order: 1e-4 relative. Another seed: far more, somewhere.
+    double worst_same = 0, worst_other = 0;
+    for (size_t k = 0; k < a.size(); ++k) {
+        worst_same = std::max(worst_same, std::abs(b[k] - a[k]) / a[k]);
+        worst_other = std::max(worst_other, std::abs(c[k] - a[k]) / a[k]);
+    }
+    EXPECT_LT(worst_same, 1e-4) << ranks.output;
+    EXPECT_GT(worst_other, 1e-4) << other.output;
+#endif
+}
+
+// compare under mpirun: each side's batches go to every rank and come back as batch means; a
+// batch is its seed's render wherever it is made, so the verdict's numbers are the single
+// process's to the digit. The planted 2% brighter B is still told apart.
+TEST(ScaleOut, MpiCompareHandsBatchesToRanks) {
+#if !MCPT_WITH_MPI
+    GTEST_SKIP() << "built without MPI (libopenmpi-dev)";
+#else
+    const std::string device = test::test_opencl_device();
+    const std::string cl = device.empty() ? "opencl" : "opencl:" + device;
+    const std::string args = "compare cornell --width 32 --height 24 --batches 24 --a " + cl +
+                             " --b " + cl;
+    const auto verdict = [](const std::string& output) {
+        const size_t at = output.find("statistical (");
+        return at == std::string::npos ? std::string() : output.substr(at, output.find('\n', at) - at);
+    };
+    const test::CliRun one = run_mcpt(args);
+    ASSERT_EQ(one.status, 0) << one.output;
+    const test::CliRun ranks = mpirun(3, args);
+    ASSERT_EQ(ranks.status, 0) << ranks.output;
+    EXPECT_NE(ranks.output.find("(+2 more)"), std::string::npos) << ranks.output;
+    ASSERT_FALSE(verdict(one.output).empty()) << one.output;
+    EXPECT_EQ(verdict(ranks.output), verdict(one.output)) << ranks.output;
+    const test::CliRun planted = mpirun(3, args + " --b-light-scale 1.02");
+    EXPECT_EQ(planted.status, 2) << planted.output;
+    EXPECT_NE(planted.output.find("DIFFER"), std::string::npos) << planted.output;
+    // What mpirun cannot do here is refused on every rank, with the reason.
+    const test::CliRun parallel = mpirun(2, args + " --parallel");
+    EXPECT_NE(parallel.status, 0);
+    EXPECT_NE(parallel.output.find("not with --parallel"), std::string::npos) << parallel.output;
 #endif
 }
 
