@@ -4,6 +4,7 @@
 #include <array>
 #include <chrono>
 #include <cstdio>
+#include <functional>
 #include <thread>
 
 #include "app/commands.h"
@@ -201,8 +202,11 @@ void run_compare(const CompareArgs& args) {
         return;
     }
     Side sides[2];
-    const auto run_side = [&](int s) {
-        // Independent seeds per side, then one same-seed render.
+    const auto since = [](std::chrono::steady_clock::time_point t) {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+    };
+    // A side's devices opened, its tree built and its kernels compiled.
+    const auto prepare_side = [&](int s) {
         const BackendOptions opt = side_options(s);
         // One device, or several: each renders whole batches (independent renders), handed
         // to whichever is free; the first renders the same-seed image.
@@ -210,15 +214,11 @@ void run_compare(const CompareArgs& args) {
                                                      ? std::vector{rank_side_device(specs[s], mpi)}
                                                      : device_list(specs[s]);
         const auto t0 = std::chrono::steady_clock::now();
-        const auto since = [](std::chrono::steady_clock::time_point t) {
-            return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-        };
         sides[s].session = std::make_unique<Session>(open_device(devices[0], opt));
         for (size_t k = 1; k < devices.size(); ++k)
             sides[s].helpers.push_back(std::make_unique<Session>(open_device(devices[k], opt)));
         sides[s].devices = devices.size();
-        Session& session = *sides[s].session;
-        std::vector<Session*> all{&session};
+        std::vector<Session*> all{sides[s].session.get()};
         for (auto& h : sides[s].helpers) all.push_back(h.get());
         for (Session* one : all) configure(*one, s);
         // Trees and kernels: every device at once.
@@ -235,10 +235,15 @@ void run_compare(const CompareArgs& args) {
         for (std::thread& t : commits) t.join();
         for (size_t k = 0; k < all.size(); ++k)
             if (!failures[k].empty())
-                throw Error(all.size() == 1 ? failures[k]
-                                            : devices[k] + ": " + failures[k]);
-        sides[s].tree = tree_kind_name(session.prepared().tree_kind);
+                throw Error(all.size() == 1 ? failures[k] : devices[k] + ": " + failures[k]);
+        sides[s].tree = tree_kind_name(sides[s].session->prepared().tree_kind);
         sides[s].open_s = since(t0);
+    };
+    // A side's batches (independent seeds) and its same-seed render.
+    const auto render_side = [&](int s) {
+        Session& session = *sides[s].session;
+        std::vector<Session*> all{&session};
+        for (auto& h : sides[s].helpers) all.push_back(h.get());
         // The same-seed image, on the first device while the others (if any) start on the
         // batches.
         double same_seed_device_s = 0;
@@ -276,28 +281,34 @@ void run_compare(const CompareArgs& args) {
                 : session.backend().device_seconds() - device_before - same_seed_device_s;
         sides[s].batches_s = since(t1);
     };
-    if (args.parallel) {
-        // A and B on their devices at once; a failure of either is reported after both end.
+    // Work for A and B in two threads; a failure of either is reported after both end.
+    const auto on_both_sides = [](const std::function<void(int)>& work) {
         std::string failure[2];
         std::thread b([&] {
             try {
-                run_side(1);
+                work(1);
             } catch (const std::exception& e) {
                 failure[1] = e.what();
             }
         });
         try {
-            run_side(0);
+            work(0);
         } catch (const std::exception& e) {
             failure[0] = e.what();
         }
         b.join();
         for (int s = 0; s < 2; ++s)
             if (!failure[s].empty()) throw Error(std::string(s ? "B: " : "A: ") + failure[s]);
+    };
+    if (args.parallel) {
+        // A and B on their devices at once.
+        on_both_sides([&](int s) { prepare_side(s), render_side(s); });
     } else {
-        run_side(0), run_side(1);
+        // Both sides' devices opened and compiled at once (a driver's start-up, a compiler's
+        // run overlap), then A's batches, then B's: each side's speed its own.
+        on_both_sides(prepare_side);
+        render_side(0), render_side(1);
     }
-
     // Speed, side by side.
     const double pixels = double(args.width) * args.height;
     std::printf("scene %s, %dx%d, %d batches x %llu spp per backend, max depth %u\n",

@@ -17,7 +17,7 @@ unsigned usable_cpus();
 // own (at most usable_cpus()), the calling thread taking the first: an image's sums (a
 // gigabyte at 4096x4096) are added and converted at the memory's speed, not one core's.
 template <typename Fn>
-void for_ranges(size_t n, const Fn& fn, size_t grain = size_t(1) << 18) {
+void for_ranges(size_t n, const Fn& fn, size_t grain = size_t(1) << 16) {
     const size_t parts = std::clamp<size_t>(n / std::max<size_t>(grain, 1), 1, usable_cpus());
     std::vector<std::thread> threads;
     for (size_t t = 1; t < parts; ++t) threads.emplace_back(fn, n * t / parts, n * (t + 1) / parts);

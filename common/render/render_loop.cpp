@@ -63,7 +63,7 @@ double RenderResult::relative_error() const {
                 block_err[b] = err, block_radiance[b] = radiance;
             }
         },
-        16);
+        4);
     double err = 0, radiance = 0;
     for (size_t b = 0; b < blocks; ++b) err += block_err[b], radiance += block_radiance[b];
     if (!(radiance > 0)) return HUGE_VAL;
