@@ -85,6 +85,7 @@ struct RankGroup {
     int size = 1;
     std::vector<uint64_t> handed;  // per rank, samples per pixel this round
     std::vector<std::string> devices;
+    std::vector<RenderResult> received;  // per child in the tree, its arrays kept round to round
 
     // Ends the round on every rank and adds their sums to `total`: log2(size) messages, each
     // the sums of a subtree of ranks, checked against what those ranks were handed.
@@ -102,7 +103,10 @@ struct RankGroup {
         while ((1 << levels) < size) ++levels;
         const double allowed = job.timeout_floor_s + levels * bytes / 50e6;
         const auto deadline = Clock::now() + seconds(allowed);
-        for (int child : tree_children(0, size, job.flat_reduction)) {
+        const std::vector<int> children = tree_children(0, size, job.flat_reduction);
+        received.resize(children.size());
+        for (size_t c = 0; c < children.size(); ++c) {
+            const int child = children[c];
             const int end = tree_end(child, size, job.flat_reduction);
             uint64_t spp = 0;
             for (int r = child; r < end; ++r) spp += handed[size_t(r)];
@@ -111,7 +115,7 @@ struct RankGroup {
                                         : "ranks " + std::to_string(child) + "-" +
                                               std::to_string(end - 1) + " (added up by rank " +
                                               std::to_string(child) + ")";
-            RenderResult part;
+            RenderResult& part = received[c];
             if (!receive_sums(child, shape, spp, deadline, who, part)) {
                 char text[160];
                 std::snprintf(text, sizeof text,
@@ -418,6 +422,10 @@ void mpi_serve(Session& session, bool flat_reduction) {
     if (!send_hello(session, flat_reduction)) return;
     const Fault fault = injected_fault();
     bool bad_size = false;
+    // A round's sums, and its children's: their arrays kept from round to round.
+    RenderResult mine;
+    const std::vector<int> children = tree_children(g_job.rank, g_job.size, flat_reduction);
+    std::vector<RenderResult> received(children.size());
     for (int rounds = 0;;) {
         MPI_Status st;
         MPI_Probe(0, MPI_ANY_TAG, MPI_COMM_WORLD, &st);
@@ -426,14 +434,18 @@ void mpi_serve(Session& session, bool flat_reduction) {
             // checked), to its parent.
             MPI_Recv(nullptr, 0, MPI_BYTE, 0, kRound, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
             ++rounds;
-            RenderResult mine;
+            // Emptied with its memory kept: the first sums added are copied into it.
+            mine.sum.clear(), mine.sum_sq.clear(), mine.nonfinite.clear(), mine.exact.clear();
+            mine.samples.clear();
+            mine.width = mine.height = 0;
+            mine.spp = mine.first = mine.nonfinite_total = 0, mine.rays = mine.seconds = 0;
             session.add_round_to(mine);
             const SumsShape shape{session.settings().width, session.settings().height,
                                   session.settings().reproducible};
-            for (int child : tree_children(g_job.rank, g_job.size, flat_reduction)) {
-                RenderResult part;
-                receive_sums(child, shape, UINT64_MAX, Clock::time_point::max(), rank_name(child),
-                             part);
+            for (size_t c = 0; c < children.size(); ++c) {
+                RenderResult& part = received[c];
+                receive_sums(children[c], shape, UINT64_MAX, Clock::time_point::max(),
+                             rank_name(children[c]), part);
                 if (part.spp > 0) accumulate_sums(mine, part);
             }
             send_sums(mine, tree_parent(g_job.rank, flat_reduction), bad_size);

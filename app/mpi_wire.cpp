@@ -160,8 +160,10 @@ bool receive_sums(int from, const SumsShape& shape, uint64_t max_spp, Clock::tim
     if (!(h.rays >= 0 && h.rays < 1e30 && h.seconds >= 0 && h.seconds < 1e12) ||
         (h.spp > 0 && h.nonfinite_total / h.spp > n))
         throw bad("counts out of range");
-    out = RenderResult{};
+    // (The arrays keep the memory of the last round's: no page is faulted in again.)
     out.width = shape.width, out.height = shape.height;
+    out.first = 0, out.spp = 0, out.rays = 0, out.seconds = 0, out.nonfinite_total = 0;
+    out.samples.clear();
     if (h.spp == 0) return true;
     out.first = h.first, out.spp = h.spp, out.nonfinite_total = h.nonfinite_total;
     out.rays = h.rays, out.seconds = h.seconds;

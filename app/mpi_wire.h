@@ -59,7 +59,7 @@ struct SumsShape {
 
 // Sends sums (spp 0: the header alone) to `to` as kResult.
 void send_sums(const RenderResult& r, int to, bool bad_size = false);
-// Receives sums from `from`, each message's tag and size checked, the header against `shape`
+// Receives sums from `from` into `out` (its arrays reused), each message's tag and size checked, the header against `shape`
 // and `max_spp`, up to `deadline` (false: none came in time, or not whole). A kError from
 // `from` is thrown as its exception; anything else that does not fit throws mcpt::Error
 // beginning with `who`.

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <sstream>
 
 #include "common/error.h"
@@ -30,6 +31,10 @@ struct ClDevice {
 };
 
 std::vector<ClDevice> enumerate() {
+    // One thread at a time: the ICD loader's first clGetPlatformIDs is not thread-safe (two
+    // sessions opened at once, one of them found no platform).
+    static std::mutex enumerating;
+    std::lock_guard<std::mutex> hold(enumerating);
     std::vector<ClDevice> out;
     std::vector<cl::Platform> platforms;
     try {
