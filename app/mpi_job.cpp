@@ -86,14 +86,22 @@ struct RankGroup {
     std::vector<uint64_t> handed;  // per rank, samples per pixel this round
     std::vector<std::string> devices;
     std::vector<RenderResult> received;  // per child in the tree, its arrays kept round to round
+    std::vector<char> told;              // per rank: its round has ended (under lock())
 
-    // Ends the round on every rank and adds their sums to `total`: log2(size) messages, each
-    // the sums of a subtree of ranks, checked against what those ranks were handed.
+    // Ends the round on `rank` (its sums start up the tree); once a round. Under lock().
+    void end_round(int rank) {
+        if (told[size_t(rank)]) return;
+        MPI_Send(nullptr, 0, MPI_BYTE, rank, kRound, MPI_COMM_WORLD);
+        told[size_t(rank)] = 1;
+    }
+
+    // Ends the round on every rank not told yet and adds their sums to `total`: log2(size)
+    // messages, each the sums of a subtree of ranks, checked against what those ranks were
+    // handed.
     void collect(RenderResult& total) {
         {
             std::lock_guard<std::mutex> hold(lock());
-            for (int rank = 1; rank < size; ++rank)
-                MPI_Send(nullptr, 0, MPI_BYTE, rank, kRound, MPI_COMM_WORLD);
+            for (int rank = 1; rank < size; ++rank) end_round(rank);
         }
         const SumsShape shape{job.width, job.height, job.exact};
         const size_t n = size_t(job.width) * size_t(job.height);
@@ -126,6 +134,8 @@ struct RankGroup {
             if (part.spp > 0) accumulate_sums(total, part);
         }
         std::fill(handed.begin(), handed.end(), 0);
+        std::lock_guard<std::mutex> hold(lock());
+        std::fill(told.begin(), told.end(), 0);
     }
 };
 
@@ -182,6 +192,13 @@ class RankWorker : public Worker {
         const double took = std::chrono::duration<double>(Clock::now() - start).count();
         if (took > 0) rate_ = samples / took;
         group_->handed[size_t(rank_)] += chunk.end - chunk.first;
+    }
+    // No chunk is left for this rank this round: it reads its sums back and adds its
+    // children's while the other devices finish theirs.
+    void finish_round() override {
+        if (stopped_) return;
+        std::lock_guard<std::mutex> hold(lock());
+        group_->end_round(rank_);
     }
     // Rank 1's worker collects the round for every rank (the tree); the others add nothing.
     void add_round_to(RenderResult& total) override {
@@ -369,6 +386,7 @@ std::vector<std::unique_ptr<Worker>> mpi_remote_workers(const Fingerprint& job_f
     auto group = std::make_shared<RankGroup>();
     group->job = job, group->size = g_job.size;
     group->handed.assign(size_t(g_job.size), 0);
+    group->told.assign(size_t(g_job.size), 0);
     group->devices = receive_hellos(job_fingerprint, job);
     std::vector<std::unique_ptr<Worker>> workers;
     for (int rank = 1; rank < g_job.size; ++rank)
