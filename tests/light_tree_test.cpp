@@ -6,12 +6,16 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <functional>
 #include <random>
 
 #include "common/accel/kdtree.h"
 #include "common/analysis/stats.h"
 #include "common/render/gpu_scene.h"
+#include "common/render/light_tree.h"
 #include "light_cases.h"
 #include "test_util.h"
 
@@ -43,6 +47,100 @@ Scene many_lights(int n, uint32_t seed) {
     }
     scene.light_tree = true;
     return scene;
+}
+
+uint32_t float_word(float f) {
+    uint32_t w;
+    std::memcpy(&w, &f, 4);
+    return w;
+}
+float word_float(uint32_t w) {
+    float f;
+    std::memcpy(&f, &w, 4);
+    return f;
+}
+
+// The angle between vectors (atan2 of the cross and dot products: exact near 0 and pi, where
+// acos of a dot product is not).
+double angle_between(const glm::vec3& a, const glm::vec3& b) {
+    const glm::dvec3 da(a), db(b);
+    return std::atan2(glm::length(glm::cross(da, db)), glm::dot(da, db));
+}
+
+// Cone `outer` holds cone `inner`: every direction within inner is within outer.
+bool holds(const DirectionCone& outer, const DirectionCone& inner) {
+    if (outer.cos_theta <= -1.f) return true;
+    if (inner.cos_theta <= -1.f) return false;
+    return angle_between(outer.axis, inner.axis) + std::acos(double(inner.cos_theta)) <=
+           std::acos(double(outer.cos_theta)) + 1e-6;
+}
+
+// Random cones: half of them narrow (emitters, spots), some every way.
+DirectionCone random_cone(std::mt19937& rng) {
+    std::normal_distribution<float> g;
+    std::uniform_real_distribution<float> u(0.f, 1.f);
+    DirectionCone c;
+    c.axis = glm::normalize(glm::vec3(g(rng), g(rng), g(rng)));
+    const float r = u(rng);
+    c.cos_theta = r < 0.1f ? -1.f : r < 0.5f ? 1.f : std::cos(3.1f * u(rng));
+    return c;
+}
+
+// The union of two cones holds both, over random pairs; a cone that leaves one out is caught.
+TEST(LightTree, ConeUnionHoldsBoth) {
+    std::mt19937 rng(4);
+    int a_alone_misses_b = 0;
+    for (int k = 0; k < 20000; ++k) {
+        const DirectionCone a = random_cone(rng), b = random_cone(rng);
+        const DirectionCone u = cone_union(a, b);
+        ASSERT_TRUE(holds(u, a) && holds(u, b))
+            << k << ": " << a.cos_theta << ", " << b.cos_theta << " -> " << u.cos_theta;
+        // The control: a "union" that kept a alone would fail for these.
+        a_alone_misses_b += !holds(a, b);
+    }
+    EXPECT_GT(a_alone_misses_b, 10000);
+    const DirectionCone up{{0.f, 1.f, 0.f}, 1.f}, down{{0.f, -1.f, 0.f}, 1.f};
+    EXPECT_FALSE(holds(up, down));
+    EXPECT_TRUE(holds(cone_union(up, down), down));
+}
+
+// Every node's cone holds the cones of all lights below it (lights of random cones).
+TEST(LightTree, NodeConesHoldTheirLights) {
+    std::mt19937 rng(6);
+    std::uniform_real_distribution<float> pos(-5.f, 5.f);
+    std::vector<TreeLight> lights;
+    for (uint32_t i = 0; i < 500; ++i) {
+        TreeLight l;
+        l.lo = glm::vec3(pos(rng), pos(rng), pos(rng));
+        l.hi = l.lo + glm::vec3(0.1f);
+        l.power = 1.0 + i % 7;
+        l.slot = i;
+        const DirectionCone c = random_cone(rng);
+        l.axis = c.axis, l.cos_o = c.cos_theta;
+        lights.push_back(l);
+    }
+    const LightTree tree = build_light_tree(lights);
+    // The lights under each node, gathered from the leaves up; each checked against the node.
+    size_t checked = 0;
+    const std::function<std::vector<uint32_t>(uint32_t)> under = [&](uint32_t i) {
+        const gpu::GpuLightTreeNode& n = tree.nodes[i];
+        std::vector<uint32_t> slots;
+        if (n.child & LIGHT_TREE_LEAF) {
+            slots.push_back(n.child & ~LIGHT_TREE_LEAF);
+        } else {
+            slots = under(n.child);
+            const std::vector<uint32_t> second = under(n.child + 1);
+            slots.insert(slots.end(), second.begin(), second.end());
+        }
+        const DirectionCone cone{{n.axis_x, n.axis_y, n.axis_z}, n.cos_o};
+        for (uint32_t s : slots) {
+            EXPECT_TRUE(holds(cone, {lights[s].axis, lights[s].cos_o})) << "node " << i;
+            ++checked;
+        }
+        return slots;
+    };
+    EXPECT_EQ(under(0).size(), lights.size());
+    EXPECT_GT(checked, lights.size() * 5);
 }
 
 #define TREE_ARGS &g.params, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, g.texels.data(),
@@ -113,6 +211,100 @@ TEST_P(LightTreeRender, ManyLightsBeatPowerAlonePerSample) {
                 (mt.mean - mp.mean) / std::hypot(mt.std_error, mp.std_error));
     EXPECT_GT(vp / vt, 2.0);
     EXPECT_LT(std::abs(mt.mean - mp.mean) / std::hypot(mt.std_error, mp.std_error), 4.5);
+}
+
+// many_lights()'s quads over the floor facing it, no lamps, and beside the floor a wall of as
+// many quads ten times as bright, facing away from it (+x), out of the camera's view.
+Scene quads_and_a_bank_facing_away(int n, uint32_t seed) {
+    Scene scene = many_lights(n, seed);
+    scene.punctual_lights.clear();
+    std::mt19937 rng(seed + 1);
+    std::uniform_real_distribution<float> y(1.f, 10.f), z(-9.f, 9.f), power(2.f, 50.f);
+    for (int i = 0; i < n; ++i) {
+        Material m;
+        m.color = glm::vec3(0.f);
+        m.emission = glm::vec3(power(rng));
+        const uint32_t mat = scene.add_material(m);
+        const glm::vec3 c(30.f, y(rng), z(rng));
+        const glm::vec3 a = c + glm::vec3(0, -0.1f, -0.1f), b = c + glm::vec3(0, 0.1f, -0.1f),
+                        d = c + glm::vec3(0, 0.1f, 0.1f), e = c + glm::vec3(0, -0.1f, 0.1f);
+        scene.triangles.push_back({a, b, d, mat});  // facing +x
+        scene.triangles.push_back({a, d, e, mat});
+    }
+    return scene;
+}
+
+// The share of the tree's picks that go to the wall (lights facing +x) at points of the floor.
+double share_facing_up(const Scene& scene, const GpuScene& g) {
+    std::mt19937 rng(2);
+    std::uniform_real_distribution<float> pos(-8.f, 8.f);
+    double up = 0;
+    for (int k = 0; k < 16; ++k) {
+        const glm::vec3 x(pos(rng), 0.f, pos(rng));
+        for (const gpu::GpuLight& l : g.lights) {
+            const Triangle& t = scene.triangles.at(l.prim);
+            if (glm::cross(t.v1 - t.v0, t.v2 - t.v0).x > 0)
+                up += gpu::light_tree_pmf(TREE_ARGS x, gpu::light_tree_trail(TREE_ARGS l.prim));
+        }
+    }
+    return up / 16;
+}
+
+// Every node's cos_o set to -1 (no cones) or its axis negated (cones turned the wrong way).
+void strip_cones(GpuScene& g) {
+    for (uint32_t i = 0; i + 1 < 2 * g.params.num_tree_lights; ++i)
+        g.texels[g.params.light_tree_word + 12u * i + 11u] = float_word(-1.f);
+}
+void turn_cones(GpuScene& g) {
+    for (uint32_t i = 0; i + 1 < 2 * g.params.num_tree_lights; ++i)
+        for (uint32_t k = 8; k < 11; ++k) {
+            uint32_t& w = g.texels[g.params.light_tree_word + 12u * i + k];
+            w = float_word(-word_float(w));
+        }
+}
+
+// At points on the floor the tree's picks leave the wall facing away: its share falls from
+// what its power and distance give it to almost nothing.
+TEST(LightTree, PicksAvoidLightsFacingAway) {
+    const Scene scene = quads_and_a_bank_facing_away(200, 7);
+    const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, TreeOptions{}));
+    GpuScene stripped = g;
+    strip_cones(stripped);
+    const double with = share_facing_up(scene, g), without = share_facing_up(scene, stripped);
+    std::printf("share of the picks facing away: %.4f with cones, %.4f without\n", with, without);
+    EXPECT_LT(with, 0.02);
+    EXPECT_GT(without, 0.1);
+}
+
+// A bright wall of quads beside the floor, facing away from it: with the nodes' cones of
+// emission the tree leaves it alone, and the variance per sample falls against the same
+// tree without cones (1.94x measured on both APIs); cones turned the wrong way (each axis
+// negated: the quads that light the floor keep a thousandth of their share) raise it instead
+// (2.19x), and the means still agree (no light is ever left out).
+TEST_P(LightTreeRender, ConesOfEmissionSkipLightsFacingAway) {
+    const Scene scene = quads_and_a_bank_facing_away(200, 7);
+    test::CaseRender how;
+    how.spp = 64;
+    const RenderResult cones = test::render_case(GetParam(), scene, 32, how);
+    how.plant = strip_cones;
+    const RenderResult none = test::render_case(GetParam(), scene, 32, how);
+    how.plant = turn_cones;
+    const RenderResult turned = test::render_case(GetParam(), scene, 32, how);
+    const double vc = sample_variance(cones), vn = sample_variance(none),
+                 vt = sample_variance(turned);
+    const test::MeanEstimate mc = test::pooled_mean(cones), mn = test::pooled_mean(none),
+                             mt = test::pooled_mean(turned);
+    const double z_none = (mn.mean - mc.mean) / std::hypot(mn.std_error, mc.std_error);
+    const double z_turned = (mt.mean - mc.mean) / std::hypot(mt.std_error, mc.std_error);
+    std::printf("%s, 200 quads and a wall facing away: variance per sample, no cones %.4g, "
+                "cones %.4g (%.2fx less), cones turned %.4g (%.2fx more); z of the means %.2f, "
+                "%.2f\n",
+                GetParam().c_str(), vn, vc, vn / vc, vt, vt / vc, z_none, z_turned);
+    EXPECT_GT(vn / vc, 1.5);
+    // The control: the same check on the turned cones fails (it gains nothing on no cones).
+    EXPECT_LT(vn / vt, 1.5);
+    EXPECT_LT(std::abs(z_none), 4.5);
+    EXPECT_LT(std::abs(z_turned), 4.5);
 }
 
 INSTANTIATE_TEST_SUITE_P(Api, LightTreeRender, ::testing::ValuesIn(test::test_apis()),

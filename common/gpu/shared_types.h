@@ -198,6 +198,9 @@ MCPT_STRUCT(GpuLightTreeNode) {
     float min_x, min_y, min_z, power;
     float max_x, max_y, max_z;
     uint child;
+    // The cone of directions its lights emit into (Conty Estevez & Kulla 2018): every light
+    // of the node emits only within cos_o of the axis (-1: every way), each over a hemisphere.
+    float axis_x, axis_y, axis_z, cos_o;
 };
 #define LIGHT_TREE_LEAF 0x80000000u
 
@@ -251,7 +254,7 @@ MCPT_STRUCT(GpuParams) {
     // one whole group, to (as) its exact sums and trace nothing; overflow sets the pending word.
     uint fold_sums, exact_vec4;
     // The light tree (FEATURE_LIGHT_TREE, light_tree.h), words after texels_word: its nodes
-    // (GpuLightTreeNode each, root first) and the (prim, trail) pairs of its lights sorted by
+    // (GpuLightTreeNode each, 12 words, root first) and the (prim, trail) pairs of its lights sorted by
     // prim; the probability that next-event estimation takes the tree (else the alias table
     // of lights at infinity); the least squared distance its importance divides by.
     uint light_tree_word, light_trails_word;
@@ -298,7 +301,7 @@ static_assert(sizeof(mcpt::gpu::GpuSphere) == 32, "GpuSphere must be 32 bytes");
 static_assert(sizeof(mcpt::gpu::GpuMaterial) == 64, "GpuMaterial must be 64 bytes");
 static_assert(sizeof(mcpt::gpu::GpuLight) == 16, "GpuLight must be 16 bytes");
 static_assert(sizeof(mcpt::gpu::GpuParams) == 64 * 4, "GpuParams must be 64 words");
-static_assert(sizeof(mcpt::gpu::GpuLightTreeNode) == 32, "GpuLightTreeNode must be 32 bytes");
+static_assert(sizeof(mcpt::gpu::GpuLightTreeNode) == 48, "GpuLightTreeNode must be 48 bytes");
 static_assert(sizeof(mcpt::gpu::GpuPunctualLight) == 64, "GpuPunctualLight must be 64 bytes");
 static_assert(sizeof(mcpt::gpu::GpuTriangleAttributes) == 40, "GpuTriangleAttributes: 40 bytes");
 static_assert(sizeof(mcpt::gpu::GpuTexture) == 16, "GpuTexture must be 16 bytes");

@@ -194,13 +194,22 @@ void pack_light_tree(const Scene& scene, const std::vector<double>& weights,
         const uint32_t prim = near_p[i];
         TreeLight l;
         if ((prim & LIGHT_PUNCTUAL_BIT) != 0) {
-            l.lo = l.hi = scene.punctual_lights.at(prim & LIGHT_INDEX_MASK).position;
+            // A point every way; a spot within its outer cone (and a milliradian).
+            const PunctualLight& p = scene.punctual_lights.at(prim & LIGHT_INDEX_MASK);
+            l.lo = l.hi = p.position;
+            const float length = glm::length(p.direction);
+            if (p.kind == PunctualKind::Spot && length > 0 && p.outer_cone + 1e-3f < 3.14159f)
+                l.axis = p.direction / length, l.cos_o = std::cos(p.outer_cone + 1e-3f);
         } else if ((prim & LIGHT_SPHERE_BIT) != 0) {
             const Sphere& s = scene.spheres.at(prim & ~LIGHT_SPHERE_BIT);
             l.lo = s.center - glm::vec3(s.radius), l.hi = s.center + glm::vec3(s.radius);
         } else {
+            // One-sided: the side of cross(v1 - v0, v2 - v0) (integrator.h), a hemisphere.
             const Triangle& t = scene.triangles.at(prim);
             l.lo = glm::min(t.v0, glm::min(t.v1, t.v2)), l.hi = glm::max(t.v0, glm::max(t.v1, t.v2));
+            const glm::dvec3 n = glm::cross(glm::dvec3(t.v1) - glm::dvec3(t.v0),
+                                            glm::dvec3(t.v2) - glm::dvec3(t.v0));
+            if (glm::length(n) > 0) l.axis = glm::vec3(glm::normalize(n)), l.cos_o = 1.f;
         }
         l.power = near_w[i];
         l.slot = uint32_t(table.size() + i);
@@ -229,6 +238,7 @@ void pack_light_tree(const Scene& scene, const std::vector<double>& weights,
         for (float f : {n.min_x, n.min_y, n.min_z, n.power, n.max_x, n.max_y, n.max_z})
             g.texels.push_back(float_word(f));
         g.texels.push_back(n.child);
+        for (float f : {n.axis_x, n.axis_y, n.axis_z, n.cos_o}) g.texels.push_back(float_word(f));
     }
     std::vector<std::pair<uint32_t, uint32_t>> trails;
     for (size_t i = 0; i < near_p.size(); ++i) trails.push_back({near_p[i], tree.trails[i]});
