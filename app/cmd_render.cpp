@@ -92,7 +92,7 @@ void run_render(const RenderArgs& a) {
     session.set_environment(lighting_environment(a.lighting));
     Scene loaded = load_scene(a.scene);
     for (const std::string& w : loaded.warnings) std::cerr << "mcpt: warning: " << w << "\n";
-    loaded.light_tree = a.lighting.light_sampling == "tree";
+    loaded.light_tree = use_light_tree(loaded, a.lighting);
     session.set_scene(std::move(loaded));
     SessionSettings& s = session.settings();
     s.width = a.width, s.height = a.height;

@@ -52,7 +52,7 @@ void run_view(const ViewArgs& args) {
     else
         specs = {device_specs(args.backend, args.devices)};
     Scene scene = load_scene_argument(args.scene);
-    scene.light_tree = args.lighting.light_sampling == "tree";
+    scene.light_tree = use_light_tree(scene, args.lighting);
     const Environment env = lighting_environment(args.lighting);
     std::vector<std::unique_ptr<Session>> sessions;
     ViewInfo info;

@@ -47,9 +47,13 @@ struct LightingArgs {
     std::string env;
     float env_rotate = 0.f, env_scale = 1.f;
     std::string env_sampling = "compensated";
-    std::string light_sampling = "power";  // power | tree
+    std::string light_sampling = "auto";  // auto | power | tree
     std::vector<float> background;
 };
+
+// --light-sampling for `scene`: tree, power, or (auto) the tree from
+// Scene::kAutoLightTreeMin local lights on.
+bool use_light_tree(const Scene& scene, const LightingArgs& lighting);
 void add_lighting_options(CLI::App* sub, LightingArgs& a);
 // The environment the options ask for (none: Environment{}). Throws mcpt::Error.
 Environment lighting_environment(const LightingArgs& a);

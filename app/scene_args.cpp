@@ -27,9 +27,10 @@ void add_lighting_options(CLI::App* sub, LightingArgs& a) {
         ->check(CLI::IsMember({"compensated", "luminance"}))
         ->capture_default_str();
     sub->add_option("--light-sampling", a.light_sampling,
-                    "How next-event estimation picks a light: power (every light by its power) "
-                    "or tree (local lights by their importance at the shading point)")
-        ->check(CLI::IsMember({"power", "tree"}))
+                    "How next-event estimation picks a light: power (every light by its power), "
+                    "tree (local lights by their importance at the shading point) or auto "
+                    "(the tree from 32 local lights on)")
+        ->check(CLI::IsMember({"auto", "power", "tree"}))
         ->capture_default_str();
     sub->add_option("--background", a.background,
                     "Constant background radiance R,G,B lighting the scene (default: black)")
@@ -98,6 +99,12 @@ void print_device_shares(const Session& session) {
                     spp > 0 ? 100.0 * double(w.samples) / double(spp) : 0.0,
                     w.seconds > 0 ? double(w.samples) / w.seconds : 0.0);
     }
+}
+
+bool use_light_tree(const Scene& scene, const LightingArgs& lighting) {
+    if (lighting.light_sampling == "auto")
+        return scene.local_light_count() >= Scene::kAutoLightTreeMin;
+    return lighting.light_sampling == "tree";
 }
 
 }  // namespace mcpt

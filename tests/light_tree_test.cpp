@@ -12,6 +12,7 @@
 #include <functional>
 #include <random>
 
+#include "app/commands.h"
 #include "common/accel/kdtree.h"
 #include "common/analysis/stats.h"
 #include "common/render/gpu_scene.h"
@@ -261,6 +262,29 @@ void turn_cones(GpuScene& g) {
             uint32_t& w = g.texels[g.params.light_tree_word + 12u * i + k];
             w = float_word(-word_float(w));
         }
+}
+
+// --light-sampling auto: the tree from 32 local lights on (emitters and lamps; a directional
+// lamp is not local), power below; power and tree as asked.
+TEST(LightTree, AutoTakesTheTreeFromManyLights) {
+    const LightingArgs automatic;
+    LightingArgs power, tree;
+    power.light_sampling = "power", tree.light_sampling = "tree";
+    const Scene few = many_lights(10, 1), many = many_lights(11, 1);  // 30 and 33 lights
+    EXPECT_EQ(few.local_light_count(), 30u);
+    EXPECT_EQ(many.local_light_count(), 33u);
+    EXPECT_FALSE(use_light_tree(few, automatic));
+    EXPECT_TRUE(use_light_tree(many, automatic));
+    EXPECT_FALSE(use_light_tree(many, power));
+    EXPECT_TRUE(use_light_tree(few, tree));
+    Scene sun = few;
+    for (int i = 0; i < 5; ++i) {
+        PunctualLight l;
+        l.kind = PunctualKind::Directional;
+        l.intensity = glm::vec3(1.f);
+        sun.punctual_lights.push_back(l);
+    }
+    EXPECT_EQ(sun.local_light_count(), 30u);
 }
 
 // At points on the floor the tree's picks leave the wall facing away: its share falls from

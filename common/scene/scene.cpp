@@ -138,6 +138,19 @@ void check_camera(const Camera& c) {
 
 }  // namespace
 
+size_t Scene::local_light_count() const {
+    const auto emits = [&](uint32_t material) {
+        if (material >= materials.size()) return false;
+        const glm::vec3& e = materials[material].emission;
+        return e.x > 0 || e.y > 0 || e.z > 0;
+    };
+    size_t n = 0;
+    for (const Triangle& t : triangles) n += emits(t.material);
+    for (const Sphere& s : spheres) n += emits(s.material);
+    for (const PunctualLight& l : punctual_lights) n += l.kind != PunctualKind::Directional;
+    return n;
+}
+
 Bounds Scene::bounds() const {
     Bounds b;
     // Triangle vertices.

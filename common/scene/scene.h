@@ -124,6 +124,12 @@ struct Scene {
     // Next-event estimation picks local lights (emitters, point and spot lamps) by the light
     // tree (common/render/light_tree.h) where true; else every light by power.
     bool light_tree = false;
+    // Emissive triangles and spheres, point and spot lamps: what the light tree holds.
+    size_t local_light_count() const;
+    // --light-sampling auto: the tree from this many local lights on. Measured (PoCL, per
+    // sample): 25 emitters around the furnace, the same variance and 1.2-1.4x the time;
+    // 24-96 lights over a floor plan, 2.3-2.8x less variance.
+    static constexpr size_t kAutoLightTreeMin = 32;
 
     uint32_t add_material(const Material& m) {
         materials.push_back(m);
