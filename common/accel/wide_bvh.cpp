@@ -27,7 +27,6 @@ namespace {
 
 constexpr int kBins = 16;
 constexpr size_t kParallelMin = 16384;  // a node this large builds its children on two threads
-constexpr double kNodeCost = 1.0;       // a node visit, in triangle tests (the SAH's split cost)
 
 // A triangle's reference: its box and index, moved as the build partitions (sequential
 // reads at every level, not gathers through an index).
@@ -59,19 +58,51 @@ int bin_of(float c, float lo, double scale) {
     return x >= double(kBins - 1) ? kBins - 1 : (x > 0 ? int(x) : 0);
 }
 
+// A range's box and its references' centroid box.
+struct Boxes {
+    float lo[3], hi[3], clo[3], chi[3];
+    bool known = false;  // filled (by the parent's bins); else computed by a pass
+    void clear() {
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = clo[a] = std::numeric_limits<float>::max();
+            hi[a] = chi[a] = -std::numeric_limits<float>::max();
+        }
+    }
+    void add(const Boxes& b) {
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = std::min(lo[a], b.lo[a]), hi[a] = std::max(hi[a], b.hi[a]);
+            clo[a] = std::min(clo[a], b.clo[a]), chi[a] = std::max(chi[a], b.chi[a]);
+        }
+    }
+    void add(const Prim& p) {
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = std::min(lo[a], p.lo[a]), hi[a] = std::max(hi[a], p.hi[a]);
+            const float c = centroid(p, a);
+            clo[a] = std::min(clo[a], c), chi[a] = std::max(chi[a], c);
+        }
+    }
+};
+
 struct BinaryBuilder {
     std::vector<Prim>& refs;
 
     // The subtree over refs[begin, end) appended to `out`; returns its root's index there.
-    uint32_t build(uint32_t begin, uint32_t end, std::vector<BinNode>& out, int threads) {
+    // `boxes`: the range's boxes if its parent's bins gave them (the same floats a pass over
+    // the range gives: minima and maxima are exact).
+    uint32_t build(uint32_t begin, uint32_t end, std::vector<BinNode>& out, int threads,
+                   Boxes boxes) {
+        if (!boxes.known) {
+            boxes.clear();
+            for (uint32_t i = begin; i < end; ++i) boxes.add(refs[i]);
+        }
         BinNode node;
-        float clo[3], chi[3];
-        bounds(begin, end, node, clo, chi);
+        for (int a = 0; a < 3; ++a) node.lo[a] = boxes.lo[a], node.hi[a] = boxes.hi[a];
         const uint32_t at = uint32_t(out.size());
         node.first = begin, node.below = end - begin;
         out.push_back(node);
         const uint32_t count = end - begin;
-        const uint32_t mid = split(begin, end, node, clo, chi);
+        Boxes left_boxes, right_boxes;
+        const uint32_t mid = split(begin, end, boxes.clo, boxes.chi, left_boxes, right_boxes);
         if (mid == begin) {
             out[at].count = count;
             return at;
@@ -80,18 +111,18 @@ struct BinaryBuilder {
             // The left child on another thread, into its own array, linked in after.
             std::vector<BinNode> left_nodes;
             auto left = std::async(std::launch::async, [&] {
-                build(begin, mid, left_nodes, threads / 2);
+                build(begin, mid, left_nodes, threads / 2, left_boxes);
             });
             std::vector<BinNode> right_nodes;
-            build(mid, end, right_nodes, threads - threads / 2);
+            build(mid, end, right_nodes, threads - threads / 2, right_boxes);
             left.get();
             append(left_nodes, out);
             out[at].left = at + 1;
             out[at].right = uint32_t(out.size());
             append(right_nodes, out);
         } else {
-            out[at].left = build(begin, mid, out, 1);
-            out[at].right = build(mid, end, out, 1);
+            out[at].left = build(begin, mid, out, 1, left_boxes);
+            out[at].right = build(mid, end, out, 1, right_boxes);
         }
         return at;
     }
@@ -104,33 +135,19 @@ struct BinaryBuilder {
         }
     }
 
-    // The node's box and its references' centroid box.
-    void bounds(uint32_t begin, uint32_t end, BinNode& node, float clo[3], float chi[3]) const {
-        for (int a = 0; a < 3; ++a) {
-            node.lo[a] = clo[a] = std::numeric_limits<float>::max();
-            node.hi[a] = chi[a] = -std::numeric_limits<float>::max();
-        }
-        for (uint32_t i = begin; i < end; ++i) {
-            const Prim& p = refs[i];
-            for (int a = 0; a < 3; ++a) {
-                node.lo[a] = std::min(node.lo[a], p.lo[a]);
-                node.hi[a] = std::max(node.hi[a], p.hi[a]);
-                const float c = centroid(p, a);
-                clo[a] = std::min(clo[a], c), chi[a] = std::max(chi[a], c);
-            }
-        }
-    }
-
     // Partitions refs[begin, end) by the best binned SAH plane; returns the first of the
-    // upper part, or begin for a leaf.
-    uint32_t split(uint32_t begin, uint32_t end, const BinNode& node, const float clo[3],
-                   const float chi[3]) {
+    // upper part, or begin for a leaf. The parts' boxes, from the bins, into left and right.
+    uint32_t split(uint32_t begin, uint32_t end, const float clo[3], const float chi[3],
+                   Boxes& left, Boxes& right) {
         const uint32_t count = end - begin;
-        if (count <= 1) return begin;
+        // At most BVH_LEAF_MAX: one wide leaf whatever lies below (Collapser::is_leaf), so no
+        // split (the bins' fixed cost was most of the build's time at the bottom levels).
+        if (count <= BVH_LEAF_MAX) return begin;
         struct Bin {
-            float lo[3], hi[3];
             uint32_t n;
+            Boxes boxes;  // its references' boxes, centroids included
         };
+        Bin bins[kBins];
         double best_cost = std::numeric_limits<double>::infinity();
         int best_axis = -1, best_bin = 0;
         // Binned on the axis of the centroids' largest extent: all three axes built the 871k
@@ -141,52 +158,31 @@ struct BinaryBuilder {
             if (double(chi[a]) - clo[a] > double(chi[longest]) - clo[longest]) longest = a;
         for (int a = longest; a == longest; ++a) {
             if (!(chi[a] > clo[a])) continue;
-            Bin bins[kBins];
-            for (Bin& b : bins) {
-                b.n = 0;
-                for (int k = 0; k < 3; ++k)
-                    b.lo[k] = std::numeric_limits<float>::max(),
-                    b.hi[k] = -std::numeric_limits<float>::max();
-            }
+            for (Bin& b : bins) b.n = 0, b.boxes.clear();
             const double scale = double(kBins) / (double(chi[a]) - clo[a]);
             for (uint32_t i = begin; i < end; ++i) {
                 const Prim& p = refs[i];
-                const int b = bin_of(centroid(p, a), clo[a], scale);
-                Bin& bin = bins[b];
+                Bin& bin = bins[bin_of(centroid(p, a), clo[a], scale)];
                 bin.n += 1;
-                for (int k = 0; k < 3; ++k)
-                    bin.lo[k] = std::min(bin.lo[k], p.lo[k]),
-                    bin.hi[k] = std::max(bin.hi[k], p.hi[k]);
+                bin.boxes.add(p);
             }
             // Sweep: areas and counts left of each boundary, then right of it.
             double left_cost[kBins];
-            Bin acc = bins[0];
+            Boxes acc = bins[0].boxes;
             uint32_t n = 0;
             for (int b = 0; b < kBins - 1; ++b) {
-                if (b > 0)
-                    for (int k = 0; k < 3; ++k)
-                        acc.lo[k] = std::min(acc.lo[k], bins[b].lo[k]),
-                        acc.hi[k] = std::max(acc.hi[k], bins[b].hi[k]);
+                if (b > 0) acc.add(bins[b].boxes);
                 n += bins[b].n;
                 left_cost[b] = n ? double(half_area(acc.lo, acc.hi)) * n : 0.0;
             }
-            acc = bins[kBins - 1];
+            acc = bins[kBins - 1].boxes;
             n = 0;
             for (int b = kBins - 1; b > 0; --b) {
-                if (b < kBins - 1)
-                    for (int k = 0; k < 3; ++k)
-                        acc.lo[k] = std::min(acc.lo[k], bins[b].lo[k]),
-                        acc.hi[k] = std::max(acc.hi[k], bins[b].hi[k]);
+                if (b < kBins - 1) acc.add(bins[b].boxes);
                 n += bins[b].n;
                 const double cost = left_cost[b - 1] + (n ? double(half_area(acc.lo, acc.hi)) * n : 0.0);
                 if (cost < best_cost && n > 0 && n < count) best_cost = cost, best_axis = a, best_bin = b;
             }
-        }
-        const double area = half_area(node.lo, node.hi);
-        if (count <= BVH_LEAF_MAX) {
-            // A leaf unless splitting is expected to test fewer triangles.
-            if (best_axis < 0 || !(area > 0) || double(count) <= kNodeCost + best_cost / area)
-                return begin;
         }
         if (best_axis < 0) return begin + count / 2;  // one centroid: halve by index
         const int a = best_axis;
@@ -195,6 +191,11 @@ struct BinaryBuilder {
         Prim* mid = std::partition(refs.data() + begin, refs.data() + end, [&](const Prim& r) {
             return bin_of(centroid(r, a), c0, scale) < best_bin;
         });
+        // The parts' boxes: their bins' together.
+        left.clear(), right.clear();
+        for (int b = 0; b < kBins; ++b)
+            if (bins[b].n > 0) (b < best_bin ? left : right).add(bins[b].boxes);
+        left.known = right.known = true;
         return uint32_t(mid - refs.data());
     }
 };
@@ -234,6 +235,18 @@ uint32_t get_byte(uint32_t word, int k) { return (word >> (8 * k)) & 0xffu; }
 // Word and byte of a plane: q2 (x), q3 (y), q4 (z) hold lo slots 0-3, 4-7, hi 0-3, 4-7.
 int plane_word(int axis, bool high, int slot) { return 8 + 4 * axis + (high ? 2 : 0) + slot / 4; }
 
+// A wide node's children (binary node indices), at most BVH_WIDTH.
+struct Kids {
+    uint32_t at[BVH_WIDTH];
+    size_t n = 0;
+    size_t size() const { return n; }
+    void push_back(uint32_t b) { at[n++] = b; }
+    uint32_t& operator[](size_t k) { return at[k]; }
+    uint32_t operator[](size_t k) const { return at[k]; }
+    const uint32_t* begin() const { return at; }
+    const uint32_t* end() const { return at + n; }
+};
+
 struct Collapser {
     const std::vector<BinNode>& bin;
     const std::vector<Prim>& refs;
@@ -253,9 +266,12 @@ struct Collapser {
             const Item it = queue.front();
             queue.pop_front();
             stats.max_depth = std::max(stats.max_depth, it.depth);
-            std::vector<uint32_t> kids = collapse(it.bin);
-            const std::vector<int> slot_of = assign_slots(it.bin, kids);
-            std::vector<int> kid_in_slot(BVH_WIDTH, -1);
+            // (Fixed arrays: no allocation per node.)
+            Kids kids = collapse(it.bin);
+            int slot_of[BVH_WIDTH];
+            assign_slots(it.bin, kids, slot_of);
+            int kid_in_slot[BVH_WIDTH];
+            std::fill(kid_in_slot, kid_in_slot + BVH_WIDTH, -1);
             for (size_t k = 0; k < kids.size(); ++k) kid_in_slot[slot_of[k]] = int(k);
             gpu::BvhNode out;
             std::memset(&out, 0, sizeof out);
@@ -263,7 +279,7 @@ struct Collapser {
             out.words[5] = uint32_t(leaf_indices.size());
             // Internal children first (their indices), then the leaves' triangles.
             uint32_t imask = 0;
-            std::vector<uint32_t> internal;
+            Kids internal;
             for (int s = 0; s < int(BVH_WIDTH); ++s) {
                 if (kid_in_slot[s] < 0) continue;
                 const BinNode& c = bin[kids[size_t(kid_in_slot[s])]];
@@ -298,9 +314,13 @@ struct Collapser {
     bool is_leaf(uint32_t b) const { return bin[b].below <= BVH_LEAF_MAX; }
 
     // The children of the wide node made from binary node b: largest area opened first.
-    std::vector<uint32_t> collapse(uint32_t b) const {
-        if (is_leaf(b)) return {b};  // a leaf root (at most BVH_LEAF_MAX triangles)
-        std::vector<uint32_t> kids{bin[b].left, bin[b].right};
+    Kids collapse(uint32_t b) const {
+        Kids kids;
+        if (is_leaf(b)) {  // a leaf root (at most BVH_LEAF_MAX triangles)
+            kids.push_back(b);
+            return kids;
+        }
+        kids.push_back(bin[b].left), kids.push_back(bin[b].right);
         while (kids.size() < BVH_WIDTH) {
             int best = -1;
             double best_area = -1;
@@ -319,7 +339,7 @@ struct Collapser {
 
     // Slot of each child: greedily, the (child, slot) pair with the child nearest along the
     // slot's octant direction first.
-    std::vector<int> assign_slots(uint32_t b, const std::vector<uint32_t>& kids) const {
+    void assign_slots(uint32_t b, const Kids& kids, int slot_of[BVH_WIDTH]) const {
         const BinNode& parent = bin[b];
         float centre[3];
         for (int a = 0; a < 3; ++a) centre[a] = 0.5f * (parent.lo[a] + parent.hi[a]);
@@ -335,7 +355,7 @@ struct Collapser {
                 cost[k][s] = d;
             }
         }
-        std::vector<int> slot_of(kids.size(), -1);
+        std::fill(slot_of, slot_of + BVH_WIDTH, -1);
         bool slot_used[BVH_WIDTH] = {};
         for (size_t round = 0; round < kids.size(); ++round) {
             int bk = -1, bs = -1;
@@ -347,11 +367,10 @@ struct Collapser {
             slot_of[size_t(bk)] = bs;
             slot_used[bs] = true;
         }
-        return slot_of;
     }
 
-    void quantize(gpu::BvhNode& out, const std::vector<uint32_t>& kids,
-                  const std::vector<int>& kid_in_slot, uint32_t imask) const {
+    void quantize(gpu::BvhNode& out, const Kids& kids, const int kid_in_slot[BVH_WIDTH],
+                  uint32_t imask) const {
         float lo[3], hi[3];
         for (int a = 0; a < 3; ++a) {
             lo[a] = std::numeric_limits<float>::max(), hi[a] = -std::numeric_limits<float>::max();
@@ -407,7 +426,7 @@ KdTree build_wide_bvh(const std::vector<Triangle>& triangles, const TreeOptions&
         tree.stats.bytes = sizeof(gpu::BvhNode);
     } else {
         bin.reserve(2 * refs.size());
-        BinaryBuilder{refs}.build(0, uint32_t(refs.size()), bin, threads);
+        BinaryBuilder{refs}.build(0, uint32_t(refs.size()), bin, threads, Boxes{});
         Collapser col{bin, refs, {}, {}, {}};
         col.run();
         tree.nodes.resize(col.nodes.size() * BVH_NODE_UNITS);
