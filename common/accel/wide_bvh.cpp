@@ -51,12 +51,28 @@ double half_area(const float lo[3], const float hi[3]) {
     return dx * dy + dy * dz + dz * dx;
 }
 
-// The bin of centroid coordinate c over [lo, lo + kBins / scale), in double (finite for any
-// finite floats, denormal extents included).
-int bin_of(float c, float lo, double scale) {
-    const double x = (double(c) - lo) * scale;
-    return x >= double(kBins - 1) ? kBins - 1 : (x > 0 ? int(x) : 0);
-}
+// Bins of centroid coordinates over [lo, hi]: in float where every term is a normal float
+// well inside range (any mesh), else in double (finite for any finite floats, denormal
+// extents included). Binning and partitioning use the same one, so they agree.
+struct Binner {
+    float lo = 0, scale_f = 0;
+    double scale_d = 0;
+    bool in_float = false;
+    Binner(float lo_, float hi_) : lo(lo_) {
+        const double extent = double(hi_) - lo_;
+        scale_d = double(kBins) / extent;
+        scale_f = float(scale_d);
+        in_float = extent > 1e-30 && extent < 1e30 && std::abs(lo_) < 1e30 && std::abs(hi_) < 1e30;
+    }
+    int operator()(float c) const {
+        if (in_float) {
+            const float x = (c - lo) * scale_f;
+            return x >= float(kBins - 1) ? kBins - 1 : (x > 0 ? int(x) : 0);
+        }
+        const double x = (double(c) - lo) * scale_d;
+        return x >= double(kBins - 1) ? kBins - 1 : (x > 0 ? int(x) : 0);
+    }
+};
 
 // A range's box and its references' centroid box.
 struct Boxes {
@@ -159,10 +175,10 @@ struct BinaryBuilder {
         for (int a = longest; a == longest; ++a) {
             if (!(chi[a] > clo[a])) continue;
             for (Bin& b : bins) b.n = 0, b.boxes.clear();
-            const double scale = double(kBins) / (double(chi[a]) - clo[a]);
+            const Binner bin_of(clo[a], chi[a]);
             for (uint32_t i = begin; i < end; ++i) {
                 const Prim& p = refs[i];
-                Bin& bin = bins[bin_of(centroid(p, a), clo[a], scale)];
+                Bin& bin = bins[bin_of(centroid(p, a))];
                 bin.n += 1;
                 bin.boxes.add(p);
             }
@@ -186,10 +202,9 @@ struct BinaryBuilder {
         }
         if (best_axis < 0) return begin + count / 2;  // one centroid: halve by index
         const int a = best_axis;
-        const double scale = double(kBins) / (double(chi[a]) - clo[a]);
-        const float c0 = clo[a];
+        const Binner bin_of(clo[a], chi[a]);
         Prim* mid = std::partition(refs.data() + begin, refs.data() + end, [&](const Prim& r) {
-            return bin_of(centroid(r, a), c0, scale) < best_bin;
+            return bin_of(centroid(r, a)) < best_bin;
         });
         // The parts' boxes: their bins' together.
         left.clear(), right.clear();
