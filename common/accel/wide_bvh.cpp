@@ -125,11 +125,12 @@ struct BinaryBuilder {
         }
         if (threads > 1 && count >= kParallelMin) {
             // The left child on another thread, into its own array, linked in after.
-            std::vector<BinNode> left_nodes;
+            // (About n nodes for n references, leaves holding 1-3: a hint, they grow past it.)
+            std::vector<BinNode> left_nodes, right_nodes;
+            left_nodes.reserve(mid - begin), right_nodes.reserve(end - mid);
             auto left = std::async(std::launch::async, [&] {
                 build(begin, mid, left_nodes, threads / 2, left_boxes);
             });
-            std::vector<BinNode> right_nodes;
             build(mid, end, right_nodes, threads - threads / 2, right_boxes);
             left.get();
             append(left_nodes, out);
@@ -440,7 +441,7 @@ KdTree build_wide_bvh(const std::vector<Triangle>& triangles, const TreeOptions&
         tree.stats.nodes = 1;
         tree.stats.bytes = sizeof(gpu::BvhNode);
     } else {
-        bin.reserve(2 * refs.size());
+        bin.reserve(refs.size());
         BinaryBuilder{refs}.build(0, uint32_t(refs.size()), bin, threads, Boxes{});
         Collapser col{bin, refs, {}, {}, {}};
         col.run();
