@@ -222,20 +222,10 @@ void run_compare(const CompareArgs& args) {
         for (auto& h : sides[s].helpers) all.push_back(h.get());
         for (Session* one : all) configure(*one, s);
         // Trees and kernels: every device at once.
-        std::vector<std::string> failures(all.size());
-        std::vector<std::thread> commits;
-        for (size_t k = 0; k < all.size(); ++k)
-            commits.emplace_back([&, k] {
-                try {
-                    all[k]->commit();
-                } catch (const std::exception& e) {
-                    failures[k] = e.what();
-                }
-            });
-        for (std::thread& t : commits) t.join();
-        for (size_t k = 0; k < all.size(); ++k)
-            if (!failures[k].empty())
-                throw Error(all.size() == 1 ? failures[k] : devices[k] + ": " + failures[k]);
+        if (all.size() == 1)
+            all[0]->commit();
+        else
+            commit_all(all);
         sides[s].tree = tree_kind_name(sides[s].session->prepared().tree_kind);
         sides[s].open_s = since(t0);
     };

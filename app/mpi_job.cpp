@@ -78,6 +78,48 @@ Clock::duration seconds(double s) {
         std::chrono::duration<double>(std::min(s, 1e9)));
 }
 
+// Rank 0 to `rank`: two numbers of `tag` (a chunk's range, a batch's seed and samples; 0, 0:
+// stop).
+void send_pair(int rank, int tag, uint64_t a, uint64_t b) {
+    std::lock_guard<std::mutex> hold(lock());
+    const uint64_t pair[2] = {a, b};
+    MPI_Send(pair, 2, MPI_UINT64_T, rank, tag, MPI_COMM_WORLD);
+}
+
+// How long a rank may take for `samples` samples per pixel at its measured `rate`: ten times
+// the expected time, never less than `floor`; before a first measurement (which may warm a
+// device up) ten times the floor.
+double allowed_seconds(double samples, double rate, double floor) {
+    return rate > 0 ? std::max(floor, 10 * samples / rate) : 10 * floor;
+}
+
+// Ranks above 0: rank 0's probed message `st` as two numbers of `tag` (`what` names them);
+// false, and rank 0 told why, when it is another message.
+bool receive_pair(const MPI_Status& st, int tag, const char* what, uint64_t pair[2]) {
+    if (st.MPI_TAG != tag || count_of(st) != int(2 * sizeof(uint64_t))) {
+        send_error(Error("rank 0 sent a message of tag " + std::to_string(st.MPI_TAG) +
+                         " where " + what + " was due"),
+                   false);
+        return false;
+    }
+    MPI_Recv(pair, 2, MPI_UINT64_T, 0, tag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    return true;
+}
+
+// Ranks above 0: runs `work`; a failure goes to rank 0 (a lost device as such) and gives false.
+template <typename Work>
+bool reporting_failure(const Work& work) {
+    try {
+        work();
+        return true;
+    } catch (const DeviceLost& e) {
+        send_error(e, true);
+    } catch (const std::exception& e) {
+        send_error(e, false);
+    }
+    return false;
+}
+
 // The ranks of a job as rank 0 sees them: what each was handed this round, and the round's
 // collection over the tree (wire::tree_children), once a round for all of them.
 struct RankGroup {
@@ -145,26 +187,16 @@ class RankWorker : public Worker {
         : rank_(rank), device_(group->devices[size_t(rank)]), group_(std::move(group)) {}
     ~RankWorker() override {
         // The job is over: this rank may exit.
-        if (stopped_) return;
-        std::lock_guard<std::mutex> hold(lock());
-        const uint64_t stop[2] = {0, 0};
-        MPI_Send(stop, 2, MPI_UINT64_T, rank_, kChunk, MPI_COMM_WORLD);
+        if (!stopped_) send_pair(rank_, kChunk, 0, 0);
     }
     std::string name() const override { return device_ + " (" + rank_name(rank_) + ")"; }
     std::string device_name() const override { return device_; }
     void render(const Chunk& chunk) override {
-        {
-            std::lock_guard<std::mutex> hold(lock());
-            const uint64_t range[2] = {chunk.first, chunk.end};
-            MPI_Send(range, 2, MPI_UINT64_T, rank_, kChunk, MPI_COMM_WORLD);
-        }
-        // A deadline from this rank's measured speed: ten times the chunk's expected time,
-        // and never less than the job's floor. The first chunk has no measurement (and may
-        // warm a device up): ten times the floor.
+        send_pair(rank_, kChunk, chunk.first, chunk.end);
+        // A deadline from this rank's measured speed.
         const double samples = double(chunk.end - chunk.first);
         const double expected = rate_ > 0 ? samples / rate_ : 0;
-        const double floor = group_->job.timeout_floor_s;
-        const double allowed = rate_ > 0 ? std::max(floor, 10 * expected) : 10 * floor;
+        const double allowed = allowed_seconds(samples, rate_, group_->job.timeout_floor_s);
         const auto start = Clock::now();
         MPI_Status st;
         if (!wait_for(rank_, start + seconds(allowed), st)) {
@@ -222,7 +254,8 @@ class RankWorker : public Worker {
 // Fault injection for tests (MCPT_MPI_FAULT_RANK, MCPT_MPI_FAULT_AFTER_ROUNDS): this rank,
 // when handed its first chunk after N rounds (each collected, and checkpointed, by rank 0),
 // dies (MCPT_MPI_FAULT=kill, the default: SIGKILL), stops (stop: SIGSTOP, a hung rank) or
-// answers the next round with sums of another image size (bad-size).
+// answers the next round with sums of another image size (bad-size; compare: its batches
+// after N with means of another size).
 struct Fault {
     int after_rounds = -1;
     std::string kind;
@@ -334,23 +367,13 @@ class RankBatchRenderer : public BatchRenderer {
     RankBatchRenderer(int rank, std::string device, const RankJob& job)
         : rank_(rank), device_(std::move(device)), job_(job) {}
     ~RankBatchRenderer() override {
-        if (stopped_) return;
-        std::lock_guard<std::mutex> hold(lock());
-        const uint64_t stop[2] = {0, 0};
-        MPI_Send(stop, 2, MPI_UINT64_T, rank_, kBatch, MPI_COMM_WORLD);
+        if (!stopped_) send_pair(rank_, kBatch, 0, 0);
     }
     std::string name() const override { return device_ + " (" + rank_name(rank_) + ")"; }
     BatchMean render(uint32_t seed, uint64_t spp) override {
-        {
-            std::lock_guard<std::mutex> hold(lock());
-            const uint64_t batch[2] = {seed, spp};
-            MPI_Send(batch, 2, MPI_UINT64_T, rank_, kBatch, MPI_COMM_WORLD);
-        }
-        // A chunk's deadline (RankWorker): ten times the expected time, at least the floor;
-        // ten times the floor before a first measurement.
-        const double expected = rate_ > 0 ? double(spp) / rate_ : 0;
-        const double allowed =
-            rate_ > 0 ? std::max(job_.timeout_floor_s, 10 * expected) : 10 * job_.timeout_floor_s;
+        send_pair(rank_, kBatch, seed, spp);
+        // A chunk's deadline (RankWorker).
+        const double allowed = allowed_seconds(double(spp), rate_, job_.timeout_floor_s);
         const auto start = Clock::now();
         BatchMean out;
         try {
@@ -405,34 +428,26 @@ std::vector<std::unique_ptr<BatchRenderer>> mpi_batch_renderers(
 
 void mpi_serve_batches(Session& session) {
     if (!send_hello(session, false)) return;
-    for (;;) {
+    // Fault injection (MCPT_MPI_FAULT=bad-size): after N batches, means of another size.
+    const Fault fault = injected_fault();
+    for (int batches = 0;; ++batches) {
         // Two numbers from rank 0: a seed and a sample count (0: stop).
         MPI_Status st;
         MPI_Probe(0, MPI_ANY_TAG, MPI_COMM_WORLD, &st);
         uint64_t batch[2] = {0, 0};
-        if (st.MPI_TAG != kBatch || count_of(st) != int(sizeof batch)) {
-            send_error(Error("rank 0 sent a message of tag " + std::to_string(st.MPI_TAG) +
-                             " where a batch was due"),
-                       false);
+        if (!receive_pair(st, kBatch, "a batch", batch) || batch[1] == 0) return;
+        const bool bad_size =
+            fault.kind == "bad-size" && fault.after_rounds >= 0 && batches >= fault.after_rounds;
+        if (!reporting_failure([&] {
+                if (batch[0] > UINT32_MAX) throw Error("rank 0 sent a seed out of range");
+                session.settings().seed = uint32_t(batch[0]);
+                session.reset();
+                RenderGoal goal;
+                goal.spp = batch[1];
+                render_until(session, goal);
+                send_batch_mean(batch_mean(session.result()), bad_size);
+            }))
             return;
-        }
-        MPI_Recv(batch, 2, MPI_UINT64_T, 0, kBatch, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-        if (batch[1] == 0) return;
-        try {
-            if (batch[0] > UINT32_MAX) throw Error("rank 0 sent a seed out of range");
-            session.settings().seed = uint32_t(batch[0]);
-            session.reset();
-            RenderGoal goal;
-            goal.spp = batch[1];
-            render_until(session, goal);
-            send_batch_mean(batch_mean(session.result()));
-        } catch (const DeviceLost& e) {
-            send_error(e, true);
-            return;
-        } catch (const std::exception& e) {
-            send_error(e, false);
-            return;
-        }
     }
 }
 
@@ -471,14 +486,7 @@ void mpi_serve(Session& session, bool flat_reduction) {
         }
         // Rank 0's chunks are checked too: two sample indices, in order (end 0: stop).
         uint64_t range[2] = {0, 0};
-        if (st.MPI_TAG != kChunk || count_of(st) != int(sizeof range)) {
-            send_error(Error("rank 0 sent a message of tag " + std::to_string(st.MPI_TAG) +
-                             " where a chunk was due"),
-                       false);
-            return;
-        }
-        MPI_Recv(range, 2, MPI_UINT64_T, 0, kChunk, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-        if (range[1] == 0) return;
+        if (!receive_pair(st, kChunk, "a chunk", range) || range[1] == 0) return;
         if (fault.after_rounds >= 0 && rounds >= fault.after_rounds) {
             if (fault.kind == "stop")
                 std::raise(SIGSTOP);
@@ -487,16 +495,11 @@ void mpi_serve(Session& session, bool flat_reduction) {
             else
                 std::raise(SIGKILL);
         }
-        try {
-            if (range[0] >= range[1]) throw Error("rank 0 handed out an empty chunk");
-            session.render_chunk(range[0], range[1]);
-        } catch (const DeviceLost& e) {
-            send_error(e, true);
+        if (!reporting_failure([&] {
+                if (range[0] >= range[1]) throw Error("rank 0 handed out an empty chunk");
+                session.render_chunk(range[0], range[1]);
+            }))
             return;
-        } catch (const std::exception& e) {
-            send_error(e, false);
-            return;
-        }
         MPI_Send(nullptr, 0, MPI_BYTE, 0, kDone, MPI_COMM_WORLD);
     }
 }

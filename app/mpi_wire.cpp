@@ -50,6 +50,31 @@ bool receive_bytes(void* data, size_t bytes, int from, int tag, Clock::time_poin
     return true;
 }
 
+// The error for a message of another tag or size than `what`, from `who`.
+std::function<Error(const MPI_Status&)> unexpected_message(const std::string& who,
+                                                           const char* what) {
+    return [who, what](const MPI_Status& st) {
+        return Error(who + " sent a message of tag " + std::to_string(st.MPI_TAG) + " and " +
+                     std::to_string(count_of(st)) + " bytes where " + what + " was due");
+    };
+}
+
+// Waits up to `deadline` for `from`'s next message and receives it as a header of `tag` and
+// exactly `bytes` bytes; the lock, taken for it, is handed back for the arrays that follow
+// (not owned: nothing came in time). A kError is thrown as its exception, anything else as
+// unexpected(st).
+std::unique_lock<std::mutex> receive_header(
+    int from, int tag, void* header, size_t bytes, Clock::time_point deadline,
+    const std::function<Error(const MPI_Status&)>& unexpected) {
+    MPI_Status st;
+    if (!wait_for(from, deadline, st)) return {};
+    std::unique_lock<std::mutex> hold(lock());
+    if (st.MPI_TAG == kError) throw_rank_error(from, st);
+    if (st.MPI_TAG != tag || count_of(st) != int(bytes)) throw unexpected(st);
+    MPI_Recv(header, int(bytes), MPI_BYTE, from, tag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    return hold;
+}
+
 }  // namespace
 
 std::mutex& lock() {
@@ -127,23 +152,15 @@ void send_sums(const RenderResult& r, int to, bool bad_size) {
 
 bool receive_sums(int from, const SumsShape& shape, uint64_t max_spp, Clock::time_point deadline,
                   const std::string& who, RenderResult& out) {
-    const auto unexpected = [&](const MPI_Status& st, const char* what) {
-        return Error(who + " sent a message of tag " + std::to_string(st.MPI_TAG) + " and " +
-                     std::to_string(count_of(st)) + " bytes where " + what + " was due");
-    };
+    const auto unexpected = unexpected_message(who, "the round's sums");
     const auto bad = [&](const std::string& what) {
         return Error(who + " sent sums that do not fit the job: " + what);
     };
     // The header: exactly its size, this job's image and kind of sums, no more samples than
     // were handed out to the ranks it speaks for.
-    MPI_Status st;
-    if (!wait_for(from, deadline, st)) return false;
-    std::lock_guard<std::mutex> hold(lock());
-    if (st.MPI_TAG == kError) throw_rank_error(from, st);
-    if (st.MPI_TAG != kResult || count_of(st) != int(sizeof(ResultHeader)))
-        throw unexpected(st, "the round's sums");
     ResultHeader h{};
-    MPI_Recv(&h, sizeof h, MPI_BYTE, from, kResult, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    const auto hold = receive_header(from, kResult, &h, sizeof h, deadline, unexpected);
+    if (!hold.owns_lock()) return false;
     const uint64_t n = uint64_t(shape.width) * uint64_t(shape.height);
     // (A rank that rendered nothing this round holds no image: 0x0.)
     const bool empty = h.spp == 0 && h.width == 0 && h.height == 0;
@@ -171,8 +188,7 @@ bool receive_sums(int from, const SumsShape& shape, uint64_t max_spp, Clock::tim
     out.exact.resize(shape.exact ? 6 * n : 0);
     // The arrays, each piece of exactly the size due.
     const auto receive = [&](void* data, size_t bytes) {
-        return receive_bytes(data, bytes, from, kResult, deadline,
-                             [&](const MPI_Status& s) { return unexpected(s, "the round's sums"); });
+        return receive_bytes(data, bytes, from, kResult, deadline, unexpected);
     };
     if (shape.exact) {
         if (!receive(out.exact.data(), out.exact.size() * sizeof(ExactSum))) return false;
@@ -183,29 +199,22 @@ bool receive_sums(int from, const SumsShape& shape, uint64_t max_spp, Clock::tim
     return receive(out.nonfinite.data(), out.nonfinite.size() * sizeof(double));
 }
 
-void send_batch_mean(const BatchMean& b) {
-    const BatchHeader h{uint64_t(b.width), uint64_t(b.height), b.spp, b.nonfinite, b.seconds,
-                        b.rays};
+void send_batch_mean(const BatchMean& b, bool bad_size) {
+    const BatchHeader h{uint64_t(b.width) + (bad_size ? 1u : 0u), uint64_t(b.height), b.spp,
+                        b.nonfinite, b.seconds, b.rays};
     MPI_Send(&h, sizeof h, MPI_BYTE, 0, kBatchMean, MPI_COMM_WORLD);
     send_bytes(b.mean.data(), b.mean.size() * sizeof(double), 0, kBatchMean);
 }
 
 bool receive_batch_mean(int from, int width, int height, uint64_t spp,
                         Clock::time_point deadline, const std::string& who, BatchMean& out) {
-    const auto unexpected = [&](const MPI_Status& st) {
-        return Error(who + " sent a message of tag " + std::to_string(st.MPI_TAG) + " and " +
-                     std::to_string(count_of(st)) + " bytes where a batch was due");
-    };
+    const auto unexpected = unexpected_message(who, "a batch");
     const auto bad = [&](const std::string& what) {
         return Error(who + " sent a batch that does not fit the job: " + what);
     };
-    MPI_Status st;
-    if (!wait_for(from, deadline, st)) return false;
-    std::lock_guard<std::mutex> hold(lock());
-    if (st.MPI_TAG == kError) throw_rank_error(from, st);
-    if (st.MPI_TAG != kBatchMean || count_of(st) != int(sizeof(BatchHeader))) throw unexpected(st);
     BatchHeader h{};
-    MPI_Recv(&h, sizeof h, MPI_BYTE, from, kBatchMean, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    const auto hold = receive_header(from, kBatchMean, &h, sizeof h, deadline, unexpected);
+    if (!hold.owns_lock()) return false;
     // The header: this image, the samples asked for, counts in range.
     const uint64_t n = uint64_t(width) * uint64_t(height);
     if (h.width != uint64_t(width) || h.height != uint64_t(height))

@@ -66,8 +66,9 @@ void send_sums(const RenderResult& r, int to, bool bad_size = false);
 bool receive_sums(int from, const SumsShape& shape, uint64_t max_spp, Clock::time_point deadline,
                   const std::string& who, RenderResult& out);
 
-// A batch of `compare` (compare.h) to rank 0.
-void send_batch_mean(const BatchMean& batch);
+// A batch of `compare` (compare.h) to rank 0 (`bad_size`: a header of another width, for
+// fault injection).
+void send_batch_mean(const BatchMean& batch, bool bad_size = false);
 // Receives the batch `from` renders, checked: tags and sizes, the image size, `spp` samples
 // per pixel, counts in range, every mean finite; up to `deadline` (false: none came in time).
 // A kError is thrown as its exception; anything else that does not fit throws mcpt::Error

@@ -419,7 +419,8 @@ TEST(ScaleOut, MpiConvergeIsOneDevicesCurve) {
 
 // compare under mpirun: each side's batches go to every rank and come back as batch means; a
 // batch is its seed's render wherever it is made, so the verdict's numbers are the single
-// process's to the digit. The planted 2% brighter B is still told apart.
+// process's to the digit. The planted 2% brighter B is still told apart; a rank sending
+// means of another size is refused.
 TEST(ScaleOut, MpiCompareHandsBatchesToRanks) {
 #if !MCPT_WITH_MPI
     GTEST_SKIP() << "built without MPI (libopenmpi-dev)";
@@ -442,6 +443,14 @@ TEST(ScaleOut, MpiCompareHandsBatchesToRanks) {
     const test::CliRun planted = mpirun(3, args + " --b-light-scale 1.02");
     EXPECT_EQ(planted.status, 2) << planted.output;
     EXPECT_NE(planted.output.find("DIFFER"), std::string::npos) << planted.output;
+    // A rank whose batch means come with another image size is refused, named, at once.
+    const test::CliRun lying = mpirun(
+        2, args,
+        "-x MCPT_MPI_FAULT_RANK=1 -x MCPT_MPI_FAULT_AFTER_ROUNDS=2 -x MCPT_MPI_FAULT=bad-size");
+    EXPECT_NE(lying.status, 0) << lying.output;
+    EXPECT_NE(lying.output.find("(rank 1) sent a batch that does not fit the job: 33x24 pixels"),
+              std::string::npos)
+        << lying.output;
     // What mpirun cannot do here is refused on every rank, with the reason.
     const test::CliRun parallel = mpirun(2, args + " --parallel");
     EXPECT_NE(parallel.status, 0);

@@ -184,24 +184,13 @@ void Session::commit() {
     progressive_ = std::make_unique<ProgressiveRender>(*backend_, prepared_, scene_.camera, ro);
     // The other devices of this process, with the same scene and settings, prepared and
     // compiled at once.
-    std::vector<std::string> errors(helpers_.size());
-    std::vector<std::thread> threads;
-    for (size_t i = 0; i < helpers_.size(); ++i) {
-        helpers_[i]->set_scene(scene_);
-        helpers_[i]->settings() = s;
-        threads.emplace_back([this, i, &errors] {
-            try {
-                helpers_[i]->commit();
-            } catch (const std::exception& e) {
-                errors[i] = e.what();
-            }
-        });
+    std::vector<Session*> helpers;
+    for (auto& h : helpers_) {
+        h->set_scene(scene_);
+        h->settings() = s;
+        helpers.push_back(h.get());
     }
-    for (std::thread& t : threads) t.join();
-    for (size_t i = 0; i < errors.size(); ++i)
-        if (!errors[i].empty())
-            throw Error("device " + std::to_string(i + 1) + " (" + helpers_[i]->device().label() +
-                        "): " + errors[i]);
+    commit_all(helpers, 1);
     total_ = RenderResult{};
     total_.width = s.width, total_.height = s.height;
     if (several()) {
@@ -442,6 +431,24 @@ void Session::set_part(const SamplePart& part) {
 
 bool Session::needs_commit() const {
     return dirty_ || !same(settings_, committed_settings_);
+}
+
+void commit_all(const std::vector<Session*>& sessions, size_t first_number) {
+    std::vector<std::string> errors(sessions.size());
+    std::vector<std::thread> threads;
+    for (size_t i = 0; i < sessions.size(); ++i)
+        threads.emplace_back([&, i] {
+            try {
+                sessions[i]->commit();
+            } catch (const std::exception& e) {
+                errors[i] = e.what();
+            }
+        });
+    for (std::thread& t : threads) t.join();
+    for (size_t i = 0; i < errors.size(); ++i)
+        if (!errors[i].empty())
+            throw Error("device " + std::to_string(first_number + i) + " (" +
+                        sessions[i]->device().label() + "): " + errors[i]);
 }
 
 PassStats render_until(Session& session, const RenderGoal& goal,

@@ -214,6 +214,11 @@ class Session {
     std::string lost_;  // why the device stopped; empty while it works
 };
 
+// Commits every session at once, on threads of their own (trees and kernels). Throws
+// mcpt::Error naming the first that failed: "device K (its label): why", K counted from
+// `first_number`.
+void commit_all(const std::vector<Session*>& sessions, size_t first_number = 0);
+
 // Where render_until() stops: samples per pixel, seconds of rendering (a resumed render's
 // included), a relative error; 0: no limit of that kind (at least one is needed).
 struct RenderGoal {
