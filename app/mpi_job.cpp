@@ -31,14 +31,6 @@ std::string rank_device(const std::string& backend, const MpiJob& job) {
     return backend + ":" + std::to_string(gpus[size_t(job.local_rank) % gpus.size()].index);
 }
 
-void refuse_mpirun(const std::string& command) {
-    if (g_job.size > 1)
-        throw Error("mcpt " + command +
-                    " runs in one process, not under mpirun (its renders change seeds and "
-                    "restart, which ranks do not follow yet): give its devices with --device, "
-                    "or use mcpt render under mpirun");
-}
-
 #ifndef MCPT_WITH_MPI
 
 const MpiJob& mpi_start(int&, char**&) {

@@ -23,9 +23,6 @@ struct MpiJob {
 const MpiJob& mpi_start(int& argc, char**& argv);
 const MpiJob& mpi_job();
 void mpi_finish();
-// Commands that run in one process (their ranks would not follow their seeds and restarts):
-// under mpirun, an error naming `command` and what to use instead.
-void refuse_mpirun(const std::string& command);
 
 // Ends every rank of the job with `code` (a rank failed).
 [[noreturn]] void mpi_abort(int code);

@@ -352,18 +352,6 @@ TEST(ScaleOut, MpiRankHungOrLyingIsNamedAndTheRoundsBeforeKept) {
 #endif
 }
 
-// view runs in one process: under mpirun it refuses, saying what to use.
-TEST(ScaleOut, ViewRefusesMpirun) {
-#if !MCPT_WITH_MPI
-    GTEST_SKIP() << "built without MPI (libopenmpi-dev)";
-#else
-    const test::CliRun r = mpirun(2, "view cornell --width 8 --height 8 --time 1 --port 0");
-    EXPECT_NE(r.status, 0) << r.output;
-    EXPECT_NE(r.output.find("runs in one process, not under mpirun"), std::string::npos)
-        << r.output;
-#endif
-}
-
 // The rmse column of a converge CSV, one value per checkpoint.
 std::vector<double> csv_rmse(const fs::path& path) {
     std::ifstream in(path);

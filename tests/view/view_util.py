@@ -5,10 +5,12 @@ import subprocess
 import time
 
 
-def start_view(mcpt, args, timeout=180, env=None):
-    """Starts `mcpt view ARGS --port 0`; once it serves, returns the process, its port and
-    its address with the token (http://127.0.0.1:PORT/?token=...)."""
-    proc = subprocess.Popen([mcpt, "view", "--port", "0"] + args, stdout=subprocess.PIPE,
+def start_view(mcpt, args, timeout=180, env=None, launcher=()):
+    """Starts `mcpt view ARGS --port 0` (through `launcher`, e.g. mpirun -np 3); once it
+    serves, returns the process, its port and its address with the token
+    (http://127.0.0.1:PORT/?token=...)."""
+    proc = subprocess.Popen(list(launcher) + [mcpt, "view", "--port", "0"] + args,
+                            stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True, bufsize=1, env=env)
     deadline = time.time() + timeout
     lines = []
