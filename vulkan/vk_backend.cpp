@@ -240,21 +240,23 @@ struct VulkanBackend::Impl {
         const auto t0 = std::chrono::steady_clock::now();
         // Specialization: id 0 = KD_STACK_SIZE, id 1 = local_size_x, id 2 = MCPT_FEATURES,
         // ids 3, 4 and 5 = KD_NODE_STEPS, KD_TRI_STEPS and KD_OVERLAP, id 6 = the environment
-        // strategy (tests).
+        // strategy (tests), id 7 = MCPT_TRACE_SITES.
         const KdSteps steps = kd_steps(pd.info);
-        const uint32_t values[7] = {stack_size,  local,           features,      steps.nodes,
-                                    steps.triangles, steps.overlap, options.env_strategy};
-        static const char* const names[7] = {"KD_STACK_SIZE", "local_size_x",  "MCPT_FEATURES",
-                                             "KD_NODE_STEPS", "KD_TRI_STEPS",  "KD_OVERLAP",
-                                             "MCPT_ENV_STRATEGY"};
-        VkSpecializationMapEntry entries[7];
+        constexpr uint32_t kSpecs = 8;
+        const uint32_t values[kSpecs] = {stack_size,      local,         features,
+                                         steps.nodes,     steps.triangles, steps.overlap,
+                                         options.env_strategy, trace_sites(pd.info, features)};
+        static const char* const names[kSpecs] = {
+            "KD_STACK_SIZE", "local_size_x", "MCPT_FEATURES",     "KD_NODE_STEPS",
+            "KD_TRI_STEPS",  "KD_OVERLAP",   "MCPT_ENV_STRATEGY", "MCPT_TRACE_SITES"};
+        VkSpecializationMapEntry entries[kSpecs];
         built_settings.clear();
-        for (uint32_t i = 0; i < 7; ++i) {
+        for (uint32_t i = 0; i < kSpecs; ++i) {
             entries[i] = {i, 4 * i, 4};
             built_settings += std::string(i ? " " : "") + names[i] + "=" + std::to_string(values[i]);
         }
         VkSpecializationInfo spec{};
-        spec.mapEntryCount = 7;
+        spec.mapEntryCount = kSpecs;
         spec.pMapEntries = entries;
         spec.dataSize = sizeof(values);
         spec.pData = values;

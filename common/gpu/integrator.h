@@ -289,7 +289,35 @@ MCPT_STRUCT(PathState) {
     uint depth, rays, status;
     bool specular;
     uint sample_index, samples_left;  // this sample, and the samples this pixel still owes
+#ifdef MCPT_CARRIED_SHADOW
+    // One trace site (MCPT_TRACE_SITES = 1): next-event estimation's shadow ray, traced at the
+    // path's next step, and what it adds to the radiance if nothing blocks it; never pending
+    // between dispatches. (Builds with two sites have none of it: in NVIDIA's OpenCL a larger
+    // path, or a pair of structs, went through local memory, 1.2-7x slower.)
+    vec3 shadow_o, shadow_d, shadow_contribution;
+    float shadow_tmax;
+    bool shadow_pending;
+#endif
 };
+
+// The path waits on a shadow ray (only with one trace site).
+#ifdef MCPT_CARRIED_SHADOW
+#define SHADOW_PENDING(st) (st).shadow_pending
+#else
+#define SHADOW_PENDING(st) false
+#endif
+
+// No shadow ray pending.
+MCPT_FN PathState without_shadow(PathState st) {
+#ifdef MCPT_CARRIED_SHADOW
+    st.shadow_o = V3S(0.0f);
+    st.shadow_d = V3S(0.0f);
+    st.shadow_contribution = V3S(0.0f);
+    st.shadow_tmax = 0.0f;
+    st.shadow_pending = false;
+#endif
+    return st;
+}
 
 // The camera ray of `pixel`'s sample `sample_index` through a jittered point of the pixel.
 MCPT_FN PathState start_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
@@ -312,28 +340,18 @@ MCPT_FN PathState start_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
     st.specular = true;
     st.sample_index = sample_index;
     st.samples_left = 1u;
-    return st;
+    return without_shadow(st);
 }
 
-// One bounce of a running path: the next vertex, its emission, next-event estimation, the
-// BSDF sample, Russian roulette. The path comes out ended, or running from its next ray.
-MCPT_FN PathState bounce_path(SCENE_PARAMS_ PathState st, uint pixel) {
+// The vertex a path's ray hit: its emission, next-event estimation (its shadow ray left
+// pending, with what it adds if nothing blocks it), the BSDF sample, Russian roulette. The
+// path comes out ended, or running from its next ray; either way with its shadow ray, if one
+// was cast. The same sums whenever the shadow ray is traced: its contribution is added
+// before the next vertex's emission.
+MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uint pixel) {
     uint seed = PARAM(seed);
     float light_scale = PARAM(light_scale);
-    Ray ray;
-    ray.o = st.o;
-    ray.d = st.d;
-    ray.tmax = MCPT_FLT_MAX;
     uint depth = st.depth;
-    // Find the next vertex. (The ray's count and status stay written out here and at the
-    // shadow ray: one helper for both made NVIDIA's OpenCL 4x slower on the Cornell box.)
-    Hit hit = trace_ray(SCENE_ARGS_ ray, false);
-    st.rays += 1u;
-    MCPT_COUNT_RAY(hit);
-    if (hit.status != 0u) {
-        st.status = PATH_INVALID;
-        return st;
-    }
     if (hit.prim == NO_HIT) {
         // The environment, MIS-weighted unless NEE could not have sampled the direction.
         if (HAS_FEATURE(FEATURE_ENVIRONMENT) && PARAM(env_width) > 0u) {
@@ -411,19 +429,36 @@ MCPT_FN PathState bounce_path(SCENE_PARAMS_ PathState st, uint pixel) {
                 shadow.d = ls.wi;
                 shadow.tmax = MCPT_FLT_MAX;
             }
-            Hit blocker = trace_ray(SCENE_ARGS_ shadow, true);
-            st.rays += 1u;
-            MCPT_COUNT_RAY(blocker);
-            if (blocker.status != 0u) {
-                st.status = PATH_INVALID;
-                return st;
+            // Two trace sites: the shadow ray now. (Its count and status stay written out
+            // here and at the path's ray: one helper for both made NVIDIA's OpenCL 4x slower
+            // on the Cornell box.) One: at the path's next step (step_path).
+            bool unblocked = true;
+            if (MCPT_TRACE_SITES != 1u) {
+                Hit blocker = trace_ray(SCENE_ARGS_ shadow, true);
+                st.rays += 1u;
+                MCPT_COUNT_RAY(blocker);
+                if (blocker.status != 0u) {
+                    st.status = PATH_INVALID;
+                    return st;
+                }
+                unblocked = blocker.prim == NO_HIT;
             }
-            if (blocker.prim == NO_HIT) {
+            if (unblocked) {
                 BsdfEval e = eval_bsdf(m, ns, wo, ls.wi, front);
                 float w = ls.delta ? 1.0f : power_heuristic(ls.pdf, e.pdf);
                 if (MCPT_ENV_STRATEGY != 0u && ls.at_infinity && !ls.delta)
                     w = MCPT_ENV_STRATEGY == 2u ? 0.0f : (MCPT_ENV_STRATEGY == 4u ? 0.5f : 1.0f);
-                st.radiance += st.beta * e.f * ls.le * (light_scale * cos_x * w / ls.pdf);
+                vec3 contribution = st.beta * e.f * ls.le * (light_scale * cos_x * w / ls.pdf);
+#ifdef MCPT_CARRIED_SHADOW
+                if (MCPT_TRACE_SITES == 1u) {
+                    st.shadow_o = shadow.o;
+                    st.shadow_d = shadow.d;
+                    st.shadow_tmax = shadow.tmax;
+                    st.shadow_contribution = contribution;
+                    st.shadow_pending = true;
+                } else
+#endif
+                    st.radiance += contribution;
             }
         }
     }
@@ -466,11 +501,51 @@ MCPT_FN PathState bounce_path(SCENE_PARAMS_ PathState st, uint pixel) {
     return st;
 }
 
+// One step of a path: the ray to its next vertex and what follows from it. With one trace
+// site (MCPT_TRACE_SITES, scene_access.h), a pending shadow ray goes first, from the same
+// call: the kernel's only traversal (NVIDIA's Vulkan compiler inlines each call, and two
+// overflowed its instruction cache beside the texture code).
+MCPT_FN PathState step_path(SCENE_PARAMS_ PathState st, uint pixel) {
+    Ray ray;
+    ray.o = st.o;
+    ray.d = st.d;
+    ray.tmax = MCPT_FLT_MAX;
+    bool shadow = false;
+#ifdef MCPT_CARRIED_SHADOW
+    shadow = MCPT_TRACE_SITES == 1u && st.shadow_pending;
+    if (shadow) {
+        ray.o = st.shadow_o;
+        ray.d = st.shadow_d;
+        ray.tmax = st.shadow_tmax;
+    }
+#endif
+    Hit hit = trace_ray(SCENE_ARGS_ ray, shadow);
+    st.rays += 1u;
+    MCPT_COUNT_RAY(hit);
+#ifdef MCPT_CARRIED_SHADOW
+    if (shadow) {
+        // The light's contribution when nothing blocks it (before the next vertex's emission,
+        // as with two sites).
+        st.shadow_pending = false;
+        if (hit.status != 0u)
+            st.status = PATH_INVALID;
+        else if (hit.prim == NO_HIT)
+            st.radiance += st.shadow_contribution;
+        return st;
+    }
+#endif
+    if (hit.status != 0u) {
+        st.status = PATH_INVALID;
+        return st;
+    }
+    return shade_vertex(SCENE_ARGS_ st, ray, hit, pixel);
+}
+
 // One path's radiance estimate for `pixel`, sample `sample_index`, traced to its end (the
 // C++ build's oracle; devices run the same functions through step_slot()).
 MCPT_FN PathResult trace_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
     PathState st = start_path(SCENE_ARGS_ pixel, sample_index);
-    while (st.status == PATH_RUNNING) st = bounce_path(SCENE_ARGS_ st, pixel);
+    while (st.status == PATH_RUNNING || SHADOW_PENDING(st)) st = step_path(SCENE_ARGS_ st, pixel);
     if (st.status != PATH_ENDED) return path_result(V3S(quiet_nan()), st.rays);
     return path_result(st.radiance, st.rays);
 }
@@ -498,10 +573,12 @@ MCPT_FN SlotStep step_slot(SCENE_PARAMS_ PathState st, uint pixel, PixelSums sum
     SlotStep step;
     step.sums = sums;
     uint budget = PARAM(bounce_budget);
-    while (st.samples_left > 0u && budget > 0u) {
-        st = bounce_path(SCENE_ARGS_ st, pixel);
-        budget -= 1u;
-        if (st.status == PATH_RUNNING) continue;
+    // A bounce's shadow ray is traced before the dispatch ends (the state kept between
+    // dispatches holds none).
+    while (SHADOW_PENDING(st) || (st.samples_left > 0u && budget > 0u)) {
+        if (!SHADOW_PENDING(st)) budget -= 1u;
+        st = step_path(SCENE_ARGS_ st, pixel);
+        if (st.status == PATH_RUNNING || SHADOW_PENDING(st)) continue;
         vec3 l = st.status == PATH_ENDED ? st.radiance : V3S(quiet_nan());
         // Tests: poison every 4th sample of pixel 0 (NaN) and of pixel 1 (+Inf).
         if (HAS_FEATURE(FEATURE_TEST_NAN) && pixel <= 1u && (st.sample_index & 3u) == 0u)
@@ -575,7 +652,7 @@ MCPT_FN PathState unpack_state(PackedState p) {
     st.specular = (flags & 4u) != 0u;
     st.sample_index = float_as_uint(p.f.x);
     st.samples_left = float_as_uint(p.f.y);
-    return st;
+    return without_shadow(st);
 }
 
 MCPT_NAMESPACE_END

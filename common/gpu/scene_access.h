@@ -106,6 +106,8 @@ layout(constant_id = 3) const uint KD_NODE_STEPS = 1u;  // traverse.h
 layout(constant_id = 4) const uint KD_TRI_STEPS = 1u;
 layout(constant_id = 5) const uint KD_OVERLAP = 1u;  // traverse.h
 layout(constant_id = 6) const uint ENV_STRATEGY_SPEC = 0u;  // integrator.h (tests)
+layout(constant_id = 7) const uint MCPT_TRACE_SITES = 2u;   // integrator.h: step_path()
+#define MCPT_CARRIED_SHADOW 1  // the path can carry a shadow ray (with one trace site)
 #define MCPT_ENV_STRATEGY ENV_STRATEGY_SPEC
 #define SCENE_PARAMS_
 #define SCENE_ARGS_
@@ -217,6 +219,12 @@ MCPT_FN GpuTriangle load_triangle(__global const GpuTriangle* triangles, uint i)
 #endif
 #ifndef KD_OVERLAP
 #define KD_OVERLAP 1u  // overlapped node steps and triangle tests (traverse.h)
+#endif
+#ifndef MCPT_TRACE_SITES
+#define MCPT_TRACE_SITES 2u  // rays traced from one call or two (integrator.h: step_path())
+#endif
+#if MCPT_TRACE_SITES == 1u
+#define MCPT_CARRIED_SHADOW 1  // the path carries a shadow ray between steps
 #endif
 #endif
 
