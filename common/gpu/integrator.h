@@ -343,11 +343,11 @@ MCPT_FN PathState start_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
     return without_shadow(st);
 }
 
-// The vertex a path's ray hit: its emission, next-event estimation (its shadow ray left
-// pending, with what it adds if nothing blocks it), the BSDF sample, Russian roulette. The
-// path comes out ended, or running from its next ray; either way with its shadow ray, if one
-// was cast. The same sums whenever the shadow ray is traced: its contribution is added
-// before the next vertex's emission.
+// The vertex a path's ray hit: its emission, next-event estimation (the shadow ray traced
+// here with two trace sites; with one, left pending in the path with what it adds if nothing
+// blocks it), the BSDF sample, Russian roulette. The path comes out ended, or running from
+// its next ray. The same sums either way: the light's contribution is added before the next
+// vertex's emission.
 MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uint pixel) {
     uint seed = PARAM(seed);
     float light_scale = PARAM(light_scale);
