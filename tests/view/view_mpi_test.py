@@ -2,7 +2,8 @@
 """mcpt view under mpirun: one image on every rank's device. Rank 0 serves the page and its
 state lists each rank's share; pause stops every rank (no rank takes a chunk while paused);
 reset starts the image over on all of them; Ctrl-C (mpirun passes it on) ends every rank,
-rank 0 printing each one's share. An A/B view under mpirun is refused.
+rank 0 printing each one's share. An A/B view under mpirun is refused, and so is a rank
+started for another job.
 Usage: view_mpi_test.py MCPT_BINARY (exit 77: no mpirun)"""
 import http.client
 import json
@@ -78,6 +79,16 @@ def main():
     check(r.returncode != 0 and "an A/B view runs in one process" in r.stdout + r.stderr,
           "an A/B view under mpirun is refused (status %d)" % r.returncode)
 
+    # A rank started for another job (another seed): refused at once, named.
+    r = subprocess.run(mpirun(1) + [MCPT, "view", "cornell", "--width", "8", "--height", "8",
+                                    "--time", "60", "--port", "0", "--seed", "1", ":", "-np",
+                                    "1", MCPT, "view", "cornell", "--width", "8", "--height",
+                                    "8", "--time", "60", "--port", "0", "--seed", "2"],
+                       capture_output=True, text=True, timeout=120)
+    out = r.stdout + r.stderr
+    check(r.returncode != 0 and "rank 1" in out and "was started for another job: seed 2" in out,
+          "a rank of another job (seed 2) is refused, named (status %d)" % r.returncode)
+
     proc, port, url = start_view(MCPT, ["cornell", "--width", "32", "--height", "24", "--time",
                                         "300"], launcher=mpirun(RANKS))
     token = url.split("token=")[1]
@@ -88,17 +99,29 @@ def main():
             names = [d["name"] for d in s["devices"]]
             check(all(any("(rank %d)" % k in n for n in names) for k in range(1, RANKS)),
                   "the state names ranks 1-%d: %s" % (RANKS - 1, names))
-        # Paused: once the step under way has ended, no device takes a chunk, none renders.
+        # How long a step takes here, from the run itself: the longest time between three
+        # successive changes of the count (so the waits below hold on any machine's speed).
+        changes, last = [], side(port, token)["spp"]
+        deadline = time.time() + 120
+        while len(changes) < 3 and time.time() < deadline:
+            spp = side(port, token)["spp"]
+            if spp != last:
+                changes.append(time.time())
+                last = spp
+            time.sleep(0.05)
+        step = max(b - a for a, b in zip(changes, changes[1:])) if len(changes) == 3 else 10.0
+        # Paused: once the step under way has ended (nothing moves for two steps' time), no
+        # device takes a chunk and none renders for another step and a half.
         request(port, token, "/api/pause", "POST")
-        last, still = None, 0
-        deadline = time.time() + 60
-        while still < 10 and time.time() < deadline:
+        last, still_since = None, time.time()
+        deadline = time.time() + 120
+        while time.time() - still_since < 2 * step + 0.5 and time.time() < deadline:
             s = side(port, token)
             now = (s["spp"], chunks(s))
-            still = still + 1 if now == last else 0
-            last = now
-            time.sleep(0.2)
-        time.sleep(2)
+            if now != last:
+                last, still_since = now, time.time()
+            time.sleep(0.1)
+        time.sleep(1.5 * step + 0.5)
         after = side(port, token)
         check(last is not None and (after["spp"], chunks(after)) == last,
               "paused: no rank takes a chunk (spp and chunks %s, then %s)" %
