@@ -51,8 +51,7 @@ struct LightingArgs {
     std::vector<float> background;
 };
 
-// --light-sampling for `scene`: tree, power, or (auto) the tree from
-// Scene::kAutoLightTreeMin local lights on.
+// --light-sampling for `scene`: tree, power, or auto (Scene::auto_light_tree).
 bool use_light_tree(const Scene& scene, const LightingArgs& lighting);
 void add_lighting_options(CLI::App* sub, LightingArgs& a);
 // The environment the options ask for (none: Environment{}). Throws mcpt::Error.

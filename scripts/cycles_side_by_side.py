@@ -637,4 +637,5 @@ def main():
     print("\nwrote %s/side-by-side.csv, side-by-side.svg, variance-ratio.png" % args.out)
 
 
-main()
+if __name__ == "__main__":
+    main()

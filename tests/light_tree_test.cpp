@@ -265,26 +265,48 @@ void turn_cones(GpuScene& g) {
 }
 
 // --light-sampling auto: the tree from 32 local lights on (emitters and lamps; a directional
-// lamp is not local), power below; power and tree as asked.
-TEST(LightTree, AutoTakesTheTreeFromManyLights) {
+// lamp is not local), or from 2 where one is a point or spot lamp; power below; power and tree
+// as asked.
+TEST(LightTree, AutoTakesTheTreeFromManyLightsOrLamps) {
     const LightingArgs automatic;
     LightingArgs power, tree;
     power.light_sampling = "power", tree.light_sampling = "tree";
-    const Scene few = many_lights(10, 1), many = many_lights(11, 1);  // 30 and 33 lights
+    const auto emitters_only = [](int n) {
+        Scene s = many_lights(n, 1);
+        s.punctual_lights.clear();
+        return s;
+    };
+    const Scene few = emitters_only(15), many = emitters_only(16);  // 30 and 32 triangles
     EXPECT_EQ(few.local_light_count(), 30u);
-    EXPECT_EQ(many.local_light_count(), 33u);
+    EXPECT_EQ(many.local_light_count(), 32u);
     EXPECT_FALSE(use_light_tree(few, automatic));
     EXPECT_TRUE(use_light_tree(many, automatic));
     EXPECT_FALSE(use_light_tree(many, power));
     EXPECT_TRUE(use_light_tree(few, tree));
-    Scene sun = few;
+    // Lamps: one alone keeps power (nothing to choose); beside any other local light, the tree.
+    Scene lamp = test::plane_scene(0.5f, 10.f, 1.f);
+    PunctualLight point;
+    point.kind = PunctualKind::Point;
+    point.intensity = glm::vec3(1.f);
+    lamp.punctual_lights.push_back(point);
+    EXPECT_FALSE(use_light_tree(lamp, automatic));
+    Scene sun = lamp;
     for (int i = 0; i < 5; ++i) {
         PunctualLight l;
         l.kind = PunctualKind::Directional;
         l.intensity = glm::vec3(1.f);
         sun.punctual_lights.push_back(l);
     }
-    EXPECT_EQ(sun.local_light_count(), 30u);
+    EXPECT_EQ(sun.local_light_count(), 1u);
+    EXPECT_FALSE(use_light_tree(sun, automatic));
+    Scene two = lamp;
+    two.punctual_lights.push_back(point);
+    EXPECT_TRUE(use_light_tree(two, automatic));
+    EXPECT_FALSE(use_light_tree(two, power));
+    Scene lamp_and_emitter = emitters_only(1);  // two triangles
+    EXPECT_FALSE(use_light_tree(lamp_and_emitter, automatic));
+    lamp_and_emitter.punctual_lights.push_back(point);
+    EXPECT_TRUE(use_light_tree(lamp_and_emitter, automatic));
 }
 
 // At points on the floor the tree's picks leave the wall facing away: its share falls from

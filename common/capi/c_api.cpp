@@ -307,10 +307,18 @@ mcpt_status mcpt_session_device(mcpt_session s, mcpt_device_info* out) {
     });
 }
 
+namespace {
+// Lights picked as the command line's --light-sampling auto picks them.
+mcpt::Scene with_auto_light_sampling(mcpt::Scene scene) {
+    scene.light_tree = scene.auto_light_tree();
+    return scene;
+}
+}  // namespace
+
 mcpt_status mcpt_session_load_file(mcpt_session s, const char* path) {
     return with_session(s, MCPT_ERROR_SCENE, [&](Session& session) {
         require(path != nullptr && *path, "path is NULL or empty");
-        session.set_scene(mcpt::load_scene(path));
+        session.set_scene(with_auto_light_sampling(mcpt::load_scene(path)));
         return MCPT_OK;
     });
 }
@@ -319,7 +327,8 @@ mcpt_status mcpt_session_load_memory(mcpt_session s, const void* data, size_t si
                                      const char* base_dir) {
     return with_session(s, MCPT_ERROR_SCENE, [&](Session& session) {
         require(data != nullptr || size == 0, "data is NULL");
-        session.set_scene(mcpt::load_scene_memory(data, size, "memory", base_dir ? base_dir : ""));
+        session.set_scene(with_auto_light_sampling(
+            mcpt::load_scene_memory(data, size, "memory", base_dir ? base_dir : "")));
         return MCPT_OK;
     });
 }
@@ -327,7 +336,7 @@ mcpt_status mcpt_session_load_memory(mcpt_session s, const void* data, size_t si
 mcpt_status mcpt_session_load_builtin(mcpt_session s, const char* name) {
     return with_session(s, MCPT_ERROR_SCENE, [&](Session& session) {
         require(name != nullptr, "name is NULL");
-        session.set_scene(mcpt::load_scene(name));
+        session.set_scene(with_auto_light_sampling(mcpt::load_scene(name)));
         return MCPT_OK;
     });
 }

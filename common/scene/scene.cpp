@@ -147,8 +147,18 @@ size_t Scene::local_light_count() const {
     size_t n = 0;
     for (const Triangle& t : triangles) n += emits(t.material);
     for (const Sphere& s : spheres) n += emits(s.material);
+    return n + lamp_count();
+}
+
+size_t Scene::lamp_count() const {
+    size_t n = 0;
     for (const PunctualLight& l : punctual_lights) n += l.kind != PunctualKind::Directional;
     return n;
+}
+
+bool Scene::auto_light_tree() const {
+    const size_t local = local_light_count();
+    return local >= kAutoLightTreeMin || (local >= 2 && lamp_count() >= 1);
 }
 
 Bounds Scene::bounds() const {
