@@ -15,7 +15,7 @@
 # Environment Texture, mcpt's --env). Both also print mean radiance per region (4 x 4).
 # --scene FILE.glb: any scene as Blender exports it (its camera, lamps and materials), with
 # --env for a map. Like for like unless --as-is: lamps punctual (Blender's importer gives them
-# a 0.25 m radius and the sun 0.5 degrees), non-metals Lambertian in both (Specular 0 in the
+# a 0.25 m radius and the sun 0.5 degrees), spots hard-edged (blend 0), non-metals Lambertian in both (Specular 0 in the
 # file mcpt renders, a Diffuse BSDF in Cycles: Principled v1 is 6-16% brighter than glTF's
 # BRDF). --variant NAME=OPTIONS adds an mcpt row with other options (an A/B in one run).
 # Relative RMSE is mcpt converge's: sqrt(mean over pixels and channels of (image - ref)^2,
@@ -256,7 +256,7 @@ def non_metal_principled(mat):
 
 def build_file_scene(args, for_gltf):
     """A .glb/.gltf as Blender imports it. Like for like (unless --as-is): lamps punctual
-    (radius 0, sun angle 0) for both; non-metals with Specular 0 in the file mcpt renders
+    (radius 0, sun angle 0) and spots hard-edged for both; non-metals with Specular 0 in the file mcpt renders
     (Lambertian in mcpt) and a Diffuse BSDF of the same base colour in Cycles."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     sc = bpy.context.scene
@@ -275,6 +275,11 @@ def build_file_scene(args, for_gltf):
                     o.data.angle = 0.0
                 else:
                     o.data.shadow_soft_size = 0.0
+                if o.data.type == "SPOT":
+                    # Blender's blend is a smoothstep over (1 - cos outer) x blend; glTF's inner
+                    # cone a squared ramp in cosine: 7.5% apart on a 50-degree spot of blend
+                    # 0.15. A hard edge is the same in both.
+                    o.data.spot_blend = 0.0
         for mat in bpy.data.materials:
             n = non_metal_principled(mat)
             if n is None:
