@@ -124,10 +124,11 @@ MCPT_FN float triangle_area(GpuTriangle tri) {
 // `light_prim` (a triangle index, or a sphere index | LIGHT_SPHERE_BIT) of material m:
 // by power, mean(Le) / total (area * mean(Le) / total for the pick, uniform area sampling),
 // or by the tree, its pick's probability over the area.
-MCPT_FN float emitter_area_pdf(SCENE_PARAMS_ uint light_prim, vec3 x, GpuMaterial m, float area) {
+MCPT_FN float emitter_area_pdf(SCENE_PARAMS_ uint light_prim, vec3 x, vec3 rn, GpuMaterial m,
+                               float area) {
     if (LIGHT_TREE_ON)
         return PARAM(light_tree_pmf) *
-               light_tree_pmf(SCENE_ARGS_ x, light_tree_trail(SCENE_ARGS_ light_prim)) / area;
+               light_tree_pmf(SCENE_ARGS_ x, rn, light_tree_trail(SCENE_ARGS_ light_prim)) / area;
     return mean_component(material_emission(m)) / PARAM(light_power_total);
 }
 
@@ -141,21 +142,21 @@ MCPT_FN float sphere_cone_pdf(GpuSphere sph, vec3 x, float pmf) {
     return pmf / (2.0f * MCPT_PI * one_minus_cos_cone(r2 / d2));
 }
 
-MCPT_FN float sphere_light_pdf(SCENE_PARAMS_ uint index, vec3 x) {
+MCPT_FN float sphere_light_pdf(SCENE_PARAMS_ uint index, vec3 x, vec3 rn) {
     GpuSphere sph = SPHERE(index);
     float pmf = LIGHT_TREE_ON
                     ? PARAM(light_tree_pmf) *
-                          light_tree_pmf(SCENE_ARGS_ x,
+                          light_tree_pmf(SCENE_ARGS_ x, rn,
                                          light_tree_trail(SCENE_ARGS_ index | LIGHT_SPHERE_BIT))
                     : 4.0f * MCPT_PI * sph.radius * sph.radius *
-                          emitter_area_pdf(SCENE_ARGS_ index | LIGHT_SPHERE_BIT, x,
+                          emitter_area_pdf(SCENE_ARGS_ index | LIGHT_SPHERE_BIT, x, rn,
                                            MATERIAL(sph.material), 1.0f);
     return sphere_cone_pdf(sph, x, pmf);
 }
 
-// Choose a light by power (alias table), then a point on it, a direction of it, seen from x.
-// u: 3 uniforms.
-MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
+// Choose a light by power (alias table) or by the tree (receiver normal rn, or 0), then a
+// point on it, a direction of it, seen from x. u: 3 uniforms.
+MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 rn, vec3 u) {
     LightSample ls = no_light_sample();
     // A local light by the tree, or (without one, or else) one from the alias table: of every
     // light, or with a tree of the lights at infinity.
@@ -168,7 +169,7 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
         float pt = PARAM(light_tree_pmf);
         count -= PARAM(num_tree_lights);
         if (pick < pt || count == 0u) {
-            TreePick tp = light_tree_pick(SCENE_ARGS_ x, MINF(pick / pt, 0.99999994f));
+            TreePick tp = light_tree_pick(SCENE_ARGS_ x, rn, MINF(pick / pt, 0.99999994f));
             light = LIGHT(tp.slot);
             tree_pmf = pt * tp.pmf;
             by_tree = true;
@@ -210,7 +211,7 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
         GpuMaterial m = MATERIAL(sph.material);
         ls.le = material_emission(m);
         ls.pdf = by_tree ? sphere_cone_pdf(sph, x, pmf)
-                         : sphere_light_pdf(SCENE_ARGS_ prim & ~LIGHT_SPHERE_BIT, x);
+                         : sphere_light_pdf(SCENE_ARGS_ prim & ~LIGHT_SPHERE_BIT, x, rn);
         ls.valid = ls.pdf > 0.0f;
     } else if (HAS_FEATURE(FEATURE_TRIANGLE_LIGHTS) && (prim & ~LIGHT_INDEX_MASK) == 0u) {
         // Triangle: uniform point, one-sided emission.
@@ -240,7 +241,7 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
             ls.le = ls.le * V3(t.x, t.y, t.z);
         }
         float area_pdf =
-            by_tree ? pmf / triangle_area(tri) : emitter_area_pdf(SCENE_ARGS_ prim, x, m, 1.0f);
+            by_tree ? pmf / triangle_area(tri) : emitter_area_pdf(SCENE_ARGS_ prim, x, rn, m, 1.0f);
         ls.pdf = area_pdf * dist2 / cos_l;
         ls.valid = true;
     }
@@ -248,15 +249,15 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 u) {
 }
 
 // Solid-angle pdf with which next-event estimation would have produced the emitter hit
-// `hit` from x, for the MIS weight of a BSDF-sampled ray.
-MCPT_FN float emitter_hit_pdf(SCENE_PARAMS_ vec3 x, Ray ray, Hit hit, SurfacePoint s) {
+// `hit` from x (receiver normal rn), for the MIS weight of a BSDF-sampled ray.
+MCPT_FN float emitter_hit_pdf(SCENE_PARAMS_ vec3 x, vec3 rn, Ray ray, Hit hit, SurfacePoint s) {
     if (HAS_FEATURE(FEATURE_SPHERE_LIGHTS) && (hit.prim & SPHERE_BIT) != 0u) {
-        return sphere_light_pdf(SCENE_ARGS_ hit.prim & ~SPHERE_BIT, x);
+        return sphere_light_pdf(SCENE_ARGS_ hit.prim & ~SPHERE_BIT, x, rn);
     }
     float cos_l = -dot(s.ng, ray.d);
     vec3 to_l = s.p - x;
     float area = LIGHT_TREE_ON ? triangle_area(TRIANGLE(hit.prim)) : 1.0f;
-    return emitter_area_pdf(SCENE_ARGS_ hit.prim, x, MATERIAL(s.material), area) *
+    return emitter_area_pdf(SCENE_ARGS_ hit.prim, x, rn, MATERIAL(s.material), area) *
            dot(to_l, to_l) / cos_l;
 }
 
@@ -285,6 +286,7 @@ MCPT_FN Ray camera_ray(SCENE_PARAMS_ float fx, float fy) {
 MCPT_STRUCT(PathState) {
     vec3 o, d;  // the next ray (tmax infinite)
     vec3 beta, radiance, prev_p;
+    vec2 prev_n;  // the receiver normal at prev_p (light_tree.h: receiver_encode)
     float eta_scale, prev_pdf;
     uint depth, rays, status;
     bool specular;
@@ -332,6 +334,7 @@ MCPT_FN PathState start_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
     st.beta = V3S(1.0f);
     st.radiance = V3S(0.0f);
     st.prev_p = ray.o;
+    st.prev_n = NO_RECEIVER;
     st.eta_scale = 1.0f;
     st.prev_pdf = 0.0f;
     st.depth = 0u;
@@ -395,7 +398,13 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
     if (front && max_component(le) > 0.0f) {
         float w = 1.0f;
         if (!st.specular) {
-            w = power_heuristic(st.prev_pdf, emitter_hit_pdf(SCENE_ARGS_ st.prev_p, ray, hit, s));
+            vec2 rn_code = st.prev_n;
+#ifdef MCPT_NEGATIVE_CONTROL_RECEIVER_MIS  // tests: MIS that forgets the normal (biased)
+            rn_code = NO_RECEIVER;
+#endif
+            w = power_heuristic(st.prev_pdf, emitter_hit_pdf(SCENE_ARGS_ st.prev_p,
+                                                              receiver_decode(rn_code), ray,
+                                                              hit, s));
         }
         st.radiance += st.beta * le * w;
     }
@@ -407,9 +416,17 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
     vec4 ua = sample4(pixel, st.sample_index, 2u * depth + 1u, seed);
     vec4 ub = sample4(pixel, st.sample_index, 2u * depth + 2u, seed);
 
+    // The receiver's normal for the light tree: the geometric one on wo's side (no light from
+    // below it reaches an opaque surface); none where the material transmits.
+    vec2 rn_code = NO_RECEIVER;
+#ifndef MCPT_NO_RECEIVER_BOUND  // tests: the tree without it
+    if (LIGHT_TREE_ON && !is_transmissive(m)) rn_code = receiver_encode(n);
+#endif
+    vec3 rn = receiver_decode(rn_code);
+
     // Next-event estimation at vertices with a smooth lobe.
     if (has_smooth_lobe(m) && PARAM(num_lights) > 0u) {
-        LightSample ls = sample_light(SCENE_ARGS_ s.p, V3(ua.z, ua.x, ua.y));
+        LightSample ls = sample_light(SCENE_ARGS_ s.p, rn, V3(ua.z, ua.x, ua.y));
         // The light must lie on the same side of the shading and the geometric surface
         // (else it would leak through), in front unless the material transmits.
         float cos_s = dot(ns, ls.wi), cos_g = dot(n, ls.wi);
@@ -480,6 +497,7 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
     st.specular = bs.specular;
     st.prev_pdf = bs.pdf;
     st.prev_p = s.p;
+    st.prev_n = rn_code;
     st.o = offset_ray_origin(s.p, s.p_error, s.ng, bs.wi);
     st.d = bs.wi;
     st.depth = depth + 1u;
@@ -632,7 +650,8 @@ MCPT_FN PackedState pack_state(PathState st) {
     p.d = V4(st.radiance.x, st.radiance.y, st.radiance.z, uint_as_float(st.rays));
     p.e = V4(st.prev_p.x, st.prev_p.y, st.prev_p.z,
              uint_as_float(st.status | (st.specular ? 4u : 0u)));
-    p.f = V4(uint_as_float(st.sample_index), uint_as_float(st.samples_left), 0.0f, 0.0f);
+    p.f = V4(uint_as_float(st.sample_index), uint_as_float(st.samples_left), st.prev_n.x,
+             st.prev_n.y);
     return p;
 }
 
@@ -652,6 +671,7 @@ MCPT_FN PathState unpack_state(PackedState p) {
     st.specular = (flags & 4u) != 0u;
     st.sample_index = float_as_uint(p.f.x);
     st.samples_left = float_as_uint(p.f.y);
+    st.prev_n = V2(p.f.z, p.f.w);
     return without_shadow(st);
 }
 
