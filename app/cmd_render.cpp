@@ -157,6 +157,13 @@ void run_render(const RenderArgs& a) {
                  scene.environment.name + " " + std::to_string(g.params.env_width) + "x" +
                  std::to_string(g.params.env_height);
     if (!lamps.empty()) std::printf("lights: %s\n", lamps.c_str());
+    if (g.params.num_lights > 1)
+        std::printf("light sampling: %s\n",
+                    g.params.num_tree_lights > 0
+                        ? ("the tree (" + std::to_string(g.params.num_tree_lights) +
+                           " local lights, by their importance at the shading point)")
+                              .c_str()
+                        : "by power");
     if (a.verbose && !g.tree_choice.empty()) std::printf("%s\n", g.tree_choice.c_str());
     std::printf("tree: %s%s\n", a.tree == "auto" ? "auto, " : "", describe_tree(g).c_str());
 
