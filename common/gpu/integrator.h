@@ -286,7 +286,9 @@ MCPT_FN Ray camera_ray(SCENE_PARAMS_ float fx, float fy) {
 MCPT_STRUCT(PathState) {
     vec3 o, d;  // the next ray (tmax infinite)
     vec3 beta, radiance, prev_p;
+#ifdef MCPT_CARRIED_RECEIVER
     vec2 prev_n;  // the receiver normal at prev_p (light_tree.h: receiver_encode)
+#endif
     float eta_scale, prev_pdf;
     uint depth, rays, status;
     bool specular;
@@ -301,6 +303,16 @@ MCPT_STRUCT(PathState) {
     bool shadow_pending;
 #endif
 };
+
+// The receiver normal at prev_p, where builds without the light tree carry none (OpenCL: its
+// features are known when the source is compiled; GLSL: always, as specialization constants).
+#ifdef MCPT_CARRIED_RECEIVER
+#define PREV_RECEIVER(st) (st).prev_n
+#define SET_PREV_RECEIVER(st, code) (st).prev_n = (code)
+#else
+#define PREV_RECEIVER(st) NO_RECEIVER
+#define SET_PREV_RECEIVER(st, code)
+#endif
 
 // The path waits on a shadow ray (only with one trace site).
 #ifdef MCPT_CARRIED_SHADOW
@@ -334,7 +346,7 @@ MCPT_FN PathState start_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
     st.beta = V3S(1.0f);
     st.radiance = V3S(0.0f);
     st.prev_p = ray.o;
-    st.prev_n = NO_RECEIVER;
+    SET_PREV_RECEIVER(st, NO_RECEIVER);
     st.eta_scale = 1.0f;
     st.prev_pdf = 0.0f;
     st.depth = 0u;
@@ -398,7 +410,7 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
     if (front && max_component(le) > 0.0f) {
         float w = 1.0f;
         if (!st.specular) {
-            vec2 rn_code = st.prev_n;
+            vec2 rn_code = PREV_RECEIVER(st);
 #ifdef MCPT_NEGATIVE_CONTROL_RECEIVER_MIS  // tests: MIS that forgets the normal (biased)
             rn_code = NO_RECEIVER;
 #endif
@@ -497,7 +509,7 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
     st.specular = bs.specular;
     st.prev_pdf = bs.pdf;
     st.prev_p = s.p;
-    st.prev_n = rn_code;
+    SET_PREV_RECEIVER(st, rn_code);
     st.o = offset_ray_origin(s.p, s.p_error, s.ng, bs.wi);
     st.d = bs.wi;
     st.depth = depth + 1u;
@@ -650,8 +662,8 @@ MCPT_FN PackedState pack_state(PathState st) {
     p.d = V4(st.radiance.x, st.radiance.y, st.radiance.z, uint_as_float(st.rays));
     p.e = V4(st.prev_p.x, st.prev_p.y, st.prev_p.z,
              uint_as_float(st.status | (st.specular ? 4u : 0u)));
-    p.f = V4(uint_as_float(st.sample_index), uint_as_float(st.samples_left), st.prev_n.x,
-             st.prev_n.y);
+    vec2 prev_n = PREV_RECEIVER(st);
+    p.f = V4(uint_as_float(st.sample_index), uint_as_float(st.samples_left), prev_n.x, prev_n.y);
     return p;
 }
 
@@ -671,7 +683,7 @@ MCPT_FN PathState unpack_state(PackedState p) {
     st.specular = (flags & 4u) != 0u;
     st.sample_index = float_as_uint(p.f.x);
     st.samples_left = float_as_uint(p.f.y);
-    st.prev_n = V2(p.f.z, p.f.w);
+    SET_PREV_RECEIVER(st, V2(p.f.z, p.f.w));
     return without_shadow(st);
 }
 

@@ -108,6 +108,7 @@ layout(constant_id = 5) const uint KD_OVERLAP = 1u;  // traverse.h
 layout(constant_id = 6) const uint ENV_STRATEGY_SPEC = 0u;  // integrator.h (tests)
 layout(constant_id = 7) const uint MCPT_TRACE_SITES = 2u;   // integrator.h: step_path()
 #define MCPT_CARRIED_SHADOW 1  // the path can carry a shadow ray (with one trace site)
+#define MCPT_CARRIED_RECEIVER 1  // the path carries the receiver's normal (light tree)
 #define MCPT_ENV_STRATEGY ENV_STRATEGY_SPEC
 #define SCENE_PARAMS_
 #define SCENE_ARGS_
@@ -225,6 +226,9 @@ MCPT_FN GpuTriangle load_triangle(__global const GpuTriangle* triangles, uint i)
 #endif
 #if MCPT_TRACE_SITES == 1u
 #define MCPT_CARRIED_SHADOW 1  // the path carries a shadow ray between steps
+#endif
+#if (MCPT_FEATURES & FEATURE_LIGHT_TREE) != 0u
+#define MCPT_CARRIED_RECEIVER 1  // the path carries the receiver's normal (light tree)
 #endif
 #endif
 
