@@ -15,7 +15,8 @@
 # Environment Texture, mcpt's --env). Both also print mean radiance per region (4 x 4).
 # --scene FILE.glb: any scene as Blender exports it (its camera, lamps and materials), with
 # --env for a map. Like for like unless --as-is: lamps punctual (Blender's importer gives them
-# a 0.25 m radius and the sun 0.5 degrees), spots hard-edged (blend 0), non-metals Lambertian in both (Specular 0 in the
+# a 0.25 m radius and the sun 0.5 degrees), spots hard-edged (blend 0), emitters one-sided
+# (Cycles' meshes emit from both faces), non-metals Lambertian in both (Specular 0 in the
 # file mcpt renders, a Diffuse BSDF in Cycles: Principled v1 is 6-16% brighter than glTF's
 # BRDF). --variant NAME=OPTIONS adds an mcpt row with other options (an A/B in one run).
 # Relative RMSE is mcpt converge's: sqrt(mean over pixels and channels of (image - ref)^2,
@@ -254,10 +255,35 @@ def non_metal_principled(mat):
     return None
 
 
+def one_sided_emission(mat):
+    """Cycles' mesh emission leaves both faces; mcpt's the front face only (glTF's emissive
+    triangles face their normal). Like for like: the Principled emission times 1 - Backfacing."""
+    if not mat or not mat.use_nodes:
+        return
+    nt = mat.node_tree
+    for n in list(nt.nodes):
+        if n.type != "BSDF_PRINCIPLED":
+            continue
+        strength = n.inputs["Emission Strength"]
+        if strength.is_linked or strength.default_value <= 0:
+            continue
+        geometry = nt.nodes.new("ShaderNodeNewGeometry")
+        front = nt.nodes.new("ShaderNodeMath")
+        front.operation = "SUBTRACT"
+        front.inputs[0].default_value = 1.0
+        nt.links.new(geometry.outputs["Backfacing"], front.inputs[1])
+        scaled = nt.nodes.new("ShaderNodeMath")
+        scaled.operation = "MULTIPLY"
+        scaled.inputs[1].default_value = strength.default_value
+        nt.links.new(front.outputs["Value"], scaled.inputs[0])
+        nt.links.new(scaled.outputs["Value"], strength)
+
+
 def build_file_scene(args, for_gltf):
     """A .glb/.gltf as Blender imports it. Like for like (unless --as-is): lamps punctual
-    (radius 0, sun angle 0) and spots hard-edged for both; non-metals with Specular 0 in the file mcpt renders
-    (Lambertian in mcpt) and a Diffuse BSDF of the same base colour in Cycles."""
+    (radius 0, sun angle 0) and spots hard-edged for both; emission one-sided in Cycles;
+    non-metals with Specular 0 in the file mcpt renders (Lambertian in mcpt) and a Diffuse BSDF
+    of the same base colour in Cycles."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     sc = bpy.context.scene
     # Debian's Blender 3.4 importer uses np.bool, gone from Debian's numpy 1.24.
@@ -281,6 +307,8 @@ def build_file_scene(args, for_gltf):
                     # 0.15. A hard edge is the same in both.
                     o.data.spot_blend = 0.0
         for mat in bpy.data.materials:
+            if not for_gltf:
+                one_sided_emission(mat)
             n = non_metal_principled(mat)
             if n is None:
                 continue
@@ -298,7 +326,11 @@ def build_file_scene(args, for_gltf):
             emission = n.inputs["Emission Strength"].default_value
             if emission > 0 and (n.inputs["Emission"].is_linked or
                                  max(n.inputs["Emission"].default_value[:3]) > 0):
-                # An emitter keeps its Principled node: Cycles' emission is the same.
+                # An emitter keeps its Principled node (Cycles' emission is the same), with
+                # Specular 0 as in the file mcpt renders: else its specular layer reflects the
+                # scene at grazing angles (5.8% of the radiance of the top of a view of
+                # ceiling panels).
+                n.inputs["Specular"].default_value = 0.0
                 continue
             nt.links.new(d.outputs["BSDF"], out.inputs["Surface"])
     add_world(sc, args.env)
