@@ -135,7 +135,7 @@ struct Scene {
     // ... and from two local lights on where one is a lamp: a lamp has no extent and falls off
     // as 1/d^2, so its share of the power is its share of the light almost nowhere. Measured
     // (PoCL, per sample, docs/lights.md): a point and a spot lamp beside a sun, 2.3x less
-    // variance in direct light and 1.25x less in all, at the same time per sample.
+    // variance in direct light and 1.56x less over 7 bounces, for ~10% more time per sample.
     bool auto_light_tree() const;
 
     uint32_t add_material(const Material& m) {
