@@ -102,8 +102,7 @@ void print_device_shares(const Session& session) {
 }
 
 bool use_light_tree(const Scene& scene, const LightingArgs& lighting) {
-    if (lighting.light_sampling == "auto")
-        return scene.auto_light_tree();
+    if (lighting.light_sampling == "auto") return scene.auto_light_tree();
     return lighting.light_sampling == "tree";
 }
 

@@ -180,9 +180,10 @@ TEST(LightTree, PicksFollowTheirPmfAndSumToOne) {
         }
         for (double& e : expected) e *= kPicks;
         const double p_value = stats::chi_square_test(observed, expected);
-        std::printf("light tree at (%.1f, %.1f), normal (%.2f, %.2f, %.2f): sum of pmf %.6f, "
-                    "chi-square p = %.3f\n",
-                    x.x, x.z, rn.x, rn.y, rn.z, sum, p_value);
+        std::printf(
+            "light tree at (%.1f, %.1f), normal (%.2f, %.2f, %.2f): sum of pmf %.6f, "
+            "chi-square p = %.3f\n",
+            x.x, x.z, rn.x, rn.y, rn.z, sum, p_value);
         EXPECT_GT(p_value, 1e-3);
     }
 }
@@ -222,24 +223,25 @@ double share_below(const Scene& scene, const GpuScene& g, glm::vec3 rn) {
         const glm::vec3 x(pos(rng), 0.f, pos(rng));
         for (const gpu::GpuLight& l : g.lights)
             if (scene.punctual_lights.at(l.prim & LIGHT_INDEX_MASK).position.y < 0.f)
-                below += gpu::light_tree_pmf(TREE_ARGS x, rn,
-                                             gpu::light_tree_trail(TREE_ARGS l.prim));
+                below +=
+                    gpu::light_tree_pmf(TREE_ARGS x, rn, gpu::light_tree_trail(TREE_ARGS l.prim));
     }
     return below / 16;
 }
 
 // The receiver's normal: lamps below a receiver facing up get almost none of its picks (those
-// left share a node with lamps above); without the normal they get about half; the normal turned down gives them nearly all (the control:
-// the share follows the normal, not the lights).
+// left share a node with lamps above); without the normal they get about half; the normal turned
+// down gives them nearly all (the control: the share follows the normal, not the lights).
 TEST(LightTree, ReceiverNormalLeavesLightsBelow) {
     const Scene scene = two_storeys(100, 5);
     const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, TreeOptions{}));
     const double up = share_below(scene, g, glm::vec3(0.f, 1.f, 0.f)),
                  none = share_below(scene, g, glm::vec3(0.f)),
                  down = share_below(scene, g, glm::vec3(0.f, -1.f, 0.f));
-    std::printf("share of the picks to lamps below: facing up %.4f, no normal %.4f, facing down "
-                "%.4f\n",
-                up, none, down);
+    std::printf(
+        "share of the picks to lamps below: facing up %.4f, no normal %.4f, facing down "
+        "%.4f\n",
+        up, none, down);
     EXPECT_LT(up, 0.05);
     EXPECT_GT(none, 0.2);
     EXPECT_GT(down, 0.95);
@@ -255,10 +257,10 @@ TEST(LightTree, ReceiverNormalSurvivesItsEncoding) {
         const glm::vec3 n = glm::normalize(glm::vec3(g01(rng), g01(rng), g01(rng)));
         worst = std::max(worst, glm::length(gpu::receiver_decode(gpu::receiver_encode(n)) - n));
     }
-    for (const glm::vec3 axis : {glm::vec3(0, 0, 1), glm::vec3(0, 0, -1), glm::vec3(1, 0, 0),
-                                 glm::vec3(0, -1, 0)})
-        worst = std::max(worst,
-                         glm::length(gpu::receiver_decode(gpu::receiver_encode(axis)) - axis));
+    for (const glm::vec3 axis :
+         {glm::vec3(0, 0, 1), glm::vec3(0, 0, -1), glm::vec3(1, 0, 0), glm::vec3(0, -1, 0)})
+        worst =
+            std::max(worst, glm::length(gpu::receiver_decode(gpu::receiver_encode(axis)) - axis));
     EXPECT_LT(worst, 1e-6f);
     EXPECT_EQ(gpu::receiver_decode(glm::vec2(4.f, 0.f)), glm::vec3(0.f));  // NO_RECEIVER
 }
@@ -471,9 +473,10 @@ TEST(LightTreeRenderCl, ReceiverNormalSkipsTheStoreyBelow) {
                              mf = test::pooled_mean(forgets);
     const double z_without = (mn.mean - mw.mean) / std::hypot(mn.std_error, mw.std_error);
     const double z_forgets = (mf.mean - mw.mean) / std::hypot(mf.std_error, mw.std_error);
-    std::printf("quads on two storeys: variance per sample %.4g with the normal, %.4g without "
-                "(%.2fx); z of the means: without %.2f, MIS forgetting it %.2f\n",
-                vw, vn, vn / vw, z_without, z_forgets);
+    std::printf(
+        "quads on two storeys: variance per sample %.4g with the normal, %.4g without "
+        "(%.2fx); z of the means: without %.2f, MIS forgetting it %.2f\n",
+        vw, vn, vn / vw, z_without, z_forgets);
     EXPECT_GT(vn / vw, 1.4);
     EXPECT_LT(std::abs(z_without), 4.5);
     EXPECT_GT(std::abs(z_forgets), 4.5);

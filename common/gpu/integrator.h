@@ -414,9 +414,9 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
 #ifdef MCPT_NEGATIVE_CONTROL_RECEIVER_MIS  // tests: MIS that forgets the normal (biased)
             rn_code = NO_RECEIVER;
 #endif
-            w = power_heuristic(st.prev_pdf, emitter_hit_pdf(SCENE_ARGS_ st.prev_p,
-                                                              receiver_decode(rn_code), ray,
-                                                              hit, s));
+            w = power_heuristic(
+                st.prev_pdf,
+                emitter_hit_pdf(SCENE_ARGS_ st.prev_p, receiver_decode(rn_code), ray, hit, s));
         }
         st.radiance += st.beta * le * w;
     }
