@@ -19,6 +19,7 @@
 # (Cycles' meshes emit from both faces), non-metals Lambertian in both (Specular 0 in the
 # file mcpt renders, a Diffuse BSDF in Cycles: Principled v1 is 6-16% brighter than glTF's
 # BRDF). --variant NAME=OPTIONS adds an mcpt row with other options (an A/B in one run).
+# --by-bounce 0,1,7: per-sample variance by bounce limit and region instead of the curves.
 # Relative RMSE is mcpt converge's: sqrt(mean over pixels and channels of (image - ref)^2,
 # less the reference noise) / mean reference radiance.
 import argparse
@@ -57,6 +58,12 @@ def parse_args():
     p.add_argument("--variant", action="append", default=[],
                    help="another mcpt row: NAME=OPTIONS, e.g. 'luminance=--env-sampling "
                    "luminance' (A/B of an option against Cycles and the default, one run)")
+    p.add_argument("--by-bounce",
+                   help="instead of the curves: per-sample variance by bounce limit, e.g. 0,1,7 "
+                   "(Cycles' max_bounces b against mcpt's --max-depth b + 1): --seeds renders of "
+                   "--seed-spp spp each, the variance across them per pixel, by 4 x 4 region")
+    p.add_argument("--seeds", type=int, default=8, help="--by-bounce: renders per row")
+    p.add_argument("--seed-spp", type=int, default=16, help="--by-bounce: spp per render")
     return p.parse_args(argv)
 
 
@@ -517,6 +524,40 @@ def write_svg(path, runs, targets):
 SCENE_TITLE = ["Cornell box"]
 
 
+def by_bounce(args, sc, rows, exr):
+    """Per-sample variance of each row (Cycles first) at each bounce limit, from independent
+    renders (seeds 1000, 1001, ...): where the variance comes in, and whose it is."""
+    print("per-sample variance by bounce limit: %d renders of %d spp per row"
+          % (args.seeds, args.seed_spp))
+    for b in [int(x) for x in args.by_bounce.split(",")]:
+        c = sc.cycles
+        c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = b
+        variances = []
+        for name, backend, sampler, options in rows:
+            imgs = []
+            for k in range(args.seeds):
+                path = exr("bounce-%d-%s" % (b, name.replace(" ", "-")))
+                if backend is None:
+                    render_cycles(sc, args.seed_spp, 1000 + k, path)
+                else:
+                    render_mcpt(args, backend, sampler, args.seed_spp, 1000 + k, path,
+                                list(options) + ["--max-depth", str(b + 1)])
+                imgs.append(read_exr(path, args.size))
+            stack = np.stack(imgs)
+            variances.append(stack.var(0, ddof=1).mean(2) * args.seed_spp)
+            print("  bounces %d, %-24s mean %.5f  variance per sample %.5f  x%.3f of Cycles'"
+                  % (b, name, float(stack.mean()), float(variances[-1].mean()),
+                     float(variances[-1].mean() / max(variances[0].mean(), 1e-30))), flush=True)
+        n = args.size // 4
+        region = lambda v, i, j: float(v[i * n:(i + 1) * n, j * n:(j + 1) * n].mean())
+        for (name, _, _, _), v in list(zip(rows, variances))[1:]:
+            print("    %s / Cycles by region (bottom row first):" % name)
+            for i in range(4):
+                print("     " + " | ".join(
+                    "%6.2f" % (region(v, i, j) / region(variances[0], i, j))
+                    if region(variances[0], i, j) > 0 else "     -" for j in range(4)))
+
+
 def main():
     args = parse_args()
     SCENE_TITLE[0] = ({"cornell": "Cornell box", "lamps": "lamps (point, spot, sun)",
@@ -548,8 +589,16 @@ def main():
     sc = build_scene(args)
     print("Cycles: %s, %d threads, pattern %s, box filter 1 px, max bounces %d"
           % (bpy.app.version_string, args.threads, sc.cycles.sampling_pattern, sc.cycles.max_bounces))
-    spps = [1 << k for k in range(int(math.log2(args.max_spp)) + 1)]
     exr = lambda name: os.path.join(args.out, name + ".exr")
+    if args.by_bounce:
+        rows = [("cycles", None, None, [])] + [("mcpt " + b, b, samplers[0], []) for b in backends]
+        for v in args.variant:
+            label, _, options = v.partition("=")
+            rows.append(("mcpt " + backends[0] + " " + label, backends[0], samplers[0],
+                         options.split()))
+        by_bounce(args, sc, rows, exr)
+        return
+    spps = [1 << k for k in range(int(math.log2(args.max_spp)) + 1)]
 
     # References: two independent renders each.
     print("references: 2 x %d spp each ..." % args.ref_spp, flush=True)
