@@ -23,21 +23,33 @@
 namespace mcpt {
 namespace {
 
+// A level emissive quad (two triangles) of 0.2 m centred at c, of radiance `power`, facing down
+// or up.
+void add_emissive_quad(Scene& scene, glm::vec3 c, float power, bool facing_up) {
+    Material m;
+    m.color = glm::vec3(0.f);
+    m.emission = glm::vec3(power);
+    const uint32_t mat = scene.add_material(m);
+    const glm::vec3 a = c + glm::vec3(-0.1f, 0, -0.1f), b = c + glm::vec3(0.1f, 0, -0.1f),
+                    d = c + glm::vec3(0.1f, 0, 0.1f), e = c + glm::vec3(-0.1f, 0, 0.1f);
+    if (facing_up) {
+        scene.triangles.push_back({a, d, b, mat});
+        scene.triangles.push_back({a, e, d, mat});
+    } else {
+        scene.triangles.push_back({a, b, d, mat});
+        scene.triangles.push_back({a, d, e, mat});
+    }
+}
+
 // A floor plan of n emissive quads (two triangles each) of different powers and a few lamps.
 Scene many_lights(int n, uint32_t seed) {
     Scene scene = test::plane_scene(0.5f, 10.f, 1.f);
     std::mt19937 rng(seed);
     std::uniform_real_distribution<float> pos(-9.f, 9.f), power(0.2f, 5.f);
     for (int i = 0; i < n; ++i) {
-        Material m;
-        m.color = glm::vec3(0.f);
-        m.emission = glm::vec3(power(rng));
-        const uint32_t mat = scene.add_material(m);
+        const float p = power(rng);
         const glm::vec3 c(pos(rng), 0.5f, pos(rng));
-        const glm::vec3 a = c + glm::vec3(-0.1f, 0, -0.1f), b = c + glm::vec3(0.1f, 0, -0.1f),
-                        d = c + glm::vec3(0.1f, 0, 0.1f), e = c + glm::vec3(-0.1f, 0, 0.1f);
-        scene.triangles.push_back({a, b, d, mat});  // facing down
-        scene.triangles.push_back({a, d, e, mat});
+        add_emissive_quad(scene, c, p, false);
     }
     for (int i = 0; i < n; ++i) {  // as many small lamps, low over the floor
         PunctualLight l;
@@ -198,15 +210,23 @@ double sample_variance(const RenderResult& r) {
     return v / double(r.nonfinite.size());
 }
 
-// Lamps on two storeys: n a metre below the floor (y = 0), n a metre above it.
-Scene two_storeys(int n, uint32_t seed) {
+// Lights on two storeys: n a metre below the floor (y = 0), n a metre above it; point lamps,
+// or emissive quads facing the floor (those below hidden by it).
+Scene two_storeys(int n, uint32_t seed, bool quads) {
     Scene scene = test::plane_scene(0.5f, 10.f, 1.f);
     std::mt19937 rng(seed);
     std::uniform_real_distribution<float> pos(-9.f, 9.f), power(0.2f, 5.f);
     for (int i = 0; i < 2 * n; ++i) {
+        const float y = i < n ? -1.f : 1.f;
+        if (quads) {
+            const float p = power(rng);
+            const glm::vec3 c(pos(rng), y, pos(rng));
+            add_emissive_quad(scene, c, p, i < n);
+            continue;
+        }
         PunctualLight l;
         l.kind = PunctualKind::Point;
-        l.position = glm::vec3(pos(rng), i < n ? -1.f : 1.f, pos(rng));
+        l.position = glm::vec3(pos(rng), y, pos(rng));
         l.intensity = glm::vec3(power(rng));
         scene.punctual_lights.push_back(l);
     }
@@ -233,7 +253,7 @@ double share_below(const Scene& scene, const GpuScene& g, glm::vec3 rn) {
 // left share a node with lamps above); without the normal they get about half; the normal turned
 // down gives them nearly all (the control: the share follows the normal, not the lights).
 TEST(LightTree, ReceiverNormalLeavesLightsBelow) {
-    const Scene scene = two_storeys(100, 5);
+    const Scene scene = two_storeys(100, 5, false);
     const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, TreeOptions{}));
     const double up = share_below(scene, g, glm::vec3(0.f, 1.f, 0.f)),
                  none = share_below(scene, g, glm::vec3(0.f)),
@@ -426,40 +446,13 @@ TEST_P(LightTreeRender, ConesOfEmissionSkipLightsFacingAway) {
     EXPECT_LT(std::abs(z_turned), 4.5);
 }
 
-// Emissive quads on two storeys: n a metre below the floor facing up (hidden by it), n a metre
-// above facing down.
-Scene quads_on_two_storeys(int n, uint32_t seed) {
-    Scene scene = test::plane_scene(0.5f, 10.f, 1.f);
-    std::mt19937 rng(seed);
-    std::uniform_real_distribution<float> pos(-9.f, 9.f), power(0.2f, 5.f);
-    for (int i = 0; i < 2 * n; ++i) {
-        Material m;
-        m.color = glm::vec3(0.f);
-        m.emission = glm::vec3(power(rng));
-        const uint32_t mat = scene.add_material(m);
-        const bool below = i < n;
-        const glm::vec3 c(pos(rng), below ? -1.f : 1.f, pos(rng));
-        const glm::vec3 a = c + glm::vec3(-0.1f, 0, -0.1f), b = c + glm::vec3(0.1f, 0, -0.1f),
-                        d = c + glm::vec3(0.1f, 0, 0.1f), e = c + glm::vec3(-0.1f, 0, 0.1f);
-        if (below) {  // facing up
-            scene.triangles.push_back({a, d, b, mat});
-            scene.triangles.push_back({a, e, d, mat});
-        } else {  // facing down
-            scene.triangles.push_back({a, b, d, mat});
-            scene.triangles.push_back({a, d, e, mat});
-        }
-    }
-    scene.light_tree = true;
-    return scene;
-}
-
 // The receiver's normal in the renderer (OpenCL: the variants are compile-time): the floor's
 // next-event samples skip the storey below, so the variance per sample falls by more than 1.4x
 // (1.58x here)
 // against the tree without the normal, and the mean stays; MIS that forgets the normal at
 // BSDF-sampled hits (the pick and the pmf disagree) is caught biased.
 TEST(LightTreeRenderCl, ReceiverNormalSkipsTheStoreyBelow) {
-    const Scene scene = quads_on_two_storeys(150, 8);
+    const Scene scene = two_storeys(150, 8, true);
     test::CaseRender how;
     how.spp = 64;
     const RenderResult with = test::render_case("opencl", scene, 32, how);
