@@ -166,38 +166,41 @@ MCPT_FN float env_solid_angle_pdf(vec4 t, vec3 d) {
     return sin_theta > 0.0f ? t.w / (2.0f * MCPT_PI * MCPT_PI * sin_theta) : 0.0f;
 }
 
-// One pick from the alias table at word `table` (n entries of prob, alias), with u's unused
-// part remapped to a fresh uniform in [0, 1) (the position inside the texel).
-MCPT_STRUCT(AliasPick) {
+// The interval of a CDF table at word `table` (n + 1 ascending floats from 0 to 1) that holds
+// u, found by binary search, with u's place in it as a fresh uniform in [0, 1) (the position
+// inside the texel). Unlike an alias table the map is monotonic, so well-spread uniforms stay
+// well spread over the map (Sobol points stratify the environment's samples).
+MCPT_STRUCT(CdfPick) {
     uint index;
     float u;
 };
 
-MCPT_FN AliasPick alias_pick(SCENE_PARAMS_ uint table, uint n, float u) {
-    float scaled = u * F32(n);
-    uint slot = min(U32(scaled), n - 1u);
-    float f = MINF(scaled - F32(slot), 0.99999994f);
-    float prob = uint_as_float(SCENE_WORD(table + 2u * slot));
-    AliasPick p;
-    if (f < prob) {
-        p.index = slot;
-        p.u = f / prob;
-    } else {
-        p.index = SCENE_WORD(table + 2u * slot + 1u);
-        p.u = (f - prob) / (1.0f - prob);
+MCPT_FN CdfPick cdf_pick(SCENE_PARAMS_ uint table, uint n, float u) {
+    // Invariant: cdf[lo] <= u < cdf[hi] (cdf[0] = 0, cdf[n] = 1, u < 1).
+    uint lo = 0u, hi = n;
+    while (hi - lo > 1u) {
+        uint mid = (lo + hi) >> 1u;
+        if (uint_as_float(SCENE_WORD(table + mid)) <= u)
+            lo = mid;
+        else
+            hi = mid;
     }
-    p.u = MINF(p.u, 0.99999994f);
+    float c0 = uint_as_float(SCENE_WORD(table + lo));
+    float c1 = uint_as_float(SCENE_WORD(table + lo + 1u));
+    CdfPick p;
+    p.index = lo;
+    p.u = clamp((u - c0) / (c1 - c0), 0.0f, 0.99999994f);
     return p;
 }
 
 // A direction toward the environment by the texels' weights (gpu_scene.cpp: luminance, or its
-// excess over the mean, times sin(theta)): a row, a column of it, then a uniform point of the
-// texel. pdf: solid angle, times `pmf` (the pick of the environment).
+// excess over the mean, times sin(theta)): a row by the rows' CDF, a column by that row's, then
+// a uniform point of the texel. pdf: solid angle, times `pmf` (the pick of the environment).
 MCPT_FN LightSample sample_environment(SCENE_PARAMS_ float u1, float u2, float pmf) {
     LightSample ls = no_light_sample();
     uint w = PARAM(env_width), h = PARAM(env_height);
-    AliasPick row = alias_pick(SCENE_ARGS_ PARAM(env_rows_word), h, u1);
-    AliasPick col = alias_pick(SCENE_ARGS_ PARAM(env_cols_word) + 2u * w * row.index, w, u2);
+    CdfPick row = cdf_pick(SCENE_ARGS_ PARAM(env_rows_word), h, u1);
+    CdfPick col = cdf_pick(SCENE_ARGS_ PARAM(env_cols_word) + (w + 1u) * row.index, w, u2);
     float u = (F32(col.index) + col.u) / F32(w);
     float v = (F32(row.index) + row.u) / F32(h);
     vec4 t = env_texel(SCENE_ARGS_ col.index, row.index);

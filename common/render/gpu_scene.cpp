@@ -95,7 +95,19 @@ double environment_weights(const Environment& env, std::vector<double>& weights)
     return integral * double(env.scale);
 }
 
-// Appends the punctual lights and the environment (texels, alias tables) to the texel region,
+// Appends the CDF of n weights to `cdf`: n + 1 ascending floats from 0 to exactly 1 (uniform
+// where the weights sum to 0), which the device inverts by binary search (lights.h: cdf_pick).
+void append_cdf(const double* weights, size_t n, std::vector<float>& cdf) {
+    const double total = std::accumulate(weights, weights + n, 0.0);
+    double sum = 0;
+    cdf.push_back(0.f);
+    for (size_t i = 0; i < n; ++i) {
+        sum += total > 0 ? weights[i] : 1.0;
+        cdf.push_back(i + 1 == n ? 1.f : float(sum / (total > 0 ? total : double(n))));
+    }
+}
+
+// Appends the punctual lights and the environment (texels, CDF tables) to the texel region,
 // each on a 16-byte boundary of the shading buffer, and sets their GpuParams fields.
 void pack_punctual_and_environment(const Scene& scene, const std::vector<double>& env_weights,
                                    GpuScene& g) {
@@ -122,12 +134,25 @@ void pack_punctual_and_environment(const Scene& scene, const std::vector<double>
     const size_t w = size_t(env.width), h = size_t(env.height);
     p.env_width = uint32_t(w), p.env_height = uint32_t(h);
     p.env_u_shift = float(std::fmod(double(env.rotate_deg) / 360.0, 1.0));
-    // Texels: radiance, and the pdf of their uv square (pmf * texel count).
-    const double sum = std::accumulate(env_weights.begin(), env_weights.end(), 0.0);
+    // The rows' CDF by their total weight, and each row's CDF over its columns, in float as the
+    // device reads them (a zero row gets a uniform one: it is never picked).
+    std::vector<float> row_cdf, col_cdf;
+    std::vector<double> rows(h, 0.0);
+    for (size_t y = 0; y < h; ++y)
+        for (size_t x = 0; x < w; ++x) rows[y] += env_weights[y * w + x];
+    append_cdf(rows.data(), h, row_cdf);
+    for (size_t y = 0; y < h; ++y) append_cdf(env_weights.data() + y * w, w, col_cdf);
+    const bool any = std::accumulate(rows.begin(), rows.end(), 0.0) > 0;
+    // Texels: radiance, and the pdf of their uv square, from the float CDFs' steps: exactly
+    // what sampling them does (a texel whose step rounds to 0 is never sampled and has pdf 0).
     p.env_word = uint32_t(g.texels.size());
     for (size_t i = 0; i < w * h; ++i) {
+        const size_t x = i % w, y = i / w;
+        const float* col = &col_cdf[y * (w + 1)];
+        const double row_p = double(row_cdf[y + 1]) - double(row_cdf[y]);
+        const double col_p = double(col[x + 1]) - double(col[x]);
+        const double pdf = any ? row_p * col_p * double(w * h) : 0.0;
         const float* c = &env.rgb[3 * i];
-        const double pdf = sum > 0 ? env_weights[i] / sum * double(w * h) : 0.0;
         // Scaled in double: a finite scale must not make a texel infinite unnoticed.
         for (int k = 0; k < 3; ++k) {
             const double v = double(c[k]) * double(env.scale);
@@ -140,22 +165,10 @@ void pack_punctual_and_environment(const Scene& scene, const std::vector<double>
         }
         g.texels.push_back(float_word(float(pdf)));
     }
-    // The rows by their total weight, then each row's columns by theirs.
-    std::vector<gpu::GpuLight> table;
-    const auto append_table = [&](const std::vector<double>& weights) {
-        build_alias_table(weights, table);
-        for (const gpu::GpuLight& e : table)
-            g.texels.push_back(float_word(e.prob)), g.texels.push_back(e.alias);
-    };
-    std::vector<double> rows(h, 0.0);
-    for (size_t y = 0; y < h; ++y)
-        for (size_t x = 0; x < w; ++x) rows[y] += env_weights[y * w + x];
     p.env_rows_word = uint32_t(g.texels.size());
-    append_table(rows);
+    for (float c : row_cdf) g.texels.push_back(float_word(c));
     p.env_cols_word = uint32_t(g.texels.size());
-    for (size_t y = 0; y < h; ++y)
-        append_table(std::vector<double>(env_weights.begin() + long(y * w),
-                                         env_weights.begin() + long((y + 1) * w)));
+    for (float c : col_cdf) g.texels.push_back(float_word(c));
     for (const gpu::GpuLight& l : g.lights)
         if (l.prim == LIGHT_ENVIRONMENT) p.env_pmf = l.pmf;
 }
