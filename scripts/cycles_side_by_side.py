@@ -15,8 +15,9 @@
 # Environment Texture, mcpt's --env). Both also print mean radiance per region (4 x 4).
 # --scene FILE.glb: any scene as Blender exports it (its camera, lamps and materials), with
 # --env for a map. Like for like unless --as-is: lamps punctual (Blender's importer gives them
-# a 0.25 m radius and the sun 0.5 degrees), spots hard-edged (blend 0), emitters one-sided
-# (Cycles' meshes emit from both faces), non-metals Lambertian in both (Specular 0 in the
+# a 0.25 m radius and the sun 0.5 degrees), spots hard-edged (blend 0), emitters one-sided in
+# Cycles where the file's are (not doubleSided: Cycles' meshes emit from both faces, mcpt's
+# where glTF says so), non-metals Lambertian in both (Specular 0 in the
 # file mcpt renders, a Diffuse BSDF in Cycles: Principled v1 is 6-16% brighter than glTF's
 # BRDF). --variant NAME=OPTIONS adds an mcpt row with other options (an A/B in one run).
 # --by-bounce 0,1,7: per-sample variance by bounce limit and region instead of the curves.
@@ -199,9 +200,10 @@ def build_scene(args, for_gltf=False):
     for i, (corners, colour) in enumerate(WALLS):
         add_mesh("wall%d" % i, [to_blender(p) for p in corners], [(0, 1, 2, 3)],
                  material("wall%d" % i, principled(colour) if for_gltf else diffuse(colour)))
-    add_mesh("light", [to_blender(p) for p in LIGHT[0]], [(0, 1, 2, 3)],
-             material("light", principled((0, 0, 0), emission=LIGHT[1]) if for_gltf
-                      else emitter(LIGHT[1])))
+    light = material("light", principled((0, 0, 0), emission=LIGHT[1]) if for_gltf
+                     else emitter(LIGHT[1]))
+    light.use_backface_culling = True  # exported as doubleSided false: one-sided in mcpt too
+    add_mesh("light", [to_blender(p) for p in LIGHT[0]], [(0, 1, 2, 3)], light)
     tess = dict(segments=64, rings=32) if for_gltf else {}
     add_sphere("glass", GLASS_SPHERE[0], GLASS_SPHERE[1],
                material("glass", principled((1, 1, 1), roughness=0.0, transmission=1.0,
@@ -263,8 +265,9 @@ def non_metal_principled(mat):
 
 
 def one_sided_emission(mat):
-    """Cycles' mesh emission leaves both faces; mcpt's the front face only (glTF's emissive
-    triangles face their normal). Like for like: the Principled emission times 1 - Backfacing."""
+    """Cycles' mesh emission leaves both faces; mcpt's the front face only where the glTF
+    material is not doubleSided (the importer's use_backface_culling). Like for like: the
+    Principled emission times 1 - Backfacing."""
     if not mat or not mat.use_nodes:
         return
     nt = mat.node_tree
@@ -288,7 +291,8 @@ def one_sided_emission(mat):
 
 def build_file_scene(args, for_gltf):
     """A .glb/.gltf as Blender imports it. Like for like (unless --as-is): lamps punctual
-    (radius 0, sun angle 0) and spots hard-edged for both; emission one-sided in Cycles;
+    (radius 0, sun angle 0) and spots hard-edged for both; emission one-sided in Cycles where
+    the file's material is (not doubleSided);
     non-metals with Specular 0 in the file mcpt renders (Lambertian in mcpt) and a Diffuse BSDF
     of the same base colour in Cycles."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -314,7 +318,7 @@ def build_file_scene(args, for_gltf):
                     # 0.15. A hard edge is the same in both.
                     o.data.spot_blend = 0.0
         for mat in bpy.data.materials:
-            if not for_gltf:
+            if not for_gltf and mat.use_backface_culling:
                 one_sided_emission(mat)
             n = non_metal_principled(mat)
             if n is None:

@@ -263,6 +263,7 @@ TEST(GltfLoader, MaterialMapping) {
     const json mats[] = {
         // 0: emissive with KHR_materials_emissive_strength
         {{"name", "lamp"},
+         {"doubleSided", true},
          {"emissiveFactor", {1, 0.5, 0.25}},
          {"pbrMetallicRoughness", {{"metallicFactor", 0}}},
          {"extensions", {{"KHR_materials_emissive_strength", {{"emissiveStrength", 4.0}}}}}},
@@ -303,7 +304,9 @@ TEST(GltfLoader, MaterialMapping) {
     EXPECT_EQ(lamp.name, "lamp");
     expect_vec(lamp.emission, {4, 2, 1});
     EXPECT_EQ(lamp.type, MaterialType::Pbr);  // glTF's default dielectric has a specular layer
+    EXPECT_TRUE(lamp.two_sided);                // doubleSided: it emits from both faces
     const Material& glass = s.materials[s.triangles[1].material];
+    EXPECT_FALSE(glass.two_sided);  // glTF's default: one-sided
     EXPECT_EQ(glass.type, MaterialType::RoughGlass);  // glTF's default roughness is 1
     EXPECT_FLOAT_EQ(glass.ior, 1.33f);
     EXPECT_FLOAT_EQ(glass.roughness, 1.f);

@@ -122,14 +122,16 @@ MCPT_FN float triangle_area(GpuTriangle tri) {
 
 // Probability per unit area that next-event estimation at x picks a point of emitter
 // `light_prim` (a triangle index, or a sphere index | LIGHT_SPHERE_BIT) of material m:
-// by power, mean(Le) / total (area * mean(Le) / total for the pick, uniform area sampling),
-// or by the tree, its pick's probability over the area.
+// by power, mean(Le) / total (area * mean(Le) / total for the pick, twice that for a
+// two-sided emitter, uniform area sampling), or by the tree, its pick's probability over the
+// area.
 MCPT_FN float emitter_area_pdf(SCENE_PARAMS_ uint light_prim, vec3 x, vec3 rn, GpuMaterial m,
                                float area) {
     if (LIGHT_TREE_ON)
         return PARAM(light_tree_pmf) *
                light_tree_pmf(SCENE_ARGS_ x, rn, light_tree_trail(SCENE_ARGS_ light_prim)) / area;
-    return mean_component(material_emission(m)) / PARAM(light_power_total);
+    float faces = emits_from_back(m) ? 2.0f : 1.0f;
+    return faces * mean_component(material_emission(m)) / PARAM(light_power_total);
 }
 
 // Solid-angle pdf that next-event estimation samples a sphere light from x (cone sampling),
@@ -214,7 +216,7 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 rn, vec3 u) {
                          : sphere_light_pdf(SCENE_ARGS_ prim & ~LIGHT_SPHERE_BIT, x, rn);
         ls.valid = ls.pdf > 0.0f;
     } else if (HAS_FEATURE(FEATURE_TRIANGLE_LIGHTS) && (prim & ~LIGHT_INDEX_MASK) == 0u) {
-        // Triangle: uniform point, one-sided emission.
+        // Triangle: uniform point; emission from the front, or both faces.
         GpuTriangle tri = TRIANGLE(prim);
         vec3 v0 = tri_v0(tri), v1 = tri_v1(tri), v2 = tri_v2(tri);
         vec2 b = sample_triangle_barycentrics(u.y, u.z);
@@ -227,8 +229,9 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 rn, vec3 u) {
         float dist2 = dot(to_l, to_l);
         ls.wi = to_l * inversesqrt(dist2);
         float cos_l = -dot(ls.n, ls.wi);
-        if (cos_l <= 0.0f || dist2 <= 0.0f) return ls;
         GpuMaterial m = MATERIAL(tri.material);
+        if (emits_from_back(m)) cos_l = ABSF(cos_l);
+        if (cos_l <= 0.0f || dist2 <= 0.0f) return ls;
         ls.le = material_emission(m);
         if (HAS_FEATURE(FEATURE_TEXTURES) && m.tex_emission != NO_TEXTURE) {
             // Emission texture at the point (the pdf stays the factor's, as for hits).
@@ -254,7 +257,7 @@ MCPT_FN float emitter_hit_pdf(SCENE_PARAMS_ vec3 x, vec3 rn, Ray ray, Hit hit, S
     if (HAS_FEATURE(FEATURE_SPHERE_LIGHTS) && (hit.prim & SPHERE_BIT) != 0u) {
         return sphere_light_pdf(SCENE_ARGS_ hit.prim & ~SPHERE_BIT, x, rn);
     }
-    float cos_l = -dot(s.ng, ray.d);
+    float cos_l = ABSF(dot(s.ng, ray.d));  // the front, or a two-sided emitter's back
     vec3 to_l = s.p - x;
     float area = LIGHT_TREE_ON ? triangle_area(TRIANGLE(hit.prim)) : 1.0f;
     return emitter_area_pdf(SCENE_ARGS_ hit.prim, x, rn, MATERIAL(s.material), area) *
@@ -407,7 +410,7 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
 
     // Emission seen by this ray, MIS-weighted unless NEE could not have sampled it.
     vec3 le = material_emission(m) * light_scale;
-    if (front && max_component(le) > 0.0f) {
+    if ((front || emits_from_back(m)) && max_component(le) > 0.0f) {
         float w = 1.0f;
         if (!st.specular) {
             vec2 rn_code = PREV_RECEIVER(st);

@@ -14,6 +14,9 @@ MCPT_NAMESPACE_BEGIN
 #define MAT_GLASS 2u
 #define MAT_PBR 3u  // glTF metallic-roughness: GGX specular (Schlick Fresnel) over a diffuse base
 #define MAT_ROUGH_GLASS 4u  // rough dielectric: GGX reflection and refraction (Walter 2007)
+// GpuMaterial.type: the kind in the low byte; flags above it.
+#define MAT_KIND_MASK 0xffu
+#define MAT_TWO_SIDED 0x100u  // triangles emit from both faces (glTF doubleSided)
 
 // Light kinds (GpuLight.prim high bits): a triangle index, a sphere index | LIGHT_SPHERE_BIT,
 // a punctual light index | LIGHT_PUNCTUAL_BIT, or LIGHT_ENVIRONMENT (the one environment).
@@ -155,8 +158,8 @@ MCPT_STRUCT(GpuSphere) {
 
 MCPT_STRUCT(GpuMaterial) {
     float r, g, b;  // diffuse albedo, mirror tint, glass tint or metallic-roughness base color
-    uint type;      // MAT_*
-    float er, eg, eb;  // emitted radiance (front side of triangles, outside of spheres)
+    uint type;      // MAT_* kind | MAT_TWO_SIDED
+    float er, eg, eb;  // emitted radiance (front side of triangles, or both; outside of spheres)
     float ior;         // index of refraction (glass; the dielectric Fresnel of MAT_PBR)
     float metallic;    // MAT_PBR: 0 dielectric over diffuse, 1 conductor
     float alpha;       // MAT_PBR, MAT_ROUGH_GLASS: GGX alpha = roughness^2 (>= MIN_GGX_ALPHA)

@@ -93,6 +93,7 @@ uint64_t scene_hash(const Scene& s) {
         h = fnv1a(&m.type, sizeof m.type, h);
         h = fnv1a(&m.color, sizeof m.color, h);
         h = fnv1a(&m.emission, sizeof m.emission, h);
+        if (m.two_sided) h = fnv1a(&m.two_sided, sizeof m.two_sided, h);
         h = fnv1a(&m.ior, sizeof m.ior, h);
         const float pbr[] = {m.metallic, m.roughness, m.specular, m.alpha_cutoff};
         const int tex[] = {m.tex_base, m.tex_metal_rough, m.tex_normal, m.tex_emission};

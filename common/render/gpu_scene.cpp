@@ -30,7 +30,7 @@ void align_texels16(GpuScene& g) {
 gpu::GpuMaterial pack_material(const Material& m) {
     gpu::GpuMaterial g{};
     g.r = m.color.x, g.g = m.color.y, g.b = m.color.z;
-    g.type = static_cast<uint32_t>(m.type);
+    g.type = static_cast<uint32_t>(m.type) | (m.two_sided && m.is_emissive() ? MAT_TWO_SIDED : 0u);
     g.er = m.emission.x, g.eg = m.emission.y, g.eb = m.emission.z;
     g.ior = m.ior;
     g.metallic = m.metallic;
@@ -217,12 +217,13 @@ void pack_light_tree(const Scene& scene, const std::vector<double>& weights,
             const Sphere& s = scene.spheres.at(prim & ~LIGHT_SPHERE_BIT);
             l.lo = s.center - glm::vec3(s.radius), l.hi = s.center + glm::vec3(s.radius);
         } else {
-            // One-sided: the side of cross(v1 - v0, v2 - v0) (integrator.h), a hemisphere.
+            // One-sided: the side of cross(v1 - v0, v2 - v0) (integrator.h), a hemisphere;
+            // two-sided: every way.
             const Triangle& t = scene.triangles.at(prim);
             l.lo = glm::min(t.v0, glm::min(t.v1, t.v2)), l.hi = glm::max(t.v0, glm::max(t.v1, t.v2));
             const glm::dvec3 n = glm::cross(glm::dvec3(t.v1) - glm::dvec3(t.v0),
                                             glm::dvec3(t.v2) - glm::dvec3(t.v0));
-            if (glm::length(n) > 0) l.axis = glm::vec3(glm::normalize(n)), l.cos_o = 1.f;
+            if (glm::length(n) > 0 && !scene.materials.at(t.material).two_sided) l.axis = glm::vec3(glm::normalize(n)), l.cos_o = 1.f;
         }
         l.power = near_w[i];
         l.slot = uint32_t(table.size() + i);
@@ -359,7 +360,9 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
         if (!m.is_emissive()) continue;
         glm::dvec3 e1 = glm::dvec3(t.v1) - glm::dvec3(t.v0),
                    e2 = glm::dvec3(t.v2) - glm::dvec3(t.v0);
-        weights.push_back(0.5 * glm::length(glm::cross(e1, e2)) * mean_emission(m));
+        // Power: area times mean radiance, per emitting face.
+        weights.push_back(0.5 * glm::length(glm::cross(e1, e2)) * mean_emission(m) *
+                          (m.two_sided ? 2.0 : 1.0));
         prims.push_back(uint32_t(i));
     }
     for (size_t i = 0; i < scene.spheres.size(); ++i) {

@@ -25,7 +25,7 @@ uint32_t material_features(const gpu::GpuMaterial& m) {
         f |= FEATURE_TEXTURES;
     if (m.tex_normal != NO_TEXTURE) f |= FEATURE_TEXTURES | FEATURE_SHADING_NORMALS;
     if (m.alpha_cutoff > 0.f) f |= FEATURE_ALPHA_MASK;
-    switch (m.type) {
+    switch (m.type & MAT_KIND_MASK) {
         case MAT_MIRROR:
             return f | FEATURE_MIRROR;
         case MAT_GLASS:

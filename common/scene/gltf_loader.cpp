@@ -3,8 +3,9 @@
 //
 // glTF material mapping:
 //   emission = emissiveFactor * KHR_materials_emissive_strength.emissiveStrength (default 1);
-//              only the front side of a triangle emits (counter-clockwise seen from the front,
-//              clockwise under a mirroring node transform, as glTF defines it).
+//              the front side of a triangle emits (counter-clockwise seen from the front,
+//              clockwise under a mirroring node transform, as glTF defines it), and the back
+//              too where the material is doubleSided (as glTF viewers and Cycles render it).
 //   KHR_materials_transmission.transmissionFactor > 0.5
 //       -> Glass (roughnessFactor <= 0.01) or RoughGlass, ior = KHR_materials_ior.ior
 //          (default 1.5), color = baseColorFactor.rgb
@@ -543,6 +544,7 @@ void GltfLoader::convert_materials() {
         const double strength =
             extension_number(g.extensions, kEmissiveStrength, "emissiveStrength", 1.0);
         m.emission = rgb(g.emissiveFactor, 0.f) * float(strength);
+        m.two_sided = g.doubleSided;
         // Glass, mirror, diffuse or metallic-roughness.
         m.ior = float(extension_number(g.extensions, kIor, "ior", 1.5));
         m.metallic = float(pbr.metallicFactor);

@@ -19,6 +19,7 @@ struct Material {
     MaterialType type = MaterialType::Diffuse;
     glm::vec3 color{0.8f};    // diffuse albedo, mirror tint or glass transmission tint
     glm::vec3 emission{0.f};  // emitted radiance; front side of triangles, outside of spheres
+    bool two_sided = false;   // triangles emit from both faces (glTF doubleSided)
     float ior = 1.5f;
     float metallic = 0.f;   // Pbr: 0 dielectric over diffuse, 1 metal
     float roughness = 1.f;  // Pbr, RoughGlass: perceptual roughness (GGX alpha = roughness^2)
