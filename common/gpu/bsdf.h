@@ -22,10 +22,8 @@ MCPT_STRUCT(BsdfSample) {
 MCPT_FN vec3 material_color(GpuMaterial m) { return V3(m.r, m.g, m.b); }
 MCPT_FN vec3 material_emission(GpuMaterial m) { return V3(m.er, m.eg, m.eb); }
 
-// The material's kind (MAT_*), without its flags.
-MCPT_FN uint material_kind(GpuMaterial m) { return m.type & MAT_KIND_MASK; }
-
-// Whether a triangle of this material emits from its back face too (glTF doubleSided).
+// Whether a triangle of this material emits from its back face too (glTF doubleSided). The
+// BSDFs below read m.type as the kind alone: shade_vertex clears the flags first.
 MCPT_FN bool emits_from_back(GpuMaterial m) { return (m.type & MAT_TWO_SIDED) != 0u; }
 
 MCPT_FN vec3 reflect_about(vec3 wo, vec3 n) { return n * (2.0f * dot(wo, n)) - wo; }
@@ -38,25 +36,25 @@ MCPT_FN float diffuse_pdf(vec3 n, vec3 wi) { return MAXF(0.0f, dot(n, wi)) * MCP
 
 // Whether next-event estimation and MIS apply: materials with a non-delta lobe.
 MCPT_FN bool has_smooth_lobe(GpuMaterial m) {
-    if (HAS_FEATURE(FEATURE_DIFFUSE) && material_kind(m) == MAT_DIFFUSE) return true;
-    return HAS_FEATURE(FEATURE_MICROFACET) && (material_kind(m) == MAT_PBR || material_kind(m) == MAT_ROUGH_GLASS);
+    if (HAS_FEATURE(FEATURE_DIFFUSE) && m.type == MAT_DIFFUSE) return true;
+    return HAS_FEATURE(FEATURE_MICROFACET) && (m.type == MAT_PBR || m.type == MAT_ROUGH_GLASS);
 }
 
 // Whether a material scatters light through the surface as well (next-event estimation then
 // looks for lights on both sides).
 MCPT_FN bool is_transmissive(GpuMaterial m) {
-    return HAS_FEATURE(FEATURE_MICROFACET) && material_kind(m) == MAT_ROUGH_GLASS;
+    return HAS_FEATURE(FEATURE_MICROFACET) && m.type == MAT_ROUGH_GLASS;
 }
 
 // f(wo, wi) and the pdf with which sample_bsdf() draws wi, for materials with a smooth lobe;
 // `entering`: wo is on the outside (for the rough dielectric's relative IOR).
 MCPT_FN BsdfEval eval_bsdf(GpuMaterial m, vec3 n, vec3 wo, vec3 wi, bool entering) {
     BsdfEval e;
-    if (HAS_FEATURE(FEATURE_MICROFACET) && material_kind(m) == MAT_PBR) {
+    if (HAS_FEATURE(FEATURE_MICROFACET) && m.type == MAT_PBR) {
         Frame fr = frame_from_normal(n);
         return pbr_eval(m, frame_to_local(fr, wo), frame_to_local(fr, wi));
     }
-    if (HAS_FEATURE(FEATURE_MICROFACET) && material_kind(m) == MAT_ROUGH_GLASS) {
+    if (HAS_FEATURE(FEATURE_MICROFACET) && m.type == MAT_ROUGH_GLASS) {
         Frame fr = frame_from_normal(n);
         float eta = entering ? m.ior : 1.0f / m.ior;
         return rough_dielectric_eval(frame_to_local(fr, wo), frame_to_local(fr, wi), eta,
@@ -77,14 +75,14 @@ MCPT_FN BsdfSample sample_bsdf(GpuMaterial m, vec3 n, vec3 wo, bool entering, ve
     s.eta2 = 1.0f;
     s.specular = true;
     s.valid = true;
-    if (HAS_FEATURE(FEATURE_DIFFUSE) && material_kind(m) == MAT_DIFFUSE) {
+    if (HAS_FEATURE(FEATURE_DIFFUSE) && m.type == MAT_DIFFUSE) {
         // Cosine-weighted hemisphere: weight = albedo.
         s.wi = frame_to_world(frame_from_normal(n), sample_cosine_hemisphere(u.x, u.y));
         s.pdf = diffuse_pdf(n, s.wi);
         s.weight = material_color(m);
         s.specular = false;
         s.valid = s.pdf > 0.0f;
-    } else if (HAS_FEATURE(FEATURE_MICROFACET) && material_kind(m) == MAT_PBR) {
+    } else if (HAS_FEATURE(FEATURE_MICROFACET) && m.type == MAT_PBR) {
         // Metallic-roughness: one lobe drawn, weighted by the pdf of both.
         Frame fr = frame_from_normal(n);
         vec3 wo_l = frame_to_local(fr, wo);
@@ -95,7 +93,7 @@ MCPT_FN BsdfSample sample_bsdf(GpuMaterial m, vec3 n, vec3 wo, bool entering, ve
         s.specular = false;
         s.valid = e.pdf > 0.0f;
         s.weight = s.valid ? e.f * (wi_l.z / e.pdf) : V3S(0.0f);
-    } else if (HAS_FEATURE(FEATURE_MICROFACET) && material_kind(m) == MAT_ROUGH_GLASS) {
+    } else if (HAS_FEATURE(FEATURE_MICROFACET) && m.type == MAT_ROUGH_GLASS) {
         // Rough dielectric: reflect or refract through a visible normal.
         Frame fr = frame_from_normal(n);
         float eta = entering ? m.ior : 1.0f / m.ior;
@@ -109,10 +107,10 @@ MCPT_FN BsdfSample sample_bsdf(GpuMaterial m, vec3 n, vec3 wo, bool entering, ve
         s.valid = e.pdf > 0.0f;
         s.weight = s.valid ? e.f * (ABSF(wi_l.z) / e.pdf) : V3S(0.0f);
         s.eta2 = wi_l.z < 0.0f ? eta * eta : 1.0f;
-    } else if (HAS_FEATURE(FEATURE_MIRROR) && material_kind(m) == MAT_MIRROR) {
+    } else if (HAS_FEATURE(FEATURE_MIRROR) && m.type == MAT_MIRROR) {
         s.wi = reflect_about(wo, n);
         s.weight = material_color(m);
-    } else if (HAS_FEATURE(FEATURE_GLASS) && material_kind(m) == MAT_GLASS) {
+    } else if (HAS_FEATURE(FEATURE_GLASS) && m.type == MAT_GLASS) {
         // Dielectric: reflect with probability F, else refract (radiance scales by 1/eta^2).
         float eta = entering ? m.ior : 1.0f / m.ior;
         float cos_i = MINF(1.0f, dot(wo, n));

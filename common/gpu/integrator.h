@@ -229,9 +229,9 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 rn, vec3 u) {
         float dist2 = dot(to_l, to_l);
         ls.wi = to_l * inversesqrt(dist2);
         float cos_l = -dot(ls.n, ls.wi);
-        GpuMaterial m = MATERIAL(tri.material);
-        if (emits_from_back(m)) cos_l = ABSF(cos_l);
+        if (cos_l < 0.0f && emits_from_back(MATERIAL(tri.material))) cos_l = -cos_l;
         if (cos_l <= 0.0f || dist2 <= 0.0f) return ls;
+        GpuMaterial m = MATERIAL(tri.material);
         ls.le = material_emission(m);
         if (HAS_FEATURE(FEATURE_TEXTURES) && m.tex_emission != NO_TEXTURE) {
             // Emission texture at the point (the pdf stays the factor's, as for hits).
@@ -408,9 +408,12 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
         if (dot(sn, wo) > 0.0f) ns = sn;
     }
 
-    // Emission seen by this ray, MIS-weighted unless NEE could not have sampled it.
+    // Emission seen by this ray, MIS-weighted unless NEE could not have sampled it; then the
+    // material's kind alone, for its BSDF.
     vec3 le = material_emission(m) * light_scale;
-    if ((front || emits_from_back(m)) && max_component(le) > 0.0f) {
+    bool emits = front || emits_from_back(m);
+    m.type &= MAT_KIND_MASK;
+    if (emits && max_component(le) > 0.0f) {
         float w = 1.0f;
         if (!st.specular) {
             vec2 rn_code = PREV_RECEIVER(st);

@@ -96,14 +96,22 @@ double environment_weights(const Environment& env, std::vector<double>& weights)
 }
 
 // Appends the CDF of n weights to `cdf`: n + 1 ascending floats from 0 to exactly 1 (uniform
-// where the weights sum to 0), which the device inverts by binary search (lights.h: cdf_pick).
-void append_cdf(const double* weights, size_t n, std::vector<float>& cdf) {
+// where the weights sum to 0), then its guide table: for each k < n, the interval i holding
+// k / n (cdf[i] <= k / n < cdf[i + 1]), where the device's search starts (lights.h: cdf_pick).
+void append_cdf(const double* weights, size_t n, std::vector<uint32_t>& out) {
     const double total = std::accumulate(weights, weights + n, 0.0);
+    std::vector<float> cdf(n + 1, 0.f);
     double sum = 0;
-    cdf.push_back(0.f);
     for (size_t i = 0; i < n; ++i) {
         sum += total > 0 ? weights[i] : 1.0;
-        cdf.push_back(i + 1 == n ? 1.f : float(sum / (total > 0 ? total : double(n))));
+        cdf[i + 1] = i + 1 == n ? 1.f : float(sum / (total > 0 ? total : double(n)));
+    }
+    for (float c : cdf) out.push_back(float_word(c));
+    size_t i = 0;
+    for (size_t k = 0; k < n; ++k) {
+        const double at = double(k) / double(n);
+        while (i + 1 < n && double(cdf[i + 1]) <= at) ++i;
+        out.push_back(uint32_t(i));
     }
 }
 
@@ -136,21 +144,26 @@ void pack_punctual_and_environment(const Scene& scene, const std::vector<double>
     p.env_u_shift = float(std::fmod(double(env.rotate_deg) / 360.0, 1.0));
     // The rows' CDF by their total weight, and each row's CDF over its columns, in float as the
     // device reads them (a zero row gets a uniform one: it is never picked).
-    std::vector<float> row_cdf, col_cdf;
+    std::vector<uint32_t> row_cdf, col_cdf;
     std::vector<double> rows(h, 0.0);
     for (size_t y = 0; y < h; ++y)
         for (size_t x = 0; x < w; ++x) rows[y] += env_weights[y * w + x];
     append_cdf(rows.data(), h, row_cdf);
     for (size_t y = 0; y < h; ++y) append_cdf(env_weights.data() + y * w, w, col_cdf);
+    const auto cdf_at = [](const std::vector<uint32_t>& t, size_t i) {
+        float f;
+        std::memcpy(&f, &t[i], 4);
+        return double(f);
+    };
     const bool any = std::accumulate(rows.begin(), rows.end(), 0.0) > 0;
     // Texels: radiance, and the pdf of their uv square, from the float CDFs' steps: exactly
     // what sampling them does (a texel whose step rounds to 0 is never sampled and has pdf 0).
     p.env_word = uint32_t(g.texels.size());
     for (size_t i = 0; i < w * h; ++i) {
         const size_t x = i % w, y = i / w;
-        const float* col = &col_cdf[y * (w + 1)];
-        const double row_p = double(row_cdf[y + 1]) - double(row_cdf[y]);
-        const double col_p = double(col[x + 1]) - double(col[x]);
+        const size_t col = y * (2 * w + 1);
+        const double row_p = cdf_at(row_cdf, y + 1) - cdf_at(row_cdf, y);
+        const double col_p = cdf_at(col_cdf, col + x + 1) - cdf_at(col_cdf, col + x);
         const double pdf = any ? row_p * col_p * double(w * h) : 0.0;
         const float* c = &env.rgb[3 * i];
         // Scaled in double: a finite scale must not make a texel infinite unnoticed.
@@ -166,9 +179,9 @@ void pack_punctual_and_environment(const Scene& scene, const std::vector<double>
         g.texels.push_back(float_word(float(pdf)));
     }
     p.env_rows_word = uint32_t(g.texels.size());
-    for (float c : row_cdf) g.texels.push_back(float_word(c));
+    g.texels.insert(g.texels.end(), row_cdf.begin(), row_cdf.end());
     p.env_cols_word = uint32_t(g.texels.size());
-    for (float c : col_cdf) g.texels.push_back(float_word(c));
+    g.texels.insert(g.texels.end(), col_cdf.begin(), col_cdf.end());
     for (const gpu::GpuLight& l : g.lights)
         if (l.prim == LIGHT_ENVIRONMENT) p.env_pmf = l.pmf;
 }

@@ -244,8 +244,9 @@ Environment constant_environment(const glm::vec3& rgb) {
 
 uint64_t environment_device_bytes(int width, int height) {
     const uint64_t texels = uint64_t(width) * uint64_t(height);
-    // Texels (16 bytes), each row's column CDF (width + 1 floats), the rows' CDF, alignment.
-    return texels * 20 + uint64_t(height) * 8 + 4 + 12;
+    // Texels (16 bytes), each row's column CDF and guide (2 width + 1 words), the rows' (2
+    // height + 1), alignment.
+    return texels * 24 + uint64_t(height) * 12 + 4 + 12;
 }
 
 int shrink_environment(Environment& env, uint64_t max_bytes) {
