@@ -17,6 +17,16 @@ MCPT_NAMESPACE_BEGIN
 // reciprocals, so no 0 * inf in the box tests.
 #define BVH_MIN_DIR 1.0e-20f
 
+// Minimum and maximum of box-test distances, never NaN (BVH_MIN_DIR): OpenCL's min and max
+// where fmin and fmax would handle NaN (on CPUs, several instructions each instead of one).
+#if defined(MCPT_OPENCL) && !defined(MCPT_NVIDIA_OPENCL)
+#define BOX_MIN(a, b) min(a, b)
+#define BOX_MAX(a, b) max(a, b)
+#else
+#define BOX_MIN(a, b) MINF(a, b)
+#define BOX_MAX(a, b) MAXF(a, b)
+#endif
+
 // Byte k of a word, as a float (NVIDIA: one conversion with a byte select; building the float
 // from 2^23's mantissa instead ran NVIDIA's Vulkan 7-10% slower, docs/traversal.md).
 #define BVH_BYTE_FLOAT(w, k) F32(((w) >> (8u * (k))) & 0xffu)
@@ -26,8 +36,8 @@ MCPT_NAMESPACE_BEGIN
 // their offsets from the node's first leaf index. Four slots per meta word: a byte of meta
 // is internal when its bits 3 and 4 are set (24 + slot), and its hit bits are its top three
 // (0b1 for a node, 0b1, 0b11 or 0b111 for a leaf of 1-3 triangles; 0 for an empty slot).
-MCPT_FN uint bvh_child_hits(uvec4 q0, uvec4 q1, uvec4 q2, uvec4 q3, uvec4 q4, vec3 o,
-                            vec3 inv_d, uint oct_inv, float t_max) {
+MCPT_FN uint bvh_child_hits(uvec4 q0, uvec4 q1, uvec4 q2, uvec4 q3, uvec4 q4, vec3 o, vec3 inv_d,
+                            uint oct_inv, float t_max) {
     // Per axis: the grid's cell in t, the origin's offset in t, and the near and far planes
     // (hi is nearer when the direction is negative).
     float sx = uint_as_float((q0.w & 0xffu) << 23u) * inv_d.x;
@@ -55,11 +65,13 @@ MCPT_FN uint bvh_child_hits(uvec4 q0, uvec4 q1, uvec4 q2, uvec4 q3, uvec4 q4, ve
         uint near_y = ny ? hi_y : lo_y, far_y = ny ? lo_y : hi_y;
         uint near_z = nz ? hi_z : lo_z, far_z = nz ? lo_z : hi_z;
         for (uint k = 0u; k < 4u; ++k) {
-            float t0 = MAXF(MAXF(BVH_BYTE_FLOAT(near_x, k) * sx + ox, BVH_BYTE_FLOAT(near_y, k) * sy + oy),
-                            MAXF(BVH_BYTE_FLOAT(near_z, k) * sz + oz, 0.0f));
-            float t1 = MINF(MINF(BVH_BYTE_FLOAT(far_x, k) * sx + ox, BVH_BYTE_FLOAT(far_y, k) * sy + oy),
-                            BVH_BYTE_FLOAT(far_z, k) * sz + oz);
-            bool enter = t0 * (1.0f - BVH_SLACK) <= MINF(t1 * (1.0f + BVH_SLACK), t_far_max);
+            float t0 = BOX_MAX(
+                BOX_MAX(BVH_BYTE_FLOAT(near_x, k) * sx + ox, BVH_BYTE_FLOAT(near_y, k) * sy + oy),
+                BOX_MAX(BVH_BYTE_FLOAT(near_z, k) * sz + oz, 0.0f));
+            float t1 = BOX_MIN(
+                BOX_MIN(BVH_BYTE_FLOAT(far_x, k) * sx + ox, BVH_BYTE_FLOAT(far_y, k) * sy + oy),
+                BVH_BYTE_FLOAT(far_z, k) * sz + oz);
+            bool enter = t0 * (1.0f - BVH_SLACK) <= BOX_MIN(t1 * (1.0f + BVH_SLACK), t_far_max);
             uint bits = ((child4 >> (8u * k)) & 0xffu) << ((bit4 >> (8u * k)) & 0xffu);
             hits |= enter ? bits : 0u;
         }
@@ -121,7 +133,8 @@ MCPT_FN Hit trace_bvh(SCENE_PARAMS_ Ray ray, WoopRay wr, bool any_hit, uint skip
             uint bit = FIND_MSB(tri_group.y);
             tri_group.y &= ~(1u << bit);
             float nearest = hit.t;
-            hit = closer_triangle_hit(SCENE_ARGS_ ray, wr, LEAF_INDEX(tri_group.x + bit), skip, hit);
+            hit =
+                closer_triangle_hit(SCENE_ARGS_ ray, wr, LEAF_INDEX(tri_group.x + bit), skip, hit);
             if (any_hit && hit.t < nearest) return hit;
         }
         // Next: the group's other hit children, else the last group left on the stack.
