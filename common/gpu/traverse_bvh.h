@@ -79,6 +79,44 @@ MCPT_FN uint bvh_child_hits(uvec4 q0, uvec4 q1, uvec4 q2, uvec4 q3, uvec4 q4, ve
     return hits;
 }
 
+#if defined(MCPT_OPENCL) && defined(MCPT_BVH_VECTOR)
+// OpenCL on CPU devices: the eight slots at once in OpenCL's 8-wide vectors (one AVX register
+// each way), the same arithmetic as bvh_child_hits per lane.
+MCPT_FN uint bvh_child_hits_vector(uvec4 q0, uvec4 q1, uvec4 q2, uvec4 q3, uvec4 q4, vec3 o,
+                                   vec3 inv_d, uint oct_inv, float t_max) {
+    float sx = uint_as_float((q0.w & 0xffu) << 23u) * inv_d.x;
+    float sy = uint_as_float(((q0.w >> 8u) & 0xffu) << 23u) * inv_d.y;
+    float sz = uint_as_float(((q0.w >> 16u) & 0xffu) << 23u) * inv_d.z;
+    float ox = (uint_as_float(q0.x) - o.x) * inv_d.x;
+    float oy = (uint_as_float(q0.y) - o.y) * inv_d.y;
+    float oz = (uint_as_float(q0.z) - o.z) * inv_d.z;
+    // Each axis's near and far planes of the eight slots (hi is nearer for a negative direction).
+    uint2 lo_x = q2.xy, hi_x = q2.zw, lo_y = q3.xy, hi_y = q3.zw, lo_z = q4.xy, hi_z = q4.zw;
+    bool nx = inv_d.x < 0.0f, ny = inv_d.y < 0.0f, nz = inv_d.z < 0.0f;
+    float8 near_x = convert_float8(as_uchar8(nx ? hi_x : lo_x)) * sx + ox;
+    float8 near_y = convert_float8(as_uchar8(ny ? hi_y : lo_y)) * sy + oy;
+    float8 near_z = convert_float8(as_uchar8(nz ? hi_z : lo_z)) * sz + oz;
+    float8 far_x = convert_float8(as_uchar8(nx ? lo_x : hi_x)) * sx + ox;
+    float8 far_y = convert_float8(as_uchar8(ny ? lo_y : hi_y)) * sy + oy;
+    float8 far_z = convert_float8(as_uchar8(nz ? lo_z : hi_z)) * sz + oz;
+    float8 t0 = max(max(near_x, near_y), max(near_z, (float8)(0.0f)));
+    float8 t1 = min(min(far_x, far_y), far_z);
+    int8 enter =
+        t0 * (1.0f - BVH_SLACK) <= min(t1 * (1.0f + BVH_SLACK), t_max * (1.0f + BVH_SLACK));
+    // Each slot's meta byte: its hit bits and where they go.
+    uint8 meta = convert_uint8(as_uchar8(q1.zw));
+    uint8 inner = (meta & (meta << 1u)) & 0x10u;
+    uint8 bit = (meta ^ ((inner >> 4u) * oct_inv)) & 0x1fu;
+    uint8 bits = select((uint8)(0u), ((meta >> 5u) & 0x7u) << bit, enter);
+    uint4 h4 = bits.lo | bits.hi;
+    uint2 h2 = h4.lo | h4.hi;
+    return h2.x | h2.y;
+}
+#define BVH_CHILD_HITS bvh_child_hits_vector
+#else
+#define BVH_CHILD_HITS bvh_child_hits
+#endif
+
 // Nearest triangle hit closer than hit.t (with any_hit, the first), ignoring `skip`.
 MCPT_FN Hit trace_bvh(SCENE_PARAMS_ Ray ray, WoopRay wr, bool any_hit, uint skip, Hit hit) {
     vec3 d = ray.d;
@@ -123,7 +161,7 @@ MCPT_FN Hit trace_bvh(SCENE_PARAMS_ Ray ray, WoopRay wr, bool any_hit, uint skip
             // Its children: a node group and a triangle group.
             uint base = BVH_NODE_UNITS / 2u * child;
             uvec4 q0 = BVH_QUAD(base), q1 = BVH_QUAD(base + 1u);
-            uint hits = bvh_child_hits(q0, q1, BVH_QUAD(base + 2u), BVH_QUAD(base + 3u),
+            uint hits = BVH_CHILD_HITS(q0, q1, BVH_QUAD(base + 2u), BVH_QUAD(base + 3u),
                                        BVH_QUAD(base + 4u), ray.o, inv_d, oct_inv, hit.t);
             node_group = UV2(q1.x, (hits & 0xff000000u) | (q0.w >> 24u));
             tri_group = UV2(q1.y, hits & 0x00ffffffu);
