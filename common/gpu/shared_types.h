@@ -247,8 +247,9 @@ MCPT_STRUCT(GpuParams) {
     // The environment (equirectangular, row 0 at +Y), words after texels_word: env_word, one
     // 16-byte texel each (radiance rgb, then the pdf of its uv square: w); env_rows_word, the
     // CDF of its rows (height + 1 floats, then height guide words: lights.h, cdf_pick);
-    // env_cols_word, that of each row's columns (2 width + 1 words a row). env_u_shift: the rotation about +Y as a shift of u. env_pmf: the probability
-    // that next-event estimation picks the environment.
+    // env_cols_word, that of each row's columns (2 width + 1 words a row). env_u_shift: the
+    // rotation about +Y as a shift of u. env_pmf: the probability that next-event estimation
+    // picks the environment.
     uint env_width, env_height;
     uint env_word, env_rows_word, env_cols_word;
     float env_u_shift, env_pmf;

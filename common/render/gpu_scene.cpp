@@ -30,7 +30,8 @@ void align_texels16(GpuScene& g) {
 gpu::GpuMaterial pack_material(const Material& m) {
     gpu::GpuMaterial g{};
     g.r = m.color.x, g.g = m.color.y, g.b = m.color.z;
-    g.type = static_cast<uint32_t>(m.type) | (m.two_sided && m.is_emissive() ? MAT_TWO_SIDED : 0u);
+    g.type = static_cast<uint32_t>(m.type);
+    if (m.two_sided && m.is_emissive()) g.type |= MAT_TWO_SIDED;
     g.er = m.emission.x, g.eg = m.emission.y, g.eb = m.emission.z;
     g.ior = m.ior;
     g.metallic = m.metallic;
@@ -236,7 +237,8 @@ void pack_light_tree(const Scene& scene, const std::vector<double>& weights,
             l.lo = glm::min(t.v0, glm::min(t.v1, t.v2)), l.hi = glm::max(t.v0, glm::max(t.v1, t.v2));
             const glm::dvec3 n = glm::cross(glm::dvec3(t.v1) - glm::dvec3(t.v0),
                                             glm::dvec3(t.v2) - glm::dvec3(t.v0));
-            if (glm::length(n) > 0 && !scene.materials.at(t.material).two_sided) l.axis = glm::vec3(glm::normalize(n)), l.cos_o = 1.f;
+            if (glm::length(n) > 0 && !scene.materials.at(t.material).two_sided)
+                l.axis = glm::vec3(glm::normalize(n)), l.cos_o = 1.f;
         }
         l.power = near_w[i];
         l.slot = uint32_t(table.size() + i);
