@@ -393,7 +393,12 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
     }
     SurfacePoint s = surface_at(SCENE_ARGS_ ray, hit);
     GpuMaterial m = MATERIAL(s.material);
-    if (HAS_FEATURE(FEATURE_TEXTURES)) m = textured_material(SCENE_ARGS_ m, s.uv);
+    vec4 normal_texel = V4S(0.0f);
+    if (HAS_FEATURE(FEATURE_TEXTURES)) {
+        TexturedMaterial tm = textured_material(SCENE_ARGS_ m, s.uv);
+        m = tm.m;
+        normal_texel = tm.normal_texel;
+    }
     vec3 wo = -ray.d;
     bool front = dot(s.ng, wo) > 0.0f;
     vec3 n = front ? s.ng : -s.ng;
@@ -403,7 +408,7 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
     if (HAS_FEATURE(FEATURE_SHADING_NORMALS)) {
         vec3 sn = s.ns;
         if (HAS_FEATURE(FEATURE_TEXTURES) && m.tex_normal != NO_TEXTURE)
-            sn = normal_mapped(SCENE_ARGS_ m.tex_normal, s.uv, sn, s.dpdu, s.dpdv);
+            sn = normal_mapped(normal_texel, sn, s.dpdu, s.dpdv);
         sn = front ? sn : -sn;
         if (dot(sn, wo) > 0.0f) ns = sn;
     }

@@ -53,9 +53,20 @@ MCPT_FN vec4 texel_rgba(SCENE_PARAMS_ GpuTexture t, uint x, uint y) {
 #ifdef MCPT_NEGATIVE_CONTROL_TEXEL_SHIFT
     x = min(x + 1u, t.width - 1u);  // tests: every read one texel to the right
 #endif
-    uvec2 w = TEXEL(t.offset / 2u + y * t.width + x);
+    uint i = t.offset / 2u + y * t.width + x;
+    // The devices' own conversions (exact for finite halves, as half_to_float): one
+    // instruction a channel instead of half_to_float's dozen and its branch, inlined at each
+    // fetch (NVIDIA: the textured scene's kernel stalls on instruction fetch).
+#if defined(MCPT_GLSL)
+    uvec2 w = TEXEL(i);
+    return vec4(unpackHalf2x16(w.x), unpackHalf2x16(w.y));
+#elif defined(MCPT_OPENCL)
+    return vload_half4(i, (MCPT_CONST_BUF half*)texels);
+#else
+    uvec2 w = TEXEL(i);
     return V4(half_to_float(w.x & 0xffffu), half_to_float(w.x >> 16u), half_to_float(w.y & 0xffffu),
               half_to_float(w.y >> 16u));
+#endif
 }
 
 // Texture `index` at (u, v): bilinear between the four nearest texel centers (or the nearest
@@ -85,39 +96,53 @@ MCPT_FN vec4 sample_texture(SCENE_PARAMS_ uint index, vec2 uv) {
     return top * (1.0f - ay) + bottom * ay;
 }
 
-// A material with its textures applied at uv (factors times texels, as glTF).
-MCPT_FN GpuMaterial textured_material(SCENE_PARAMS_ GpuMaterial m, vec2 uv) {
-    if (m.tex_base != NO_TEXTURE) {
-        vec4 t = sample_texture(SCENE_ARGS_ m.tex_base, uv);
-        m.r *= t.x;
-        m.g *= t.y;
-        m.b *= t.z;
+// A material with its textures applied at uv (factors times texels, as glTF), and its normal
+// texture's texel there (for normal_mapped).
+MCPT_STRUCT(TexturedMaterial) {
+    GpuMaterial m;
+    vec4 normal_texel;
+};
+
+// One fetch in a loop kept rolled over the four maps, not one inlined copy of
+// sample_texture() a map (code size: NVIDIA's Vulkan inlines every call).
+MCPT_FN TexturedMaterial textured_material(SCENE_PARAMS_ GpuMaterial m, vec2 uv) {
+    TexturedMaterial r;
+    r.normal_texel = V4S(0.0f);
+    NO_UNROLL
+    for (uint k = 0u; k < 4u; ++k) {
+        uint tex = k == 0u ? m.tex_base
+                           : (k == 1u ? m.tex_metal_rough : (k == 2u ? m.tex_emission : m.tex_normal));
+        if (tex == NO_TEXTURE || (k == 3u && !HAS_FEATURE(FEATURE_SHADING_NORMALS))) continue;
+        vec4 t = sample_texture(SCENE_ARGS_ tex, uv);
+        if (k == 0u) {
+            m.r *= t.x;
+            m.g *= t.y;
+            m.b *= t.z;
+        } else if (k == 1u) {
+            m.metallic *= t.z;
+            float roughness = sqrt(m.alpha) * t.y;
+            m.alpha = MAXF(roughness * roughness, MIN_GGX_ALPHA);
+        } else if (k == 2u) {
+            m.er *= t.x;
+            m.eg *= t.y;
+            m.eb *= t.z;
+        } else {
+            r.normal_texel = t;
+        }
     }
-    if (m.tex_metal_rough != NO_TEXTURE) {
-        vec4 t = sample_texture(SCENE_ARGS_ m.tex_metal_rough, uv);
-        m.metallic *= t.z;
-        float roughness = sqrt(m.alpha) * t.y;
-        m.alpha = MAXF(roughness * roughness, MIN_GGX_ALPHA);
-    }
-    if (m.tex_emission != NO_TEXTURE) {
-        vec4 t = sample_texture(SCENE_ARGS_ m.tex_emission, uv);
-        m.er *= t.x;
-        m.eg *= t.y;
-        m.eb *= t.z;
-    }
-    return m;
+    r.m = m;
+    return r;
 }
 
-// The shading normal ns bent by a tangent-space normal texture; the tangent follows u, the
-// bitangent points up the image (toward -v), as glTF's normal textures expect.
-MCPT_FN vec3 normal_mapped(SCENE_PARAMS_ uint tex, vec2 uv, vec3 ns, vec3 dpdu, vec3 dpdv) {
+// The shading normal ns bent by a tangent-space normal texture's texel c; the tangent follows
+// u, the bitangent points up the image (toward -v), as glTF's normal textures expect.
+MCPT_FN vec3 normal_mapped(vec4 c, vec3 ns, vec3 dpdu, vec3 dpdv) {
     vec3 t = dpdu - ns * dot(ns, dpdu);
     float len = length(t);
     if (!(len > 0.0f)) return ns;
     t = t / len;
     vec3 b = cross(ns, t);
     if (dot(b, dpdv) > 0.0f) b = -b;
-    vec4 c = sample_texture(SCENE_ARGS_ tex, uv);
     vec3 m = t * (2.0f * c.x - 1.0f) + b * (2.0f * c.y - 1.0f) + ns * (2.0f * c.z - 1.0f);
     float ml = length(m);
     return ml > 0.0f ? m / ml : ns;
