@@ -110,8 +110,9 @@ MCPT_FN TexturedMaterial textured_material(SCENE_PARAMS_ GpuMaterial m, vec2 uv)
     r.normal_texel = V4S(0.0f);
     NO_UNROLL
     for (uint k = 0u; k < 4u; ++k) {
-        uint tex = k == 0u ? m.tex_base
-                           : (k == 1u ? m.tex_metal_rough : (k == 2u ? m.tex_emission : m.tex_normal));
+        uint tex = k == 0u
+                       ? m.tex_base
+                       : (k == 1u ? m.tex_metal_rough : (k == 2u ? m.tex_emission : m.tex_normal));
         if (tex == NO_TEXTURE || (k == 3u && !HAS_FEATURE(FEATURE_SHADING_NORMALS))) continue;
         vec4 t = sample_texture(SCENE_ARGS_ tex, uv);
         if (k == 0u) {
