@@ -168,7 +168,7 @@ void run_compare(const CompareArgs& args) {
     if (mpi.rank == 0 && !args.report.empty()) prepare_report_dir(args.report);  // before rendering
     Scene scene = load_scene_argument(args.scene);
     scene.environment = lighting_environment(args.lighting);
-    scene.light_tree = use_light_tree(scene, args.lighting);
+    apply_light_sampling(scene, args.lighting);
     check_lit(scene);
     RenderOptions ro;
     ro.width = args.width, ro.height = args.height;

@@ -329,7 +329,7 @@ void run_converge(const ConvergeArgs& a) {
     // Scene, tree, render settings.
     Scene scene = load_scene_argument(a.scene);
     scene.environment = lighting_environment(a.lighting);
-    scene.light_tree = use_light_tree(scene, a.lighting);
+    apply_light_sampling(scene, a.lighting);
     check_lit(scene);
     RenderOptions ro;
     ro.width = a.width, ro.height = a.height;

@@ -92,7 +92,7 @@ void run_render(const RenderArgs& a) {
     session.set_environment(lighting_environment(a.lighting));
     Scene loaded = load_scene(a.scene);
     for (const std::string& w : loaded.warnings) std::cerr << "mcpt: warning: " << w << "\n";
-    loaded.light_tree = use_light_tree(loaded, a.lighting);
+    apply_light_sampling(loaded, a.lighting);
     session.set_scene(std::move(loaded));
     SessionSettings& s = session.settings();
     s.width = a.width, s.height = a.height;
@@ -163,6 +163,9 @@ void run_render(const RenderArgs& a) {
                         ? ("the tree (" + std::to_string(g.params.num_tree_lights) +
                            " local lights, by their importance at the shading point)")
                               .c_str()
+                    : (g.params.scene_flags & SCENE_LIGHT_CONTRIBUTION)
+                        ? "by contribution (each lamp's unshadowed light at the shading point, "
+                          "the BSDF included)"
                         : "by power");
     if (a.verbose && !g.tree_choice.empty()) std::printf("%s\n", g.tree_choice.c_str());
     std::printf("tree: %s%s\n", a.tree == "auto" ? "auto, " : "", describe_tree(g).c_str());
@@ -325,7 +328,8 @@ void add_render_command(CLI::App& app) {
     sub->add_option("-o,--output", args->output, "Output image (.exr linear, .png sRGB)")
         ->capture_default_str();
     sub->add_option("--tree", args->tree,
-                    "tree: auto (SAH, or none where the cost model prefers), sah, median, none, bvh (the wide BVH)")
+                    "tree: auto (SAH, or none where the cost model prefers), sah, median, none, "
+                    "bvh (the wide BVH)")
         ->check(CLI::IsMember({"auto", "sah", "median", "none", "bvh"}))
         ->capture_default_str();
     sub->add_option("--depth", args->depth, "Tree depth limit (median: default 3)");

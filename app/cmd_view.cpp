@@ -80,7 +80,7 @@ void run_view(const ViewArgs& args) {
     else
         specs = {device_specs(args.backend, args.devices)};
     Scene scene = load_scene_argument(args.scene);
-    scene.light_tree = use_light_tree(scene, args.lighting);
+    apply_light_sampling(scene, args.lighting);
     const Environment env = lighting_environment(args.lighting);
     if (mpi.rank > 0) {
         // Ranks above 0: the chunks rank 0 hands out, until it says stop. mpirun passes a

@@ -47,12 +47,14 @@ struct LightingArgs {
     std::string env;
     float env_rotate = 0.f, env_scale = 1.f;
     std::string env_sampling = "compensated";
-    std::string light_sampling = "auto";  // auto | power | tree
+    std::string light_sampling = "auto";  // auto | power | tree | contribution
     std::vector<float> background;
 };
 
-// --light-sampling for `scene`: tree, power, or auto (Scene::auto_light_tree).
-bool use_light_tree(const Scene& scene, const LightingArgs& lighting);
+// Sets how `scene` picks lights, from --light-sampling: tree, power, contribution, or auto
+// (Scene::auto_light_by_contribution, else Scene::auto_light_tree). Throws mcpt::Error where
+// contribution is asked of a scene that cannot have it.
+void apply_light_sampling(Scene& scene, const LightingArgs& lighting);
 void add_lighting_options(CLI::App* sub, LightingArgs& a);
 // The environment the options ask for (none: Environment{}). Throws mcpt::Error.
 Environment lighting_environment(const LightingArgs& a);

@@ -28,9 +28,11 @@ void add_lighting_options(CLI::App* sub, LightingArgs& a) {
         ->capture_default_str();
     sub->add_option("--light-sampling", a.light_sampling,
                     "How next-event estimation picks a light: power (every light by its power), "
-                    "tree (local lights by their importance at the shading point) or auto "
-                    "(the tree from 32 local lights on)")
-        ->check(CLI::IsMember({"auto", "power", "tree"}))
+                    "tree (local lights by their importance at the shading point), contribution "
+                    "(scenes lit by 1 to 8 lamps only: each lamp by its unshadowed contribution, "
+                    "the BSDF included) or auto (contribution where possible from 2 lamps, else "
+                    "the tree from 2 local lights with a lamp or from 32, else power)")
+        ->check(CLI::IsMember({"auto", "power", "tree", "contribution"}))
         ->capture_default_str();
     sub->add_option("--background", a.background,
                     "Constant background radiance R,G,B lighting the scene (default: black)")
@@ -101,9 +103,17 @@ void print_device_shares(const Session& session) {
     }
 }
 
-bool use_light_tree(const Scene& scene, const LightingArgs& lighting) {
-    if (lighting.light_sampling == "auto") return scene.auto_light_tree();
-    return lighting.light_sampling == "tree";
+void apply_light_sampling(Scene& scene, const LightingArgs& lighting) {
+    const std::string& how = lighting.light_sampling;
+    if (how == "contribution" && !scene.lamp_choice_possible())
+        throw Error(
+            "--light-sampling contribution: every light must be a lamp (point, spot or "
+            "directional; no emissive surface, no environment), at most " +
+            std::to_string(Scene::kLampChoiceMax) + " of them");
+    scene.light_by_contribution =
+        how == "contribution" || (how == "auto" && scene.auto_light_by_contribution());
+    scene.light_tree =
+        how == "tree" || (how == "auto" && !scene.light_by_contribution && scene.auto_light_tree());
 }
 
 }  // namespace mcpt

@@ -15,6 +15,7 @@
 #include "app/commands.h"
 #include "common/accel/kdtree.h"
 #include "common/analysis/stats.h"
+#include "common/error.h"
 #include "common/render/gpu_scene.h"
 #include "common/render/light_tree.h"
 #include "light_cases.h"
@@ -156,7 +157,9 @@ TEST(LightTree, NodeConesHoldTheirLights) {
     EXPECT_GT(checked, lights.size() * 5);
 }
 
-#define TREE_ARGS &g.params, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, g.texels.data(),
+#define TREE_ARGS                                                                      \
+    &g.params, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, \
+        g.texels.data(),
 
 TEST(LightTree, PicksFollowTheirPmfAndSumToOne) {
     const Scene scene = many_lights(100, 3);
@@ -298,10 +301,11 @@ TEST_P(LightTreeRender, ManyLightsBeatPowerAlonePerSample) {
     const RenderResult power = test::render_case(GetParam(), scene, 32, how);
     const double vt = sample_variance(tree), vp = sample_variance(power);
     const test::MeanEstimate mt = test::pooled_mean(tree), mp = test::pooled_mean(power);
-    std::printf("%s, 200 quads and 200 lamps: variance per sample, power %.4g, tree %.4g: %.2fx; "
-                "means %.5f and %.5f (z %.2f)\n",
-                GetParam().c_str(), vp, vt, vp / vt, mp.mean, mt.mean,
-                (mt.mean - mp.mean) / std::hypot(mt.std_error, mp.std_error));
+    std::printf(
+        "%s, 200 quads and 200 lamps: variance per sample, power %.4g, tree %.4g: %.2fx; "
+        "means %.5f and %.5f (z %.2f)\n",
+        GetParam().c_str(), vp, vt, vp / vt, mp.mean, mt.mean,
+        (mt.mean - mp.mean) / std::hypot(mt.std_error, mp.std_error));
     EXPECT_GT(vp / vt, 2.0);
     EXPECT_LT(std::abs(mt.mean - mp.mean) / std::hypot(mt.std_error, mp.std_error), 4.5);
 }
@@ -357,13 +361,20 @@ void turn_cones(GpuScene& g) {
         }
 }
 
-// --light-sampling auto: the tree from 32 local lights on (emitters and lamps; a directional
-// lamp is not local), or from 2 where one is a point or spot lamp; power below; power and tree
-// as asked.
+// How --light-sampling sets a scene's light choice: "power", "tree" or "contribution".
+std::string light_choice(Scene s, const std::string& how) {
+    LightingArgs a;
+    a.light_sampling = how;
+    apply_light_sampling(s, a);
+    EXPECT_FALSE(s.light_tree && s.light_by_contribution);
+    return s.light_tree ? "tree" : s.light_by_contribution ? "contribution" : "power";
+}
+
+// --light-sampling auto: by contribution where every light is a lamp and there are 2 to 8;
+// else the tree from 32 local lights on (emitters and lamps; a directional lamp is not local),
+// or from 2 where one is a point or spot lamp; power below; each as asked, contribution
+// refused where it is not possible.
 TEST(LightTree, AutoTakesTheTreeFromManyLightsOrLamps) {
-    const LightingArgs automatic;
-    LightingArgs power, tree;
-    power.light_sampling = "power", tree.light_sampling = "tree";
     const auto emitters_only = [](int n) {
         Scene s = many_lights(n, 1);
         s.punctual_lights.clear();
@@ -372,17 +383,20 @@ TEST(LightTree, AutoTakesTheTreeFromManyLightsOrLamps) {
     const Scene few = emitters_only(15), many = emitters_only(16);  // 30 and 32 triangles
     EXPECT_EQ(few.local_light_count(), 30u);
     EXPECT_EQ(many.local_light_count(), 32u);
-    EXPECT_FALSE(use_light_tree(few, automatic));
-    EXPECT_TRUE(use_light_tree(many, automatic));
-    EXPECT_FALSE(use_light_tree(many, power));
-    EXPECT_TRUE(use_light_tree(few, tree));
-    // Lamps: one alone keeps power (nothing to choose); beside any other local light, the tree.
+    EXPECT_EQ(light_choice(few, "auto"), "power");
+    EXPECT_EQ(light_choice(many, "auto"), "tree");
+    EXPECT_EQ(light_choice(many, "power"), "power");
+    EXPECT_EQ(light_choice(few, "tree"), "tree");
+    EXPECT_THROW(light_choice(few, "contribution"), Error);
+    // Lamps: one alone keeps power (nothing to choose); 2 to 8 lamps and nothing else, by
+    // contribution; beside any other local light, the tree.
     Scene lamp = test::plane_scene(0.5f, 10.f, 1.f);
     PunctualLight point;
     point.kind = PunctualKind::Point;
     point.intensity = glm::vec3(1.f);
     lamp.punctual_lights.push_back(point);
-    EXPECT_FALSE(use_light_tree(lamp, automatic));
+    EXPECT_EQ(light_choice(lamp, "auto"), "power");
+    EXPECT_EQ(light_choice(lamp, "contribution"), "contribution");
     Scene sun = lamp;
     for (int i = 0; i < 5; ++i) {
         PunctualLight l;
@@ -391,15 +405,28 @@ TEST(LightTree, AutoTakesTheTreeFromManyLightsOrLamps) {
         sun.punctual_lights.push_back(l);
     }
     EXPECT_EQ(sun.local_light_count(), 1u);
-    EXPECT_FALSE(use_light_tree(sun, automatic));
+    EXPECT_EQ(light_choice(sun, "auto"), "contribution");
+    EXPECT_EQ(light_choice(sun, "power"), "power");
     Scene two = lamp;
     two.punctual_lights.push_back(point);
-    EXPECT_TRUE(use_light_tree(two, automatic));
-    EXPECT_FALSE(use_light_tree(two, power));
+    EXPECT_EQ(light_choice(two, "auto"), "contribution");
+    EXPECT_EQ(light_choice(two, "tree"), "tree");
+    Scene nine = two;
+    while (nine.punctual_lights.size() < 9) nine.punctual_lights.push_back(point);
+    EXPECT_EQ(light_choice(nine, "auto"), "tree");
+    EXPECT_THROW(light_choice(nine, "contribution"), Error);
+    Scene lit_by_map = two;
+    lit_by_map.environment = test::map_with_sun(8, 4, 0.5f, 0, 0, 0.5f);
+    EXPECT_EQ(light_choice(lit_by_map, "auto"), "tree");
+    EXPECT_THROW(light_choice(lit_by_map, "contribution"), Error);
     Scene lamp_and_emitter = emitters_only(1);  // two triangles
-    EXPECT_FALSE(use_light_tree(lamp_and_emitter, automatic));
+    EXPECT_EQ(light_choice(lamp_and_emitter, "auto"), "power");
     lamp_and_emitter.punctual_lights.push_back(point);
-    EXPECT_TRUE(use_light_tree(lamp_and_emitter, automatic));
+    EXPECT_EQ(light_choice(lamp_and_emitter, "auto"), "tree");
+    // The packed scene refuses the flag where it is not possible.
+    Scene forced = lamp_and_emitter;
+    forced.light_by_contribution = true;
+    EXPECT_THROW(pack_scene(forced, build_kdtree(forced.triangles, TreeOptions{})), Error);
 }
 
 // At points on the floor the tree's picks leave the wall facing away: its share falls from
@@ -435,10 +462,11 @@ TEST_P(LightTreeRender, ConesOfEmissionSkipLightsFacingAway) {
                              mt = test::pooled_mean(turned);
     const double z_none = (mn.mean - mc.mean) / std::hypot(mn.std_error, mc.std_error);
     const double z_turned = (mt.mean - mc.mean) / std::hypot(mt.std_error, mc.std_error);
-    std::printf("%s, 200 quads and a wall facing away: variance per sample, no cones %.4g, "
-                "cones %.4g (%.2fx less), cones turned %.4g (%.2fx more); z of the means %.2f, "
-                "%.2f\n",
-                GetParam().c_str(), vn, vc, vn / vc, vt, vt / vc, z_none, z_turned);
+    std::printf(
+        "%s, 200 quads and a wall facing away: variance per sample, no cones %.4g, "
+        "cones %.4g (%.2fx less), cones turned %.4g (%.2fx more); z of the means %.2f, "
+        "%.2f\n",
+        GetParam().c_str(), vn, vc, vn / vc, vt, vt / vc, z_none, z_turned);
     EXPECT_GT(vn / vc, 1.5);
     // The control: the same check on the turned cones fails (it gains nothing on no cones).
     EXPECT_LT(vn / vt, 1.5);

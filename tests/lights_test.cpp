@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <numeric>
 #include <random>
 
 #include "common/accel/kdtree.h"
@@ -71,7 +72,8 @@ void expect_plane_exact(const std::string& api, const char* what, PunctualLight 
         const double bright_z = image_z(bright, exact);
         // The brightest pixel 1% off must be caught; how many other lit pixels would be is
         // printed (where the irradiance changes fast within a pixel, 256 samples are too few).
-        const size_t brightest = size_t(std::max_element(exact.begin(), exact.end()) - exact.begin());
+        const size_t brightest =
+            size_t(std::max_element(exact.begin(), exact.end()) - exact.begin());
         const bool caught = pixels_off(test::with_pixel_scaled(r, brightest, 1.01), exact) > off;
         int lit = 0, lit_caught = 0;
         for (size_t i = 0; i < exact.size(); ++i) {
@@ -235,9 +237,9 @@ double mean_squared_mean(const RenderResult& r) {
 }
 
 // MIS against each strategy alone (both APIs; BackendOptions::env_strategy 1: next-event
-// estimation, 2: BSDF sampling): on a Lambertian plane under a small sun BSDF sampling alone explodes, on a
-// near-mirror metal under a smooth sky next-event estimation alone does. MIS stays within
-// Veach's bound of the better strategy (its variance + mu^2 / 2 for one sample of each:
+// estimation, 2: BSDF sampling): on a Lambertian plane under a small sun BSDF sampling alone
+// explodes, on a near-mirror metal under a smooth sky next-event estimation alone does. MIS stays
+// within Veach's bound of the better strategy (its variance + mu^2 / 2 for one sample of each:
 // where one strategy is nearly exact, the other one's share costs at most that), far below
 // the one that explodes, and all three agree on the mean (docs/lights.md). Controls: both
 // strategies unweighted (the mean check rejects it) and both weighted 1/2 (unbiased: the
@@ -276,15 +278,16 @@ TEST_P(EnvironmentMis, VarianceBoundedWhereOneStrategyExplodes) {
         // Strategies 0 (MIS), 1, 2, and 4 (halves) at k = 3.
         double var[4], mean[4], se[4], mu2 = 0;
         for (int k = 0; k < 4; ++k) {
-            const RenderResult r = render_scene(api, c.scene, 16, 256, 8, 1.f, uint32_t(k == 3 ? 4 : k));
+            const RenderResult r =
+                render_scene(api, c.scene, 16, 256, 8, 1.f, uint32_t(k == 3 ? 4 : k));
             EXPECT_EQ(r.nonfinite_total, 0u) << c.what;
             var[k] = mean_sample_variance(r);
             if (k == 0) mu2 = mean_squared_mean(r);
             const test::MeanEstimate e = test::pooled_mean(r);
             mean[k] = e.mean, se[k] = e.std_error;
         }
-        std::printf("| %s | %.4g | %.3g | %.3g | %.3g | %.3g |\n", c.what, var[0],
-                    var[1] / var[0], var[2] / var[0], var[3] / var[0], 0.5 * mu2);
+        std::printf("| %s | %.4g | %.3g | %.3g | %.3g | %.3g |\n", c.what, var[0], var[1] / var[0],
+                    var[2] / var[0], var[3] / var[0], 0.5 * mu2);
         for (int k = 1; k < 4; ++k)
             EXPECT_LT(std::abs(mean[k] - mean[0]) / std::hypot(se[k], se[0]), 4.5)
                 << c.what << ": strategy " << k << " disagrees on the mean";
@@ -360,12 +363,16 @@ TEST(EnvironmentSampling, ChiSquareAgainstPdf) {
             for (int i = 0; i < kPhi; ++i) {
                 double prob = 0;
                 for (uint32_t y = 0; y < H; ++y) {
-                    const double a = std::max(v_lo, double(y) / H), b = std::min(v_hi, double(y + 1) / H);
+                    const double a = std::max(v_lo, double(y) / H),
+                                 b = std::min(v_hi, double(y + 1) / H);
                     if (b <= a) continue;
-                    const double v_part = control ? (std::cos(kPi * a) - std::cos(kPi * b)) / kPi : b - a;
+                    const double v_part =
+                        control ? (std::cos(kPi * a) - std::cos(kPi * b)) / kPi : b - a;
                     for (uint32_t x = 0; x < W; ++x) {
-                        const double u_part = u_overlap(double(i) / kPhi - shift, double(i + 1) / kPhi - shift, x);
-                        if (u_part > 0) prob += double(gpu::env_texel(ENV_ARGS x, y).w) * u_part * v_part;
+                        const double u_part =
+                            u_overlap(double(i) / kPhi - shift, double(i + 1) / kPhi - shift, x);
+                        if (u_part > 0)
+                            prob += double(gpu::env_texel(ENV_ARGS x, y).w) * u_part * v_part;
                     }
                 }
                 expected[size_t(j * kPhi + i)] = prob * kSamples;
@@ -377,6 +384,39 @@ TEST(EnvironmentSampling, ChiSquareAgainstPdf) {
     const double p_value = stats::chi_square_test(observed, expected_counts(false));
     const double p_control = stats::chi_square_test(observed, expected_counts(true));
     std::printf("chi-square, environment sampling: p = %.3f; control (no sin theta): p = %.3g\n",
+                p_value, p_control);
+    EXPECT_GT(p_value, 1e-3);
+    EXPECT_LT(p_control, 1e-6);
+}
+
+// Lamps by contribution pick from a stream of weights with one uniform (stream_pick): each
+// weight is picked in proportion to it (chi-square over 200,000 picks). Control: the same
+// stream without rescaling u between steps, which skews the picks, must be rejected.
+TEST(LampChoice, StreamPickFollowsTheWeights) {
+    const std::vector<float> w = {0.5f, 3.f, 1.25f, 0.05f, 2.f, 7.f, 0.2f, 1.f};
+    const double total = std::accumulate(w.begin(), w.end(), 0.0);
+    constexpr int kPicks = 200000;
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> uniform(0.f, 1.f);
+    std::vector<double> picked(w.size(), 0.0), skewed(w.size(), 0.0), expected(w.size());
+    for (size_t i = 0; i < w.size(); ++i) expected[i] = kPicks * w[i] / total;
+    for (int n = 0; n < kPicks; ++n) {
+        const float u0 = std::min(uniform(rng), 0.99999994f);
+        float u = u0, sum = 0.f;
+        size_t pick = 0, skew = 0;
+        for (size_t i = 0; i < w.size(); ++i) {
+            sum += w[i];
+            const gpu::StreamPick p = gpu::stream_pick(u, w[i], sum);
+            if (p.take) pick = i;
+            u = p.u;
+            ASSERT_TRUE(u >= 0.f && u < 1.f) << u;
+            if (u0 < w[i] / sum) skew = i;  // control: u never rescaled
+        }
+        picked[pick] += 1, skewed[skew] += 1;
+    }
+    const double p_value = stats::chi_square_test(picked, expected);
+    const double p_control = stats::chi_square_test(skewed, expected);
+    std::printf("chi-square, lamps by contribution: p = %.3f; control (u not rescaled): p = %.3g\n",
                 p_value, p_control);
     EXPECT_GT(p_value, 1e-3);
     EXPECT_LT(p_control, 1e-6);

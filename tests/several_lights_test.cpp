@@ -6,6 +6,7 @@
 // unchanged), must be rejected.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -71,31 +72,32 @@ bool g_has_far(const Scene& s) {
 void expect_exact_with_control(const std::string& api, const char* what_in, const Scene& scene_in,
                                const std::function<double(glm::dvec3)>& irradiance,
                                const std::function<void(GpuScene&)>& plant_in) {
-  for (bool tree : {false, true}) {
-    Scene scene = scene_in;
-    scene.light_tree = tree;
-    const std::string label = std::string(what_in) + (tree ? ", light tree" : "");
-    const char* what = label.c_str();
-    // With the tree: the probability of taking it 50% off (lights at infinity keep theirs:
-    // picked less often than their pmf says) where there are lights at infinity and a tree.
-    const std::function<void(GpuScene&)> plant =
-        !tree ? plant_in : [](GpuScene& g) { g.params.light_tree_pmf *= 1.5f; };
-    const std::vector<double> exact = test::expected_image(
-        scene, kSize, [&](glm::dvec3 p) { return kAlbedo / kPi * irradiance(p); });
-    test::CaseRender how;
-    const RenderResult r = test::render_case(api, scene, kSize, how);
-    how.plant = plant;
-    const RenderResult planted = test::render_case(api, scene, kSize, how);
-    const int off = test::pixels_off(r, exact);
-    const double z = test::image_z(r, exact), planted_z = test::image_z(planted, exact);
-    std::printf("%s, %s: %d of %d pixels off, image z %.2f; a planted pick probability: z %.1f\n",
-                api.c_str(), what, off, kSize * kSize, z, planted_z);
-    EXPECT_EQ(r.nonfinite_total, 0u) << what;
-    EXPECT_EQ(off, 0) << api << ": " << what;
-    EXPECT_LT(std::abs(z), 4.5) << api << ": " << what;
-    if (tree && !(g_has_far(scene) && g_has_local(scene))) continue;
-    EXPECT_GT(std::abs(planted_z), 4.5) << api << ": " << what << ": the planted pick passed";
-  }
+    for (bool tree : {false, true}) {
+        Scene scene = scene_in;
+        scene.light_tree = tree;
+        const std::string label = std::string(what_in) + (tree ? ", light tree" : "");
+        const char* what = label.c_str();
+        // With the tree: the probability of taking it 50% off (lights at infinity keep theirs:
+        // picked less often than their pmf says) where there are lights at infinity and a tree.
+        const std::function<void(GpuScene&)> plant =
+            !tree ? plant_in : [](GpuScene& g) { g.params.light_tree_pmf *= 1.5f; };
+        const std::vector<double> exact = test::expected_image(
+            scene, kSize, [&](glm::dvec3 p) { return kAlbedo / kPi * irradiance(p); });
+        test::CaseRender how;
+        const RenderResult r = test::render_case(api, scene, kSize, how);
+        how.plant = plant;
+        const RenderResult planted = test::render_case(api, scene, kSize, how);
+        const int off = test::pixels_off(r, exact);
+        const double z = test::image_z(r, exact), planted_z = test::image_z(planted, exact);
+        std::printf(
+            "%s, %s: %d of %d pixels off, image z %.2f; a planted pick probability: z %.1f\n",
+            api.c_str(), what, off, kSize * kSize, z, planted_z);
+        EXPECT_EQ(r.nonfinite_total, 0u) << what;
+        EXPECT_EQ(off, 0) << api << ": " << what;
+        EXPECT_LT(std::abs(z), 4.5) << api << ": " << what;
+        if (tree && !(g_has_far(scene) && g_has_local(scene))) continue;
+        EXPECT_GT(std::abs(planted_z), 4.5) << api << ": " << what << ": the planted pick passed";
+    }
 }
 
 TEST_P(SeveralLights, LampAndEmissiveQuad) {
@@ -141,6 +143,71 @@ TEST_P(SeveralLights, MapSunAndDirectionalLight) {
         GetParam(), "map with a sun and a directional light", scene,
         [&](glm::dvec3) { return sky + 1.5 * cos_t; },
         [](GpuScene& g) { test::scale_pick_pmf(g, 0u | LIGHT_PUNCTUAL_BIT, 1.1f); });
+}
+
+// Mean per-pixel variance of the samples (channel 0).
+double mean_pixel_variance(const RenderResult& r) {
+    double sum = 0;
+    const size_t n_pixels = r.sum.size() / 3;
+    for (size_t i = 0; i < n_pixels; ++i) {
+        const double n = double(r.spp) - double(r.nonfinite[i]);
+        const double mean = r.sum[3 * i] / n;
+        sum += std::max(0.0, r.sum_sq[3 * i] / n - mean * mean) * n / (n - 1);
+    }
+    return sum / double(n_pixels);
+}
+
+// Lamps only (two point lamps and a directional light): exact per pixel whether picked by
+// power, by the tree or by contribution, and by contribution with a hundredth of the variance
+// of either or less (the unshadowed light is exact, and nothing casts a shadow: what is left
+// is the light's change across a pixel). Control (OpenCL): the first lamp's pmf 10% off, the pick
+// unchanged.
+TEST_P(SeveralLights, LampsByContribution) {
+    Scene scene = test::plane_scene(kAlbedo, 1.f, 1.f);
+    scene.punctual_lights.push_back(lamp(2.f));
+    PunctualLight side = lamp(1.f);
+    side.position = glm::vec3(1.5f, 0.8f, -0.5f);
+    scene.punctual_lights.push_back(side);
+    PunctualLight sun;
+    sun.kind = PunctualKind::Directional;
+    sun.direction = glm::normalize(glm::vec3(-0.4f, -1.f, 0.2f));
+    sun.intensity = glm::vec3(1.5f);
+    scene.punctual_lights.push_back(sun);
+    ASSERT_TRUE(scene.auto_light_by_contribution());
+    const auto irradiance = [&](glm::dvec3 p) {
+        const glm::dvec3 to_side = glm::dvec3(side.position) - p;
+        const double r = glm::length(to_side);
+        return lamp_irradiance(p, 2.0) + to_side.y / (r * r * r) - 1.5 * double(sun.direction.y);
+    };
+    const std::vector<double> exact = test::expected_image(
+        scene, kSize, [&](glm::dvec3 p) { return kAlbedo / kPi * irradiance(p); });
+    const std::string api = GetParam();
+    double variance[3] = {};
+    for (int mode = 0; mode < 3; ++mode) {
+        Scene s = scene;
+        s.light_tree = mode == 1;
+        s.light_by_contribution = mode == 2;
+        const char* what = mode == 0 ? "power" : mode == 1 ? "tree" : "contribution";
+        const RenderResult r = test::render_case(api, s, kSize);
+        const int off = test::pixels_off(r, exact);
+        const double z = test::image_z(r, exact);
+        variance[mode] = mean_pixel_variance(r);
+        std::printf("%s, lamps by %s: %d of %d pixels off, image z %.2f, mean variance %.3g\n",
+                    api.c_str(), what, off, kSize * kSize, z, variance[mode]);
+        EXPECT_EQ(r.nonfinite_total, 0u) << what;
+        EXPECT_EQ(off, 0) << api << ": " << what;
+        EXPECT_LT(std::abs(z), 4.5) << api << ": " << what;
+    }
+    EXPECT_LT(variance[2], 0.01 * variance[1]) << api;  // measured: 5,000x less
+    EXPECT_LT(variance[2], 0.01 * variance[0]) << api;
+    if (api != "opencl") return;  // the planted pmf is an OpenCL build option
+    Scene s = scene;
+    s.light_by_contribution = true;
+    test::CaseRender how;
+    how.defines = "-DMCPT_NEGATIVE_CONTROL_CONTRIBUTION_PMF";
+    const double planted_z = test::image_z(test::render_case(api, s, kSize, how), exact);
+    std::printf("%s, lamps by contribution, a planted pmf: image z %.1f\n", api.c_str(), planted_z);
+    EXPECT_GT(std::abs(planted_z), 4.5) << "the planted pmf passed";
 }
 
 INSTANTIATE_TEST_SUITE_P(Api, SeveralLights, ::testing::ValuesIn(test::test_apis()),

@@ -361,6 +361,44 @@ MCPT_FN PathState start_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
     return without_shadow(st);
 }
 
+// Next-event estimation among a few lamps (SCENE_LIGHT_CONTRIBUTION: every light punctual,
+// at most LIGHT_CONTRIBUTION_MAX): each lamp's unshadowed contribution at the vertex, the
+// BSDF toward it included, and one picked in proportion to it, so the estimate is exact
+// wherever the picked lamp is visible. Lamps cannot be hit by BSDF-sampled rays, so no MIS
+// weight needs this pmf later.
+#define LIGHT_CONTRIBUTION_ON                   \
+    (HAS_FEATURE(FEATURE_LIGHT_CONTRIBUTION) && \
+     (PARAM(scene_flags) & SCENE_LIGHT_CONTRIBUTION) != 0u)
+MCPT_FN LightSample sample_lamp_by_contribution(SCENE_PARAMS_ GpuMaterial m, vec3 x, vec3 n,
+                                                vec3 ns, vec3 wo, bool front, float u) {
+    LightSample chosen = no_light_sample();
+    float total = 0.0f, chosen_w = 0.0f;
+    NO_UNROLL
+    for (uint i = 0u; i < PARAM(num_lights); ++i) {
+        LightSample ls = sample_punctual(SCENE_ARGS_ LIGHT(i).prim & LIGHT_INDEX_MASK, x, 1.0f);
+        // As the caller's test: the lamp on the same side of both normals.
+        float cos_s = dot(ns, ls.wi), cos_g = dot(n, ls.wi);
+        bool side = is_transmissive(m) ? cos_s * cos_g > 0.0f : cos_s > 0.0f && cos_g > 0.0f;
+        if (!ls.valid || !side) continue;
+        vec3 c = eval_bsdf(m, ns, wo, ls.wi, front).f * ls.le * ABSF(cos_s);
+        float w = c.x + c.y + c.z;
+        if (!(w > 0.0f) || is_nonfinite(w)) continue;
+        total += w;
+        StreamPick p = stream_pick(u, w, total);
+        u = p.u;
+        if (p.take) {
+            chosen = ls;
+            chosen_w = w;
+#ifdef MCPT_NEGATIVE_CONTROL_CONTRIBUTION_PMF  // tests: the first lamp's pmf 10% off
+            if (i == 0u) chosen_w *= 1.1f;
+#endif
+        }
+    }
+    if (!chosen.valid) return chosen;
+    chosen.pdf = chosen_w / total;
+    return chosen;
+}
+
 // The vertex a path's ray hit: its emission, next-event estimation (the shadow ray traced
 // here with two trace sites; with one, left pending in the path with what it adds if nothing
 // blocks it), the BSDF sample, Russian roulette. The path comes out ended, or running from
@@ -449,7 +487,11 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
 
     // Next-event estimation at vertices with a smooth lobe.
     if (has_smooth_lobe(m) && PARAM(num_lights) > 0u) {
-        LightSample ls = sample_light(SCENE_ARGS_ s.p, rn, V3(ua.z, ua.x, ua.y));
+        LightSample ls;
+        if (LIGHT_CONTRIBUTION_ON)
+            ls = sample_lamp_by_contribution(SCENE_ARGS_ m, s.p, n, ns, wo, front, ua.z);
+        else
+            ls = sample_light(SCENE_ARGS_ s.p, rn, V3(ua.z, ua.x, ua.y));
         // The light must lie on the same side of the shading and the geometric surface
         // (else it would leak through), in front unless the material transmits.
         float cos_s = dot(ns, ls.wi), cos_g = dot(n, ls.wi);

@@ -99,6 +99,23 @@ MCPT_FN LightSample sample_punctual(SCENE_PARAMS_ uint i, vec3 x, float pmf) {
     return ls;
 }
 
+// One step of picking an item in proportion to its weight from a stream of weights with one
+// uniform (weighted reservoir sampling): `total` is the weights so far, this one's included.
+// The item replaces the pick with probability w / total, and u is rescaled into [0, 1) for
+// the next step, so the pick is item i with probability w_i / (sum of all weights).
+MCPT_STRUCT(StreamPick) {
+    bool take;
+    float u;
+};
+
+MCPT_FN StreamPick stream_pick(float u, float w, float total) {
+    StreamPick r;
+    float q = w / total;
+    r.take = u < q;
+    r.u = MINF(r.take ? u / q : (u - q) / (1.0f - q), 0.99999994f);
+    return r;
+}
+
 // ---------------------------------------------------------------- the environment
 
 // The unit direction of map coordinates (u, v) in [0, 1]^2 (v = 0 at +Y), turned by the

@@ -48,11 +48,12 @@ MCPT_NAMESPACE_BEGIN
 #define FEATURE_ENVIRONMENT 8192u   // an environment map or constant background (lights.h)
 #define FEATURE_LIGHT_TREE 65536u   // next-event estimation picks local lights by a tree
 #define FEATURE_BVH 131072u         // compressed 8-wide BVH traversal (traverse_bvh.h)
-#define FEATURE_ALL (16383u | FEATURE_LIGHT_TREE | FEATURE_BVH)  // every feature: the full kernel
+#define FEATURE_LIGHT_CONTRIBUTION 262144u  // a few lamps, picked by contribution (integrator.h)
+#define FEATURE_ALL (16383u | FEATURE_LIGHT_TREE | FEATURE_BVH | FEATURE_LIGHT_CONTRIBUTION)
 #define FEATURE_TEST_NAN 16384u     // tests only: poison samples of pixels 0 and 1 (never in ALL)
 #define FEATURE_INDEPENDENT_SAMPLER 32768u  // independent uniforms, not Sobol (A/B, never in ALL)
-#define FEATURE_BITS 262143u        // every bit above
-#define FEATURE_COUNT 18
+#define FEATURE_BITS 524287u        // every bit above
+#define FEATURE_COUNT 19
 
 // The smallest GGX alpha a MAT_PBR material keeps (roughness 0.01): below it the lobe's peak
 // exceeds float range in NEE; roughness 0 metals are MAT_MIRROR.
@@ -272,6 +273,10 @@ MCPT_STRUCT(GpuParams) {
 #define SCENE_ALPHA_MASK 2u
 #define SCENE_KD_OVERLAP 4u  // the C++ build only (tests): overlapped traversal steps (traverse.h)
 #define SCENE_BVH 8u         // the tree buffer holds a BVH (BvhNode), not a k-d tree
+// Next-event estimation picks among the scene's lights, all punctual and at most
+// LIGHT_CONTRIBUTION_MAX of them, by each one's unshadowed contribution (integrator.h).
+#define SCENE_LIGHT_CONTRIBUTION 16u
+#define LIGHT_CONTRIBUTION_MAX 8u
 
 // Accumulation buffer: two vec4 per pixel (every pixel, or the window's state_slots pixels
 // from state_base when accum_window is set).

@@ -122,7 +122,7 @@ uint64_t scene_hash(const Scene& s) {
         h = fnv1a(e.rgb.data(), e.rgb.size() * sizeof(float), h);
     }
     // How lights are picked: each sample's value depends on it.
-    const uint8_t tree = s.light_tree ? 1 : 0;
+    const uint8_t tree = s.light_tree ? 1 : s.light_by_contribution ? 2 : 0;
     h = fnv1a(&tree, 1, h);
     h = fnv1a(&s.camera, sizeof s.camera, h);
     h = fnv1a(&s.has_camera, sizeof s.has_camera, h);

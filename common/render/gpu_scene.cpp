@@ -234,7 +234,8 @@ void pack_light_tree(const Scene& scene, const std::vector<double>& weights,
             // One-sided: the side of cross(v1 - v0, v2 - v0) (integrator.h), a hemisphere;
             // two-sided: every way.
             const Triangle& t = scene.triangles.at(prim);
-            l.lo = glm::min(t.v0, glm::min(t.v1, t.v2)), l.hi = glm::max(t.v0, glm::max(t.v1, t.v2));
+            l.lo = glm::min(t.v0, glm::min(t.v1, t.v2)),
+            l.hi = glm::max(t.v0, glm::max(t.v1, t.v2));
             const glm::dvec3 n = glm::cross(glm::dvec3(t.v1) - glm::dvec3(t.v0),
                                             glm::dvec3(t.v2) - glm::dvec3(t.v0));
             if (glm::length(n) > 0 && !scene.materials.at(t.material).two_sided)
@@ -431,6 +432,15 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
     p.light_power_total = float(total);
     pack_punctual_and_environment(scene, env_weights, g);
     if (scene.light_tree) pack_light_tree(scene, weights, prims, g);
+    static_assert(Scene::kLampChoiceMax == LIGHT_CONTRIBUTION_MAX, "one limit, two names");
+    if (scene.light_by_contribution) {
+        if (scene.light_tree || !scene.lamp_choice_possible())
+            throw Error(
+                "lights by contribution: every light must be a lamp (point, spot or "
+                "directional; no emissive surface, no environment), at most " +
+                std::to_string(LIGHT_CONTRIBUTION_MAX) + " of them, without the tree");
+        p.scene_flags |= SCENE_LIGHT_CONTRIBUTION;
+    }
     p.scene_min_x = tree.bounds.min.x, p.scene_min_y = tree.bounds.min.y;
     p.scene_min_z = tree.bounds.min.z;
     p.scene_max_x = tree.bounds.max.x, p.scene_max_y = tree.bounds.max.y;

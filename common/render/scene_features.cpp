@@ -15,7 +15,7 @@ const char* const kFeatureNames[FEATURE_COUNT] = {
     "triangles",     "spheres",  "diffuse",           "mirror", "glass", "triangle lights",
     "sphere lights", "k-d tree", "microfacet", "shading normals", "textures", "alpha mask",
     "punctual lights", "environment", "test NaN injection", "independent sampler",
-    "light tree", "wide BVH"};
+    "light tree", "wide BVH", "lights by contribution"};
 
 // The features of a material: its kind, then its textures and alpha mask.
 uint32_t material_features(const gpu::GpuMaterial& m) {
@@ -58,6 +58,7 @@ uint32_t scene_features(const GpuScene& g) {
              : (l.prim & LIGHT_SPHERE_BIT) ? FEATURE_SPHERE_LIGHTS
                                            : FEATURE_TRIANGLE_LIGHTS;
     if (g.params.num_tree_lights > 0) f |= FEATURE_LIGHT_TREE;
+    if (g.params.scene_flags & SCENE_LIGHT_CONTRIBUTION) f |= FEATURE_LIGHT_CONTRIBUTION;
     // The environment is seen by rays that escape, even when it is black.
     if (g.params.env_width > 0) f |= FEATURE_ENVIRONMENT;
     // The tree: the BVH, or the k-d tree when it has more than one leaf.

@@ -161,6 +161,15 @@ bool Scene::auto_light_tree() const {
     return local >= kAutoLightTreeMin || (local >= 2 && lamp_count() >= 1);
 }
 
+bool Scene::lamp_choice_possible() const {
+    return local_light_count() == lamp_count() && !environment.present() &&
+           punctual_lights.size() <= kLampChoiceMax;
+}
+
+bool Scene::auto_light_by_contribution() const {
+    return punctual_lights.size() >= 2 && lamp_choice_possible();
+}
+
 Bounds Scene::bounds() const {
     Bounds b;
     // Triangle vertices.
