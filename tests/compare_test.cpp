@@ -126,14 +126,18 @@ TEST(CompareBackends, RejectsTexturesShiftedByOneTexel) {
 
 // Lamps (tests/data/lamps.gltf: a point, a spot and a sun) and an environment map (a sky
 // brightening toward +Y with a sun 1000 times brighter) on the same geometry; a lamp 2%
-// brighter and an environment turned by one texel column in one backend are rejected.
+// brighter and an environment turned by one texel column in one backend are rejected. The
+// lamps are picked as auto picks them: by their contribution.
 Scene lamps_scene() {
-    return load_gltf(std::string(MCPT_TEST_DATA_DIR) + "/lamps.gltf");
+    Scene s = load_gltf(std::string(MCPT_TEST_DATA_DIR) + "/lamps.gltf");
+    s.light_by_contribution = s.auto_light_by_contribution();
+    return s;
 }
 
 Scene environment_scene(float rotate_deg = 0.f) {
     Scene s = lamps_scene();
     s.punctual_lights.clear();
+    s.light_by_contribution = false;
     Environment& env = s.environment;
     env.name = "sky";
     env.width = 64, env.height = 32;
