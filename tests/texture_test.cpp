@@ -52,6 +52,15 @@ TEST(Texture, WrapModes) {
         EXPECT_EQ(wrap_texel(i[k], 4, TEXTURE_WRAP_MIRROR), mirror[k]) << i[k];
     }
     EXPECT_EQ(wrap_texel(-16777216, 3, TEXTURE_WRAP_REPEAT), uint32_t((3 - 16777216 % 3) % 3));
+    // The bilinear fetch's pair: the same as two calls, at every mode, size and offset tried.
+    for (uint32_t mode : {TEXTURE_WRAP_REPEAT, TEXTURE_WRAP_CLAMP, TEXTURE_WRAP_MIRROR})
+        for (uint32_t size : {1u, 2u, 3u, 4u, 7u, 4096u})
+            for (int i : {-16777216, -16777215, -9, -8, -5, -4, -1, 0, 1, 2, 3, 4, 6, 7, 8,
+                          4095, 4096, 8191, 16777214, 16777215}) {
+                const gpu::uvec2 pair = gpu::wrap_texel_pair(i, size, mode);
+                EXPECT_EQ(pair.x, wrap_texel(i, size, mode)) << i << " " << size << " " << mode;
+                EXPECT_EQ(pair.y, wrap_texel(i + 1, size, mode)) << i << " " << size << " " << mode;
+            }
 }
 
 // A 2 x 2 texture of a scene (texels 0, 1 / 2, 3 in red), sampled through the device code.

@@ -49,6 +49,17 @@ MCPT_FN uint wrap_texel(int i, uint size, uint mode) {
     return k < size ? k : period - 1u - k;
 }
 
+// wrap_texel of i and of i + 1 (a bilinear fetch's two columns or rows), from one remainder:
+// the integer division and remainder cost a GPU a few dozen instructions each.
+MCPT_FN uvec2 wrap_texel_pair(int i, uint size, uint mode) {
+    if (mode == TEXTURE_WRAP_CLAMP)
+        return UV2(U32(clamp(i, 0, I32(size) - 1)), U32(clamp(i + 1, 0, I32(size) - 1)));
+    uint period = mode == TEXTURE_WRAP_MIRROR ? 2u * size : size;
+    uint k = U32(i + I32(period * (16777216u / period + 1u))) % period;
+    uint k1 = k + 1u == period ? 0u : k + 1u;
+    return UV2(k < size ? k : period - 1u - k, k1 < size ? k1 : period - 1u - k1);
+}
+
 MCPT_FN vec4 texel_rgba(SCENE_PARAMS_ GpuTexture t, uint x, uint y) {
 #ifdef MCPT_NEGATIVE_CONTROL_TEXEL_SHIFT
     x = min(x + 1u, t.width - 1u);  // tests: every read one texel to the right
@@ -87,8 +98,8 @@ MCPT_FN vec4 sample_texture(SCENE_PARAMS_ uint index, vec2 uv) {
     float x0f = floor(fx), y0f = floor(fy);
     float ax = fx - x0f, ay = fy - y0f;
     int x0 = I32(x0f), y0 = I32(y0f);
-    uint xa = wrap_texel(x0, t.width, wrap_s), xb = wrap_texel(x0 + 1, t.width, wrap_s);
-    uint ya = wrap_texel(y0, t.height, wrap_t), yb = wrap_texel(y0 + 1, t.height, wrap_t);
+    uvec2 xs = wrap_texel_pair(x0, t.width, wrap_s), ys = wrap_texel_pair(y0, t.height, wrap_t);
+    uint xa = xs.x, xb = xs.y, ya = ys.x, yb = ys.y;
     vec4 top =
         texel_rgba(SCENE_ARGS_ t, xa, ya) * (1.0f - ax) + texel_rgba(SCENE_ARGS_ t, xb, ya) * ax;
     vec4 bottom =
