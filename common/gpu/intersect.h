@@ -41,9 +41,15 @@ MCPT_STRUCT(TriHit) {
     bool hit;
 };
 
-MCPT_FN vec3 tri_v0(GpuTriangle tri) { return V3(tri.v0x, tri.v0y, tri.v0z); }
-MCPT_FN vec3 tri_v1(GpuTriangle tri) { return V3(tri.v1x, tri.v1y, tri.v1z); }
-MCPT_FN vec3 tri_v2(GpuTriangle tri) { return V3(tri.v2x, tri.v2y, tri.v2z); }
+MCPT_FN vec3 tri_v0(GpuTriangle tri) {
+    return V3(tri.v0x, tri.v0y, tri.v0z);
+}
+MCPT_FN vec3 tri_v1(GpuTriangle tri) {
+    return V3(tri.v1x, tri.v1y, tri.v1z);
+}
+MCPT_FN vec3 tri_v2(GpuTriangle tri) {
+    return V3(tri.v2x, tri.v2y, tri.v2z);
+}
 
 #if defined(MCPT_OPENCL)
 #pragma OPENCL FP_CONTRACT OFF
@@ -91,13 +97,79 @@ MCPT_FN TriHit intersect_triangle(Ray ray, WoopRay w, GpuTriangle tri) {
     float delta_z = gamma_bound(3.0f) * max_zt;
     float delta_x = gamma_bound(5.0f) * (max_xt + max_zt);
     float delta_y = gamma_bound(5.0f) * (max_yt + max_zt);
-    float delta_e = 2.0f * (gamma_bound(2.0f) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    float delta_e =
+        2.0f * (gamma_bound(2.0f) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
     float max_e = fmax3(ABSF(u), ABSF(v), ABSF(wv));
-    float delta_t = 3.0f * (gamma_bound(3.0f) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) *
+    float delta_t = 3.0f *
+                    (gamma_bound(3.0f) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) *
                     ABSF(inv_det);
     h.hit = h.t > delta_t && h.t < ray.tmax;
     return h;
 }
+#if defined(MCPT_OPENCL) && defined(MCPT_BVH_VECTOR)
+// OpenCL on CPU devices: intersect_triangle for four triangles at once, lane for lane the same
+// arithmetic, up to the comparisons with the ray's tmax, which the caller makes per lane
+// (closer_triangle_hits4: its tmax changes from one triangle to the next).
+MCPT_STRUCT(TriHit4) {
+    float4 t_scaled, det, t, b1, b2;
+    int4 ok;  // the tests that do not depend on tmax passed
+};
+
+MCPT_FN TriHit4 intersect_triangle4(Ray ray, WoopRay w, GpuTriangle t0, GpuTriangle t1,
+                                    GpuTriangle t2, GpuTriangle t3) {
+    // Vertices relative to the ray origin, a lane a triangle, then the axes taken as
+    // intersect_triangle takes them.
+    float4 a0 = (float4)(t0.v0x, t1.v0x, t2.v0x, t3.v0x) - ray.o.x;
+    float4 a1 = (float4)(t0.v0y, t1.v0y, t2.v0y, t3.v0y) - ray.o.y;
+    float4 a2 = (float4)(t0.v0z, t1.v0z, t2.v0z, t3.v0z) - ray.o.z;
+    float4 b0 = (float4)(t0.v1x, t1.v1x, t2.v1x, t3.v1x) - ray.o.x;
+    float4 b1 = (float4)(t0.v1y, t1.v1y, t2.v1y, t3.v1y) - ray.o.y;
+    float4 b2 = (float4)(t0.v1z, t1.v1z, t2.v1z, t3.v1z) - ray.o.z;
+    float4 c0 = (float4)(t0.v2x, t1.v2x, t2.v2x, t3.v2x) - ray.o.x;
+    float4 c1 = (float4)(t0.v2y, t1.v2y, t2.v2y, t3.v2y) - ray.o.y;
+    float4 c2 = (float4)(t0.v2z, t1.v2z, t2.v2z, t3.v2z) - ray.o.z;
+#define AXIS4(k, x, y, z) ((k) == 0u ? (x) : ((k) == 1u ? (y) : (z)))
+    float4 az = AXIS4(w.kz, a0, a1, a2), bz = AXIS4(w.kz, b0, b1, b2), cz = AXIS4(w.kz, c0, c1, c2);
+    float4 ax = AXIS4(w.kx, a0, a1, a2) - w.sx * az, ay = AXIS4(w.ky, a0, a1, a2) - w.sy * az;
+    float4 bx = AXIS4(w.kx, b0, b1, b2) - w.sx * bz, by = AXIS4(w.ky, b0, b1, b2) - w.sy * bz;
+    float4 cx = AXIS4(w.kx, c0, c1, c2) - w.sx * cz, cy = AXIS4(w.ky, c0, c1, c2) - w.sy * cz;
+#undef AXIS4
+    float4 u = cx * by - cy * bx;
+    float4 v = ax * cy - ay * cx;
+    float4 wv = bx * ay - by * ax;
+    TriHit4 h;
+    h.ok = ~(((u < 0.0f) | (v < 0.0f) | (wv < 0.0f)) & ((u > 0.0f) | (v > 0.0f) | (wv > 0.0f)));
+    h.det = u + v + wv;
+    h.ok &= h.det != 0.0f;
+    h.t_scaled = w.sz * (u * az + v * bz + wv * cz);
+    float4 inv_det = 1.0f / h.det;
+    h.t = h.t_scaled * inv_det;
+    h.b1 = v * inv_det;
+    h.b2 = wv * inv_det;
+    float4 max_zt = fmax(fabs(az), fmax(fabs(bz), fabs(cz))) * fabs(w.sz);
+    float4 max_xt = fmax(fabs(ax), fmax(fabs(bx), fabs(cx)));
+    float4 max_yt = fmax(fabs(ay), fmax(fabs(by), fabs(cy)));
+    float4 delta_z = gamma_bound(3.0f) * max_zt;
+    float4 delta_x = gamma_bound(5.0f) * (max_xt + max_zt);
+    float4 delta_y = gamma_bound(5.0f) * (max_yt + max_zt);
+    float4 delta_e =
+        2.0f * (gamma_bound(2.0f) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    float4 max_e = fmax(fabs(u), fmax(fabs(v), fabs(wv)));
+    float4 delta_t = 3.0f *
+                     (gamma_bound(3.0f) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) *
+                     fabs(inv_det);
+    h.ok &= h.t > delta_t;
+    return h;
+}
+
+// Lane k's hit against tmax, as intersect_triangle decides it.
+MCPT_FN bool triangle4_within(float t_scaled, float det, float t, float tmax) {
+    if (det < 0.0f && (t_scaled >= 0.0f || t_scaled < tmax * det)) return false;
+    if (det > 0.0f && (t_scaled <= 0.0f || t_scaled > tmax * det)) return false;
+    return t < tmax;
+}
+#endif
+
 #if defined(MCPT_OPENCL)
 #pragma OPENCL FP_CONTRACT ON
 #endif
@@ -161,9 +233,12 @@ MCPT_FN vec3 offset_ray_origin(vec3 p, vec3 p_error, vec3 n, vec3 w) {
     vec3 offset = n * dist;
     if (dot(w, n) < 0.0f) offset = -offset;
     vec3 po = p + offset;
-    po.x = offset.x > 0.0f ? next_float(po.x, 1.0f) : (offset.x < 0.0f ? next_float(po.x, -1.0f) : po.x);
-    po.y = offset.y > 0.0f ? next_float(po.y, 1.0f) : (offset.y < 0.0f ? next_float(po.y, -1.0f) : po.y);
-    po.z = offset.z > 0.0f ? next_float(po.z, 1.0f) : (offset.z < 0.0f ? next_float(po.z, -1.0f) : po.z);
+    po.x = offset.x > 0.0f ? next_float(po.x, 1.0f)
+                           : (offset.x < 0.0f ? next_float(po.x, -1.0f) : po.x);
+    po.y = offset.y > 0.0f ? next_float(po.y, 1.0f)
+                           : (offset.y < 0.0f ? next_float(po.y, -1.0f) : po.y);
+    po.z = offset.z > 0.0f ? next_float(po.z, 1.0f)
+                           : (offset.z < 0.0f ? next_float(po.z, -1.0f) : po.z);
     return po;
 }
 

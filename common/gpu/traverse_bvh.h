@@ -118,6 +118,42 @@ MCPT_FN uint bvh_child_hits_vector(uvec4 q0, uvec4 q1, uvec4 q2, uvec4 q3, uvec4
 #define BVH_CHILD_HITS bvh_child_hits
 #endif
 
+#if defined(MCPT_OPENCL) && defined(MCPT_BVH_VECTOR)
+// OpenCL on CPU devices: closer_triangle_hit for up to four triangles of a node's leaves at
+// once (intersect_triangle4), then each lane in order against the hit so far, as the loop of
+// single tests takes them: the same hit, bit for bit. With any_hit, the first lane that hits.
+MCPT_FN Hit closer_triangle_hits4(SCENE_PARAMS_ Ray ray, WoopRay wr, uint4 tri, uint n, uint skip,
+                                  bool any_hit, Hit hit) {
+#ifdef MCPT_COUNTERS
+    hit.tri_tests += n;
+#endif
+    TriHit4 h = intersect_triangle4(ray, wr, TRIANGLE(tri.s0), TRIANGLE(tri.s1), TRIANGLE(tri.s2),
+                                    TRIANGLE(tri.s3));
+    // Lane L against the nearest hit so far (closer_triangle_hit's rules).
+#define BVH_ACCEPT_LANE(L)                                                         \
+    if (n > L##u) {                                                                \
+        bool tie_wins = (hit.prim & SPHERE_BIT) == 0u && tri.s##L < hit.prim;      \
+        float tmax = tie_wins ? uint_as_float(float_as_uint(hit.t) + 1u) : hit.t;  \
+        bool ok = h.ok.s##L != 0 &&                                                \
+                  triangle4_within(h.t_scaled.s##L, h.det.s##L, h.t.s##L, tmax) && \
+                  tri.s##L != skip && (h.t.s##L != hit.t || tie_wins);             \
+        if (ok) {                                                                  \
+            hit.t = h.t.s##L;                                                      \
+            hit.b1 = h.b1.s##L;                                                    \
+            hit.b2 = h.b2.s##L;                                                    \
+            hit.prim = tri.s##L;                                                   \
+            if (any_hit) return hit;                                               \
+        }                                                                          \
+    }
+    BVH_ACCEPT_LANE(0)
+    BVH_ACCEPT_LANE(1)
+    BVH_ACCEPT_LANE(2)
+    BVH_ACCEPT_LANE(3)
+#undef BVH_ACCEPT_LANE
+    return hit;
+}
+#endif
+
 // Nearest triangle hit closer than hit.t (with any_hit, the first), ignoring `skip`.
 MCPT_FN Hit trace_bvh(SCENE_PARAMS_ Ray ray, WoopRay wr, bool any_hit, uint skip, Hit hit) {
     vec3 d = ray.d;
@@ -167,7 +203,26 @@ MCPT_FN Hit trace_bvh(SCENE_PARAMS_ Ray ray, WoopRay wr, bool any_hit, uint skip
             node_group = UV2(q1.x, (hits & 0xff000000u) | (q0.w >> 24u));
             tri_group = UV2(q1.y, hits & 0x00ffffffu);
         }
-        // The triangles of the node's hit leaves.
+        // The triangles of the node's hit leaves (CPU devices: four at a time).
+#if defined(MCPT_OPENCL) && defined(MCPT_BVH_VECTOR)
+        while (tri_group.y != 0u) {
+            uint4 tri = (uint4)(0u);
+            uint n = 0u;
+            for (uint k = 0u; k < 4u && tri_group.y != 0u; ++k) {
+                uint bit = FIND_MSB(tri_group.y);
+                tri_group.y &= ~(1u << bit);
+                uint t = LEAF_INDEX(tri_group.x + bit);
+                tri = k == 0u
+                          ? (uint4)(t)
+                          : (k == 1u ? (uint4)(tri.s0, t, t, t)
+                                     : (k == 2u ? (uint4)(tri.s01, t, t) : (uint4)(tri.s012, t)));
+                n += 1u;
+            }
+            float nearest = hit.t;
+            hit = closer_triangle_hits4(SCENE_ARGS_ ray, wr, tri, n, skip, any_hit, hit);
+            if (any_hit && hit.t < nearest) return hit;
+        }
+#endif
         while (tri_group.y != 0u) {
             uint bit = FIND_MSB(tri_group.y);
             tri_group.y &= ~(1u << bit);
