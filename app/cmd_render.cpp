@@ -89,9 +89,11 @@ void run_render(const RenderArgs& a) {
     std::vector<std::string> specs = device_specs(a.backend, a.devices);
     if (mpi.size > 1 && a.devices.empty()) specs = {rank_device(a.backend, mpi)};
     Session session(specs, bo);
-    session.set_environment(lighting_environment(a.lighting));
+    const Environment env = lighting_environment(a.lighting);
+    session.set_environment(env);
     Scene loaded = load_scene(a.scene);
     for (const std::string& w : loaded.warnings) std::cerr << "mcpt: warning: " << w << "\n";
+    if (env.present()) loaded.environment = env;  // the light choice sees it
     apply_light_sampling(loaded, a.lighting);
     session.set_scene(std::move(loaded));
     SessionSettings& s = session.settings();

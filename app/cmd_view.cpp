@@ -43,9 +43,9 @@ extern "C" void on_interrupt(int) {
 // A side's session: its devices, the scene and the view's settings (every rank of an MPI job
 // builds the same, so each greets rank 0 with the job's fingerprint), compiled now: errors
 // before the server starts.
-std::unique_ptr<Session> open_view_session(const std::vector<std::string>& spec,
-                                           const Scene& scene, const Environment& env,
-                                           const ViewArgs& args, bool side_b) {
+std::unique_ptr<Session> open_view_session(const std::vector<std::string>& spec, const Scene& scene,
+                                           const Environment& env, const ViewArgs& args,
+                                           bool side_b) {
     auto session = std::make_unique<Session>(spec, BackendOptions{});
     session->set_environment(env);
     session->set_scene(scene);
@@ -80,8 +80,9 @@ void run_view(const ViewArgs& args) {
     else
         specs = {device_specs(args.backend, args.devices)};
     Scene scene = load_scene_argument(args.scene);
-    apply_light_sampling(scene, args.lighting);
     const Environment env = lighting_environment(args.lighting);
+    if (env.present()) scene.environment = env;  // the light choice sees it
+    apply_light_sampling(scene, args.lighting);
     if (mpi.rank > 0) {
         // Ranks above 0: the chunks rank 0 hands out, until it says stop. mpirun passes a
         // Ctrl-C on to every rank as SIGTERM (SIGKILL a few seconds later): rank 0 stops the

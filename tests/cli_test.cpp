@@ -66,6 +66,21 @@ TEST(Cli, EnvironmentScaleOverflowIsNamed) {
     EXPECT_EQ(r.status, 0) << r.output;
 }
 
+// Lamps and a background: the light choice sees the background (lamps by contribution need
+// lamps alone), so auto renders with the tree; asking for contribution is refused, named.
+TEST(Cli, LampsWithABackgroundPickByTheTree) {
+    const std::string out =
+        (std::filesystem::temp_directory_path() / "mcpt_cli_lamps_bg.exr").string();
+    const std::string args = "render " + std::string(MCPT_TEST_DATA_DIR) +
+                             "/lamps.gltf --background 0.1,0.1,0.1 --spp 1 --width 8 --height 8 "
+                             "--backend opencl -o " +
+                             out;
+    const CliRun r = run_mcpt(args);
+    EXPECT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("light sampling: the tree"), std::string::npos) << r.output;
+    expect_error(args + " --light-sampling contribution", "every light must be a lamp");
+}
+
 // Under taskset the k-d build takes the one CPU granted (it took one thread per core of the
 // machine); the tree command says so.
 TEST(Cli, TreeBuildUnderTasksetTakesTheGrantedCpu) {

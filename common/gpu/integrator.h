@@ -361,6 +361,18 @@ MCPT_FN PathState start_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
     return without_shadow(st);
 }
 
+// Whether light arriving from wi may count at a vertex of geometric normal n (on wo's side)
+// and shading normal ns: on the same side of both surfaces (else it would leak through), in
+// front unless the material transmits.
+MCPT_FN bool light_on_side(GpuMaterial m, vec3 n, vec3 ns, vec3 wi) {
+    float cos_s = dot(ns, wi), cos_g = dot(n, wi);
+#ifdef MCPT_NEGATIVE_CONTROL_LEAK
+    return cos_s > 0.0f;  // tests: a variant that lets light leak
+#else
+    return is_transmissive(m) ? cos_s * cos_g > 0.0f : cos_s > 0.0f && cos_g > 0.0f;
+#endif
+}
+
 // Next-event estimation among a few lamps (SCENE_LIGHT_CONTRIBUTION: every light punctual,
 // at most LIGHT_CONTRIBUTION_MAX): each lamp's unshadowed contribution at the vertex, the
 // BSDF toward it included, and one picked in proportion to it, so the estimate is exact
@@ -376,11 +388,8 @@ MCPT_FN LightSample sample_lamp_by_contribution(SCENE_PARAMS_ GpuMaterial m, vec
     NO_UNROLL
     for (uint i = 0u; i < PARAM(num_lights); ++i) {
         LightSample ls = sample_punctual(SCENE_ARGS_ LIGHT(i).prim & LIGHT_INDEX_MASK, x, 1.0f);
-        // As the caller's test: the lamp on the same side of both normals.
-        float cos_s = dot(ns, ls.wi), cos_g = dot(n, ls.wi);
-        bool side = is_transmissive(m) ? cos_s * cos_g > 0.0f : cos_s > 0.0f && cos_g > 0.0f;
-        if (!ls.valid || !side) continue;
-        vec3 c = eval_bsdf(m, ns, wo, ls.wi, front).f * ls.le * ABSF(cos_s);
+        if (!ls.valid || !light_on_side(m, n, ns, ls.wi)) continue;
+        vec3 c = eval_bsdf(m, ns, wo, ls.wi, front).f * ls.le * ABSF(dot(ns, ls.wi));
         float w = c.x + c.y + c.z;
         if (!(w > 0.0f) || is_nonfinite(w)) continue;
         total += w;
@@ -492,16 +501,8 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
             ls = sample_lamp_by_contribution(SCENE_ARGS_ m, s.p, n, ns, wo, front, ua.z);
         else
             ls = sample_light(SCENE_ARGS_ s.p, rn, V3(ua.z, ua.x, ua.y));
-        // The light must lie on the same side of the shading and the geometric surface
-        // (else it would leak through), in front unless the material transmits.
-        float cos_s = dot(ns, ls.wi), cos_g = dot(n, ls.wi);
-        float cos_x = ABSF(cos_s);
-#ifdef MCPT_NEGATIVE_CONTROL_LEAK
-        bool side = cos_s > 0.0f;  // tests: a variant that lets light leak
-#else
-        bool side = is_transmissive(m) ? cos_s * cos_g > 0.0f : cos_s > 0.0f && cos_g > 0.0f;
-#endif
-        if (ls.valid && side) {
+        float cos_x = ABSF(dot(ns, ls.wi));
+        if (ls.valid && light_on_side(m, n, ns, ls.wi)) {
             Ray shadow;
             shadow.o = offset_ray_origin(s.p, s.p_error, s.ng, ls.wi);
             shadow.d = offset_ray_origin(ls.p, ls.p_error, ls.n, -ls.wi) - shadow.o;

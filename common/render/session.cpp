@@ -129,6 +129,7 @@ Session::~Session() = default;
 void Session::set_scene(Scene scene) {
     scene_ = std::move(scene);
     if (environment_.present()) scene_.environment = environment_;
+    keep_light_choice_possible();
     has_scene_ = true;
     dirty_ = true;
     loaded_ = false;
@@ -137,8 +138,17 @@ void Session::set_scene(Scene scene) {
 void Session::set_environment(Environment env) {
     environment_ = std::move(env);
     scene_.environment = environment_;
+    keep_light_choice_possible();
     dirty_ = true;
     loaded_ = false;
+}
+
+void Session::keep_light_choice_possible() {
+    // Lamps by contribution need lamps alone: with an environment added (the C API sets it
+    // after the scene), auto's next choice.
+    if (!scene_.light_by_contribution || scene_.lamp_choice_possible()) return;
+    scene_.light_by_contribution = false;
+    scene_.light_tree = scene_.auto_light_tree();
 }
 
 int Session::max_depth() const {

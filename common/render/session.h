@@ -102,7 +102,9 @@ class Session {
     void set_scene(Scene scene);
     bool has_scene() const { return has_scene_; }
     // Lights this scene, and every scene set after, with `env` (an environment map or a
-    // constant background; Environment{} removes it).
+    // constant background; Environment{} removes it). A scene whose lamps were picked by
+    // contribution (Scene::light_by_contribution) and now has an environment takes the tree
+    // or power, as --light-sampling auto would.
     void set_environment(Environment env);
     const Scene& scene() const { return scene_; }
 
@@ -178,11 +180,12 @@ class Session {
     Fingerprint fingerprint() const;
 
   private:
+    void keep_light_choice_possible();
     PassStats render_on_devices(double budget_s, double target_error, uint64_t max_spp);
-    bool round_open_ = false;    // render_chunk() added samples since add_round_to()
+    bool round_open_ = false;     // render_chunk() added samples since add_round_to()
     bool round_flushed_ = false;  // and finish_round() read them back
-    double reduce_seconds_ = 0;  // collecting the last round's sums
-    double collect_s_ = 0;       // one device: the last read-back and error estimate
+    double reduce_seconds_ = 0;   // collecting the last round's sums
+    double collect_s_ = 0;        // one device: the last read-back and error estimate
     uint64_t readbacks_ = 0;
     double readback_total_s_ = 0;
     uint64_t rounds_ = 0;
