@@ -363,7 +363,7 @@ MCPT_FN PathState start_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
 
 // Whether light arriving from wi may count at a vertex of geometric normal n (on wo's side)
 // and shading normal ns: on the same side of both surfaces (else it would leak through), in
-// front unless the material transmits.
+// front unless the material transmits. (shade_vertex writes the same test out.)
 MCPT_FN bool light_on_side(GpuMaterial m, vec3 n, vec3 ns, vec3 wi) {
     float cos_s = dot(ns, wi), cos_g = dot(n, wi);
 #ifdef MCPT_NEGATIVE_CONTROL_LEAK
@@ -501,8 +501,17 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
             ls = sample_lamp_by_contribution(SCENE_ARGS_ m, s.p, n, ns, wo, front, ua.z);
         else
             ls = sample_light(SCENE_ARGS_ s.p, rn, V3(ua.z, ua.x, ua.y));
-        float cos_x = ABSF(dot(ns, ls.wi));
-        if (ls.valid && light_on_side(m, n, ns, ls.wi)) {
+        // The light must lie on the same side of the shading and the geometric surface
+        // (else it would leak through), in front unless the material transmits. (Written out
+        // here, not light_on_side(): NVIDIA's OpenCL ran the materials scene 7-9% slower so.)
+        float cos_s = dot(ns, ls.wi), cos_g = dot(n, ls.wi);
+        float cos_x = ABSF(cos_s);
+#ifdef MCPT_NEGATIVE_CONTROL_LEAK
+        bool side = cos_s > 0.0f;  // tests: a variant that lets light leak
+#else
+        bool side = is_transmissive(m) ? cos_s * cos_g > 0.0f : cos_s > 0.0f && cos_g > 0.0f;
+#endif
+        if (ls.valid && side) {
             Ray shadow;
             shadow.o = offset_ray_origin(s.p, s.p_error, s.ng, ls.wi);
             shadow.d = offset_ray_origin(ls.p, ls.p_error, ls.n, -ls.wi) - shadow.o;
