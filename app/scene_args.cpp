@@ -110,10 +110,12 @@ void apply_light_sampling(Scene& scene, const LightingArgs& lighting) {
             "--light-sampling contribution: every light must be a lamp (point, spot or "
             "directional; no emissive surface, no environment), at most " +
             std::to_string(Scene::kLampChoiceMax) + " of them");
-    scene.light_by_contribution =
-        how == "contribution" || (how == "auto" && scene.auto_light_by_contribution());
-    scene.light_tree =
-        how == "tree" || (how == "auto" && !scene.light_by_contribution && scene.auto_light_tree());
+    if (how == "auto") {
+        scene.choose_lights_automatically();
+        return;
+    }
+    scene.light_by_contribution = how == "contribution";
+    scene.light_tree = how == "tree";
 }
 
 }  // namespace mcpt

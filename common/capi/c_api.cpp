@@ -310,8 +310,7 @@ mcpt_status mcpt_session_device(mcpt_session s, mcpt_device_info* out) {
 namespace {
 // Lights picked as the command line's --light-sampling auto picks them.
 mcpt::Scene with_auto_light_sampling(mcpt::Scene scene) {
-    scene.light_by_contribution = scene.auto_light_by_contribution();
-    scene.light_tree = !scene.light_by_contribution && scene.auto_light_tree();
+    scene.choose_lights_automatically();
     return scene;
 }
 }  // namespace

@@ -206,17 +206,15 @@ MCPT_FN Hit trace_bvh(SCENE_PARAMS_ Ray ray, WoopRay wr, bool any_hit, uint skip
         // The triangles of the node's hit leaves (CPU devices: four at a time).
 #if defined(MCPT_OPENCL) && defined(MCPT_BVH_VECTOR)
         while (tri_group.y != 0u) {
+            // Lane n takes the n-th triangle popped; the lanes after it repeat it (tested,
+            // never accepted: n counts the real ones).
             uint4 tri = (uint4)(0u);
             uint n = 0u;
-            for (uint k = 0u; k < 4u && tri_group.y != 0u; ++k) {
+            for (; n < 4u && tri_group.y != 0u; ++n) {
                 uint bit = FIND_MSB(tri_group.y);
                 tri_group.y &= ~(1u << bit);
                 uint t = LEAF_INDEX(tri_group.x + bit);
-                tri = k == 0u
-                          ? (uint4)(t)
-                          : (k == 1u ? (uint4)(tri.s0, t, t, t)
-                                     : (k == 2u ? (uint4)(tri.s01, t, t) : (uint4)(tri.s012, t)));
-                n += 1u;
+                tri = (uint4)(n == 0u ? t : tri.s0, n <= 1u ? t : tri.s1, n <= 2u ? t : tri.s2, t);
             }
             float nearest = hit.t;
             hit = closer_triangle_hits4(SCENE_ARGS_ ray, wr, tri, n, skip, any_hit, hit);

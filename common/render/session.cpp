@@ -146,9 +146,8 @@ void Session::set_environment(Environment env) {
 void Session::keep_light_choice_possible() {
     // Lamps by contribution need lamps alone: with an environment added (the C API sets it
     // after the scene), auto's next choice.
-    if (!scene_.light_by_contribution || scene_.lamp_choice_possible()) return;
-    scene_.light_by_contribution = false;
-    scene_.light_tree = scene_.auto_light_tree();
+    if (scene_.light_by_contribution && !scene_.lamp_choice_possible())
+        scene_.choose_lights_automatically();
 }
 
 int Session::max_depth() const {

@@ -170,6 +170,11 @@ bool Scene::auto_light_by_contribution() const {
     return punctual_lights.size() >= 2 && lamp_choice_possible();
 }
 
+void Scene::choose_lights_automatically() {
+    light_by_contribution = auto_light_by_contribution();
+    light_tree = !light_by_contribution && auto_light_tree();
+}
+
 Bounds Scene::bounds() const {
     Bounds b;
     // Triangle vertices.

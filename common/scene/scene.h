@@ -144,6 +144,9 @@ struct Scene {
     // there are at most kLampChoiceMax of them: what light_by_contribution needs.
     static constexpr size_t kLampChoiceMax = 8;  // = LIGHT_CONTRIBUTION_MAX (gpu_scene.cpp)
     bool lamp_choice_possible() const;
+    // --light-sampling auto (and the C API): sets light_by_contribution where
+    // auto_light_by_contribution(), else light_tree where auto_light_tree().
+    void choose_lights_automatically();
     // --light-sampling auto: by contribution wherever it is possible with two lamps or more.
     // Measured (PoCL, docs/lights.md): three Blender lamps, 4x less variance per sample than
     // the tree for 7% more time per sample.
