@@ -256,6 +256,11 @@ void write_converge_report(const ConvergeArgs& a, const std::string& label, cons
 struct ConvergeJob {
     std::vector<std::string> specs;
     bool with_ranks = true;
+    // --beside-one's run on the first device alone, before its twin on all of them. It takes
+    // its twin's seeds: the same samples, so the two curves differ in time only, not in one
+    // seed's luck.
+    bool beside = false;
+    size_t first_run = 0;  // the index of its first run among all runs, for run_seed()
 };
 
 // Each backend's runs: on its --device list (one image on several devices, coordinator.h), and
@@ -268,13 +273,19 @@ std::vector<ConvergeJob> converge_jobs(const ConvergeArgs& a, const MpiJob& mpi)
         if (mpi.size > 1) {
             const std::string spec = a.devices.empty() ? rank_device(backend, mpi)
                                                        : device_specs(backend, a.devices)[0];
-            if (a.beside_one) jobs.push_back({{spec}, false});
+            if (a.beside_one) jobs.push_back({{spec}, false, true});
             jobs.push_back({{spec}, true});
             continue;
         }
         const std::vector<std::string> specs = device_specs(backend, a.devices);
-        if (a.beside_one && specs.size() > 1) jobs.push_back({{specs.front()}, false});
+        if (a.beside_one && specs.size() > 1) jobs.push_back({{specs.front()}, false, true});
         jobs.push_back({specs, false});
+    }
+    // Seeds: every job's runs count, but a job beside its twin's.
+    size_t runs = 0;
+    for (ConvergeJob& job : jobs) {
+        job.first_run = runs;
+        if (!job.beside) runs += a.samplers.size() * a.sampling.size();
     }
     return jobs;
 }
@@ -290,7 +301,7 @@ std::unique_ptr<Session> open_job_session(const ConvergeArgs& a, const ConvergeJ
     return session;
 }
 
-// The seed of run `index` (every run of every job counted, in order).
+// The seed of run `index` (the runs of every job counted in order, --beside-one's as its twin's).
 uint32_t run_seed(const ConvergeArgs& a, size_t index) {
     return a.seed + 100000u * uint32_t(index);
 }
@@ -298,12 +309,9 @@ uint32_t run_seed(const ConvergeArgs& a, size_t index) {
 // Ranks above 0 of an MPI job: each run that has ranks, rendered as rank 0 hands it out.
 void serve_converge(const ConvergeArgs& a, const std::vector<ConvergeJob>& jobs,
                     const Scene& scene, uint32_t max_depth) {
-    size_t index = 0;
     for (const ConvergeJob& job : jobs) {
-        if (!job.with_ranks) {
-            index += a.samplers.size() * a.sampling.size();
-            continue;
-        }
+        if (!job.with_ranks) continue;
+        size_t index = job.first_run;
         std::unique_ptr<Session> session = open_job_session(a, job, scene, max_depth);
         for (const std::string& sampler : a.samplers)
             for (const std::string& sampling : a.sampling) {
@@ -370,11 +378,12 @@ void run_converge(const ConvergeArgs& a) {
         std::unique_ptr<Session> owned = open_job_session(a, job, scene, ro.max_depth);
         Session& session = *owned;
         const Backend& backend = session.backend();
+        size_t index = job.first_run;
         for (const std::string& sampler : a.samplers)
             for (const std::string& sampling : a.sampling) {
                 session.settings().sampler = sampler;
                 session.settings().adaptive = sampling == "adaptive";
-                session.settings().seed = run_seed(a, runs.size());
+                session.settings().seed = run_seed(a, index++);
                 // Under mpirun: the other ranks join this run (each said it has the same job).
                 if (job.with_ranks)
                     for (auto& w : mpi_remote_workers(session.fingerprint(), rank_job))
@@ -506,7 +515,7 @@ void add_converge_command(CLI::App& app) {
     sub->add_option("--tree", a->tree, "auto (per device: SAH or none), sah, median, none or bvh")
         ->check(CLI::IsMember({"auto", "sah", "median", "none", "bvh"}))
         ->capture_default_str();
-    sub->add_option("--seed", a->seed, "Seed of the first run (each further run adds 100000)")
+    sub->add_option("--seed", a->seed, "Seed of the first run (each further run adds 100000; --beside-one's takes its twin's)")
         ->capture_default_str();
     sub->add_option("--sampler", a->samplers,
                     "sobol (Owen-scrambled Sobol) and/or independent, one run per backend each")

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "common/analysis/convergence.h"
@@ -221,14 +222,19 @@ TEST(ConvergeCli, SeveralDevicesAndOneBeside) {
          at = out.find("consistent: slope", at + 1))
         ++consistent;
     EXPECT_EQ(consistent, 2u) << out;
+    // The first device alone renders the same samples (its twin's seed): at every checkpoint
+    // the same error, up to the float sums' order. Two seeds differ by percents here.
     std::ifstream csv(prefix + ".csv");
-    size_t one = 0, two = 0;
+    std::map<std::string, std::vector<double>> rel_rmse;  // by backend, one per checkpoint
     for (std::string line; std::getline(csv, line);) {
-        one += line.rfind("opencl,", 0) == 0;
-        two += line.rfind("opencl x2,", 0) == 0;
+        const std::string backend = line.substr(0, line.find(','));
+        rel_rmse[backend].push_back(std::atof(line.substr(line.rfind(',') + 1).c_str()));
     }
-    EXPECT_EQ(one, 7u);
-    EXPECT_EQ(two, 7u);
+    ASSERT_EQ(rel_rmse["opencl"].size(), 7u);
+    ASSERT_EQ(rel_rmse["opencl x2"].size(), 7u);
+    for (size_t i = 0; i < 7; ++i)
+        EXPECT_NEAR(rel_rmse["opencl x2"][i], rel_rmse["opencl"][i], 1e-5 * rel_rmse["opencl"][i])
+            << "checkpoint " << i;
 }
 
 TEST(ConvergeCli, RenderStopsAtTargetError) {
