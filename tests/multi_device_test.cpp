@@ -106,6 +106,40 @@ TEST(Coordinator, ChunksCoverTheJobOnceSharedBySpeed) {
     EXPECT_FALSE(tiles(overlap, 0, 2000, 16));
 }
 
+// A round with an end on devices of one speed: each takes a quarter in one chunk, and they
+// end together (a device that asks first must not take more than its part).
+TEST(Coordinator, EqualDevicesShareARoundInOneChunkEach) {
+    FakeWorker a("a", 2000), b("b", 2000), c("c", 2000), d("d", 2000);
+    RenderResult total;
+    JobLimits lim = limits(400, 0, 1, 0.5);
+    lim.min_share_seconds = 0.01;
+    Coordinator job(total, lim, {&a, &b, &c, &d}, {2000, 2000, 2000, 2000});
+    job.run();
+    EXPECT_EQ(total.spp, 400u);
+    for (const WorkerStats& s : job.stats()) {
+        EXPECT_EQ(s.chunks, 1u) << s.name;
+        EXPECT_NEAR(double(s.samples), 100.0, 2.0) << s.name;
+    }
+}
+
+// A round too short to share: the measured device renders it; devices not measured yet count
+// at its speed and sit it out (joining costs a collection), but join a round worth it.
+TEST(Coordinator, DevicesSitOutARoundTooShortToShare) {
+    FakeWorker a("a", 1000), b("b", 1000), c("c", 1000), d("d", 1000);
+    RenderResult total;
+    JobLimits lim = limits(32, 0, 1, 0.5);
+    lim.min_share_seconds = 0.05;  // 50 samples at their speed
+    Coordinator tiny(total, lim, {&a, &b, &c, &d}, {1000});
+    tiny.run();
+    EXPECT_EQ(total.spp, 32u);
+    EXPECT_EQ(tiny.stats()[0].samples, 32u);
+    lim.end = 32 + 800;
+    Coordinator large(total, lim, {&a, &b, &c, &d}, tiny.rates());
+    large.run();
+    EXPECT_EQ(total.spp, 832u);
+    for (const WorkerStats& s : large.stats()) EXPECT_GT(s.samples, 0u) << s.name;
+}
+
 TEST(Coordinator, AFailedDeviceEndsTheJobNamedKeepingAPrefix) {
     FakeWorker good("good", 2000), bad("bad", 2000, 8);
     RenderResult total;

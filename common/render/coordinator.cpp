@@ -15,6 +15,7 @@ Coordinator::Coordinator(RenderResult& total, const JobLimits& limits,
     lim_.granule = std::max(1u, lim_.granule);
     next_first_ = total_.first + total_.spp;
     stats_.resize(workers_.size());
+    busy_until_.assign(workers_.size(), 0.0);
     for (size_t w = 0; w < workers_.size(); ++w) {
         stats_[w].name = workers_[w]->name();
         if (w < rates.size()) stats_[w].rate = rates[w];
@@ -41,13 +42,11 @@ std::optional<Chunk> Coordinator::next(size_t w) {
         }
         if (rate > 0) size = std::min(size, rate * left);
     }
-    // With a sample count: the rest shared among the workers, so they finish together.
+    // With a sample count: this worker's share of the rest, so that all finish together.
     if (lim_.end > 0) {
-        const double left = double(lim_.end - next_first_);
-        double sharers = double(workers_.size());
-        if (rate > 0 && lim_.min_share_seconds > 0)
-            sharers = std::clamp(std::floor(left / (rate * lim_.min_share_seconds)), 1.0, sharers);
-        size = std::min(size, std::max(g, std::ceil(left / sharers / g) * g));
+        const double left = double(lim_.end - next_first_), share = share_of_rest(w, left, now);
+        if (!(share > 0)) return std::nullopt;
+        size = std::min(size, std::max(g, std::ceil(share / g) * g));
         size = std::min(size, left);
     }
     const uint64_t n = std::max<uint64_t>(lim_.granule, uint64_t(size / g) * lim_.granule);
@@ -55,7 +54,58 @@ std::optional<Chunk> Coordinator::next(size_t w) {
     const Chunk chunk{next_first_, end};
     next_first_ = end;
     handed_any_ = true;
+    // When it should be free again (its speed, or its peers' while unmeasured).
+    const double speed = rate > 0 ? rate : mean_rate();
+    busy_until_[w] = speed > 0 ? now + double(end - chunk.first) / speed : now;
     return chunk;
+}
+
+double Coordinator::mean_rate() const {
+    double sum = 0;
+    int known = 0;
+    for (const WorkerStats& s : stats_)
+        if (s.rate > 0) sum += s.rate, ++known;
+    return known > 0 ? sum / known : 0;
+}
+
+double Coordinator::share_of_rest(size_t w, double left, double now) const {
+    // Nothing measured yet: an equal split.
+    const double mean = mean_rate();
+    if (!(mean > 0)) return left / double(workers_.size());
+    // Each worker from when it is free (this one now, the others when their chunks should
+    // end), at its speed (its peers' while unmeasured), sorted by that time, this one first.
+    struct Free {
+        double at, rate;
+        size_t w;
+    };
+    std::vector<Free> free;
+    for (size_t i = 0; i < workers_.size(); ++i)
+        free.push_back({i == w ? now : std::max(now, busy_until_[i]),
+                        stats_[i].rate > 0 ? stats_[i].rate : mean, i});
+    // At one time the measured first (an unmeasured worker's speed is a guess), then w.
+    const auto measured = [this](const Free& f) { return stats_[f.w].rate > 0; };
+    std::sort(free.begin(), free.end(), [&](const Free& a, const Free& b) {
+        if (a.at != b.at) return a.at < b.at;
+        if (measured(a) != measured(b)) return measured(a);
+        return (a.w == w) > (b.w == w);
+    });
+    // The common end T: the workers free before it render rate * (T - at) each, `left` in all.
+    double rates = 0, weighted = 0, end = now;
+    size_t k = 0;
+    for (; k < free.size() && (k == 0 || free[k].at < end); ++k) {
+        rates += free[k].rate, weighted += free[k].rate * free[k].at;
+        end = (left + weighted) / rates;
+    }
+    // The last to join sit out while their part would be shorter than a collection costs.
+    while (k > 1 && end - free[k - 1].at < lim_.min_share_seconds) {
+        --k;
+        rates -= free[k].rate, weighted -= free[k].rate * free[k].at;
+        end = (left + weighted) / rates;
+    }
+    // w's part, or none: it sits this round out.
+    for (size_t i = 0; i < k; ++i)
+        if (free[i].w == w) return free[i].rate * (end - now);
+    return 0;
 }
 
 void Coordinator::done(size_t w, const Chunk& chunk, double seconds) {

@@ -50,7 +50,7 @@ struct JobLimits {
     double chunk_seconds = 0.5;  // a chunk's duration on the device that takes it
     // With an end: the rest is shared by no more devices than get this long a share each (a
     // device that joins a round adds its sums at the end: a tiny share costs more than it
-    // saves). 0: shared by all.
+    // saves; an unmeasured device counts at its peers' speed). 0: shared by all.
     double min_share_seconds = 0;
 };
 
@@ -93,10 +93,19 @@ class Coordinator {
 
   private:
     double elapsed() const;
+    // The measured workers' mean speed (samples per pixel per second); 0: none measured.
+    double mean_rate() const;
+    // Worker w's part of the `left` samples to hand out, asked at `now`: the workers free
+    // before a common end (w now, the others when their chunks should end) share them by
+    // speed so that all end together; the last to be free (unmeasured ones last among equals)
+    // sit out while their part would last less than min_share_seconds. 0: w sits out (the
+    // others, measured, take the rest). An equal split while no worker is measured.
+    double share_of_rest(size_t w, double left, double now) const;
     RenderResult& total_;
     JobLimits lim_;
     std::vector<Worker*> workers_;
     std::vector<WorkerStats> stats_;
+    std::vector<double> busy_until_;  // per worker: when its chunk should end (s since start)
     std::chrono::steady_clock::time_point start_;
     std::mutex mutex_;
     std::condition_variable changed_;
