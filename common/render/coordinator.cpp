@@ -182,7 +182,17 @@ void Coordinator::run(const std::atomic<bool>* cancel) {
     // added straight to the total (exact sums in any order give the same bits).
     const auto t0 = std::chrono::steady_clock::now();
     const uint64_t before = total_.spp, expected = next_first_ - (total_.first + total_.spp);
-    for (Worker* w : workers_) w->add_round_to(total_);
+    // The sums this process holds in one pass over the image, the others' as they come.
+    std::vector<const RenderResult*> held;
+    std::vector<Worker*> holders;
+    for (Worker* w : workers_) {
+        if (const RenderResult* sums = w->round_sums())
+            held.push_back(sums), holders.push_back(w);
+        else
+            w->add_round_to(total_);
+    }
+    accumulate_sums(total_, held);
+    for (Worker* w : holders) w->start_round();
     if (total_.spp - before != expected) {
         const uint64_t got = total_.spp - before;
         total_ = RenderResult{};  // a device counted wrong: none of the sums can be trusted

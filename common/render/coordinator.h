@@ -41,6 +41,11 @@ class Worker {
     // Adds the round's sums (every chunk since the last call; samples counted, not placed) to
     // `total`, and starts a new round.
     virtual void add_round_to(RenderResult& total) = 0;
+    // The round's sums when this process holds them (after finish_round()), for the
+    // coordinator to add with the other workers' in one pass over the image; it then calls
+    // start_round() instead of add_round_to(). nullptr: add_round_to() adds them.
+    virtual const RenderResult* round_sums() { return nullptr; }
+    virtual void start_round() {}
 };
 
 struct JobLimits {

@@ -83,36 +83,55 @@ void RenderResult::materialize() {
 }
 
 void accumulate_sums(RenderResult& to, const RenderResult& part) {
-    if (to.sum.empty()) {
+    accumulate_sums(to, std::vector<const RenderResult*>{&part});
+}
+
+void accumulate_sums(RenderResult& to, const std::vector<const RenderResult*>& parts) {
+    size_t from = 0;
+    if (to.sum.empty() && !parts.empty()) {
         const uint64_t first = to.first;
-        to = part;
+        to = *parts[0];
         to.first = first;
-        return;
+        from = 1;
     }
-    if (part.width != to.width || part.height != to.height)
-        throw Error("sums of " + std::to_string(part.width) + "x" + std::to_string(part.height) +
-                    " pixels added to " + std::to_string(to.width) + "x" +
-                    std::to_string(to.height));
-    if (part.exact.empty() != to.exact.empty())
-        throw Error("exact (reproducible) and inexact sums cannot be added");
-    // Pixel ranges in threads of their own.
+    for (size_t p = from; p < parts.size(); ++p) {
+        const RenderResult& part = *parts[p];
+        if (part.width != to.width || part.height != to.height)
+            throw Error("sums of " + std::to_string(part.width) + "x" +
+                        std::to_string(part.height) + " pixels added to " +
+                        std::to_string(to.width) + "x" + std::to_string(to.height));
+        if (part.exact.empty() != to.exact.empty())
+            throw Error("exact (reproducible) and inexact sums cannot be added");
+    }
+    if (from == parts.size()) return;
+    // Pixel ranges in threads of their own; within a range, blocks small enough to stay in
+    // the cache while every part is added to them (one pass over the image for all parts).
     std::atomic<bool> fits{true};
     for_ranges(to.nonfinite.size(), [&](size_t begin, size_t end) {
-        if (!to.exact.empty()) {
-            for (size_t k = 6 * begin; k < 6 * end; ++k)
-                if (!add_exact(to.exact[k], part.exact[k])) fits.store(false);
-        } else {
-            for (size_t k = 3 * begin; k < 3 * end; ++k)
-                to.sum[k] += part.sum[k], to.sum_sq[k] += part.sum_sq[k];
+        constexpr size_t kBlock = 2048;
+        for (size_t b0 = begin; b0 < end; b0 += kBlock) {
+            const size_t b1 = std::min(end, b0 + kBlock);
+            for (size_t p = from; p < parts.size(); ++p) {
+                const RenderResult& part = *parts[p];
+                if (!to.exact.empty()) {
+                    for (size_t k = 6 * b0; k < 6 * b1; ++k)
+                        if (!add_exact(to.exact[k], part.exact[k])) fits.store(false);
+                } else {
+                    for (size_t k = 3 * b0; k < 3 * b1; ++k)
+                        to.sum[k] += part.sum[k], to.sum_sq[k] += part.sum_sq[k];
+                }
+                for (size_t i = b0; i < b1; ++i) to.nonfinite[i] += part.nonfinite[i];
+            }
         }
-        for (size_t i = begin; i < end; ++i) to.nonfinite[i] += part.nonfinite[i];
     });
     if (!fits.load())
         throw Error("radiance too large for reproducible sums (beyond 7.6e22 per pixel)");
-    to.spp += part.spp;
-    to.rays += part.rays;
-    to.nonfinite_total += part.nonfinite_total;
-    to.seconds += part.seconds;
+    for (size_t p = from; p < parts.size(); ++p) {
+        to.spp += parts[p]->spp;
+        to.rays += parts[p]->rays;
+        to.nonfinite_total += parts[p]->nonfinite_total;
+        to.seconds += parts[p]->seconds;
+    }
 }
 
 void add_sums(RenderResult& to, const RenderResult& part) {

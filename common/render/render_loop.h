@@ -96,6 +96,8 @@ void add_sums(RenderResult& to, const RenderResult& part);
 // Adds `part`'s sums and counts to `to` wherever its samples lie (to.first kept); an empty `to`
 // takes part's. Throws mcpt::Error as add_sums() does, but for the placement.
 void accumulate_sums(RenderResult& to, const RenderResult& part);
+// Adds every part, as accumulate_sums() one after the other would, in one pass over the image.
+void accumulate_sums(RenderResult& to, const std::vector<const RenderResult*>& parts);
 
 // The render loop as a resumable object: passes of a few rounds each, device sums flushed into
 // double precision every options.flush_spp samples. A round gives every pixel of a tile some

@@ -59,6 +59,8 @@ class SessionWorker : public Worker {
     void render(const Chunk& chunk) override { s_.render_chunk(chunk.first, chunk.end); }
     void finish_round() override { s_.finish_round(); }
     void add_round_to(RenderResult& total) override { s_.add_round_to(total); }
+    const RenderResult* round_sums() override { return s_.round_sums(); }
+    void start_round() override { s_.start_round(); }
 
   private:
     Session& s_;
@@ -253,6 +255,16 @@ void Session::add_round_to(RenderResult& total) {
     if (!round_open_) return;
     finish_round();
     accumulate_sums(total, progressive_->settled_sums());
+    round_open_ = round_flushed_ = false;
+}
+
+const RenderResult* Session::round_sums() {
+    if (!round_open_) return nullptr;
+    finish_round();
+    return &progressive_->settled_sums();
+}
+
+void Session::start_round() {
     round_open_ = round_flushed_ = false;
 }
 

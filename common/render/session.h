@@ -140,6 +140,10 @@ class Session {
     // Adds the round's sums to `total` (coordinator.h, Worker::add_round_to) and starts a new
     // round.
     void add_round_to(RenderResult& total);
+    // The round's sums, read back (nullptr: no chunk since the last round), for the
+    // coordinator to add; start_round() then starts a new round (Worker::round_sums).
+    const RenderResult* round_sums();
+    void start_round();
 
     // Drops the samples taken (the next render() starts from zero).
     void reset();
