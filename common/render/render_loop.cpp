@@ -213,9 +213,15 @@ void ProgressiveRender::add_device_sums(RenderResult& to) const {
     // exact additions); reproducible: the group's float sums added exactly (exact_sums.h).
     const bool exact = !to.exact.empty();
     std::atomic<bool> fits{true};
+    // Counts per pixel are whole numbers (floats exact below 2^24): summed as integers on the
+    // threads, the totals are the same in any order.
+    std::atomic<uint64_t> nonfinite{0}, rays{0};
     for_ranges(npix_, [&](size_t begin, size_t end) {
         bool ok = true;
+        uint64_t range_nonfinite = 0, range_rays = 0;
         for (size_t i = begin; i < end; ++i) {
+            range_nonfinite += uint64_t(device_sums_[8 * i + 3]);
+            range_rays += uint64_t(device_sums_[8 * i + 7]);
             const float* a = &device_sums_[8 * i];
             for (int c = 0; c < 3; ++c) {
                 if (exact) {
@@ -230,12 +236,10 @@ void ProgressiveRender::add_device_sums(RenderResult& to) const {
             to.nonfinite[i] += a[3];
         }
         if (!ok) fits.store(false);
+        nonfinite += range_nonfinite, rays += range_rays;
     });
-    // Counts in pixel order (the same total on every run).
-    for (size_t i = 0; i < npix_; ++i) {
-        to.nonfinite_total += uint64_t(device_sums_[8 * i + 3]);
-        to.rays += device_sums_[8 * i + 7];
-    }
+    to.nonfinite_total += nonfinite.load();
+    to.rays += double(rays.load());
     if (!fits.load())
         throw Error(
             "radiance too large for reproducible sums (beyond 7.6e22 per pixel): render "
