@@ -515,7 +515,9 @@ void add_converge_command(CLI::App& app) {
     sub->add_option("--tree", a->tree, "auto (per device: SAH or none), sah, median, none or bvh")
         ->check(CLI::IsMember({"auto", "sah", "median", "none", "bvh"}))
         ->capture_default_str();
-    sub->add_option("--seed", a->seed, "Seed of the first run (each further run adds 100000; --beside-one's takes its twin's)")
+    sub->add_option(
+           "--seed", a->seed,
+           "Seed of the first run (each further run adds 100000; --beside-one's takes its twin's)")
         ->capture_default_str();
     sub->add_option("--sampler", a->samplers,
                     "sobol (Owen-scrambled Sobol) and/or independent, one run per backend each")
