@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "common/error.h"
+#include "common/io/host_cpus.h"
 #include "common/render/device_limits.h"
 #include "common/render/device_registry.h"
 #include "kPathtraceClSource.h"
@@ -84,6 +85,16 @@ class OpenClBackend final : public Backend {
         queue_ = cl::CommandQueue(context_, dev_.device, CL_QUEUE_PROFILING_ENABLE);
     }
 
+    ~OpenClBackend() override {
+        if (!pinned_ptr_) return;
+        try {
+            queue_.enqueueUnmapMemObject(pinned_, pinned_ptr_);
+            queue_.finish();
+        } catch (const cl::Error&) {
+            // A stopped device: nothing left to give back.
+        }
+    }
+
     std::string description() const override {
         return "opencl: " + dev_.info.name + " (" + dev_.info.platform + ")";
     }
@@ -147,27 +158,41 @@ class OpenClBackend final : public Backend {
             throw Error("opencl: exact sums of pixels the buffer does not hold");
         const uint64_t per_pixel = EXACT_VEC4_PER_PIXEL * 16;
         out.resize(size_t(count) * EXACT_VEC4_PER_PIXEL * 4);
-        try {
-            queue_.enqueueReadBuffer(accum_, CL_TRUE,
-                                     accum_shape_.exact_offset() + first * per_pixel,
-                                     count * per_pixel, out.data());
-        } catch (const cl::Error& e) {
-            stopped(e.err(), e.what());
-        }
+        read_back(accum_shape_.exact_offset() + first * per_pixel, count * per_pixel, out.data());
     }
 
     void read_accum(std::vector<float>& out, uint32_t pixels) override {
         // The sums only; the path state stays on the device.
         const size_t per_pixel = ACCUM_VEC4_PER_PIXEL * 4;
         out.resize(pixels == 0 ? sums_floats_ : std::min(sums_floats_, size_t(pixels) * per_pixel));
+        read_back(0, out.size() * 4, out.data());
+    }
+
+  private:
+    // Reads `bytes` of the sums buffer from `offset` into `to`. A GPU's read into pageable
+    // memory goes through the driver's own staging copy: it reads into pinned memory of its
+    // own (allocated once, mapped for good) and copies out on the host's threads instead.
+    void read_back(size_t offset, size_t bytes, void* to) {
         try {
-            queue_.enqueueReadBuffer(accum_, CL_TRUE, 0, out.size() * 4, out.data());
+            if (dev_.info.type != "gpu") {
+                queue_.enqueueReadBuffer(accum_, CL_TRUE, offset, bytes, to);
+                return;
+            }
+            if (pinned_bytes_ < bytes) {
+                if (pinned_ptr_) queue_.enqueueUnmapMemObject(pinned_, pinned_ptr_);
+                pinned_ptr_ = nullptr, pinned_bytes_ = 0;
+                pinned_ = cl::Buffer(context_, CL_MEM_ALLOC_HOST_PTR | CL_MEM_READ_WRITE, bytes);
+                pinned_ptr_ = queue_.enqueueMapBuffer(pinned_, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE,
+                                                      0, bytes);
+                pinned_bytes_ = bytes;
+            }
+            queue_.enqueueReadBuffer(accum_, CL_TRUE, offset, bytes, pinned_ptr_);
+            copy_on_threads(to, pinned_ptr_, bytes);
         } catch (const cl::Error& e) {
             stopped(e.err(), e.what());
         }
     }
 
-  private:
     // The error for a command that failed while the device worked: OpenCL has no "device
     // lost"; drivers report a killed or faulted kernel as CL_OUT_OF_RESOURCES (NVIDIA) or an
     // execution-status error, and the queue is unusable afterwards.
@@ -280,6 +305,9 @@ class OpenClBackend final : public Backend {
     std::string built_options_;
     cl::Buffer params_, tree_, tris_, shading_, accum_;
     size_t sums_floats_ = 0, counter_offset_ = 0;
+    cl::Buffer pinned_;  // read_back()'s staging memory (GPUs), mapped at pinned_ptr_
+    void* pinned_ptr_ = nullptr;
+    size_t pinned_bytes_ = 0;
     AccumLayout accum_shape_;
     size_t local_ = WORKGROUP_SIZE;
     double compile_seconds_ = 0;

@@ -6,6 +6,7 @@
 #include <cstring>
 
 #include "common/error.h"
+#include "common/io/host_cpus.h"
 #include "common/render/device_limits.h"
 #include "common/render/device_registry.h"
 #include "pathtrace_storage_comp_spv.h"
@@ -513,7 +514,7 @@ struct VulkanBackend::Impl {
             (count == 0 ? all : std::min<uint64_t>(count, all)) * ACCUM_VEC4_PER_PIXEL * 16;
         out.resize(size_t(bytes / 4));
         if (accum.mapped) {
-            std::memcpy(out.data(), accum.mapped, size_t(bytes));
+            copy_on_threads(out.data(), accum.mapped, size_t(bytes));
             return;
         }
         // Not host-visible: copy into the readback buffer first.
@@ -523,7 +524,7 @@ struct VulkanBackend::Impl {
         dev->barrier(VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
                      VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
         dev->submit_and_wait();
-        std::memcpy(out.data(), readback.mapped, size_t(bytes));
+        copy_on_threads(out.data(), readback.mapped, size_t(bytes));
     }
 };
 

@@ -3,6 +3,7 @@
 #pragma once
 #include <algorithm>
 #include <cstddef>
+#include <cstring>
 #include <thread>
 #include <vector>
 
@@ -23,6 +24,18 @@ void for_ranges(size_t n, const Fn& fn, size_t grain = size_t(1) << 16) {
     for (size_t t = 1; t < parts; ++t) threads.emplace_back(fn, n * t / parts, n * (t + 1) / parts);
     fn(size_t(0), n / parts);
     for (std::thread& t : threads) t.join();
+}
+
+// memcpy over threads (for_ranges): a read-back's copy out of staging memory at the memory's
+// speed, not one core's.
+inline void copy_on_threads(void* to, const void* from, size_t bytes) {
+    for_ranges(
+        bytes,
+        [&](size_t begin, size_t end) {
+            std::memcpy(static_cast<char*>(to) + begin, static_cast<const char*>(from) + begin,
+                        end - begin);
+        },
+        size_t(1) << 22);
 }
 
 }  // namespace mcpt
