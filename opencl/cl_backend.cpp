@@ -126,6 +126,15 @@ class OpenClBackend final : public Backend {
         tris_ = upload(triangle_buffer(scene));
         shading_ = upload(shading_buffer(scene));
         accum_ = cl::Buffer(context_, CL_MEM_READ_WRITE, accum_bytes);
+        // The sums' read-back memory now, not in the first read-back's time.
+        if (dev_.info.type == "gpu") {
+            try {
+                reserve_pinned(sums_floats_ * 4);
+            } catch (const cl::Error& e) {
+                throw Error(std::string("opencl: pinned read-back memory: ") + e.what() +
+                            " failed on " + description());
+            }
+        }
         // Kernel arguments in BINDING_* order.
         const cl::Buffer* args[] = {&params_, &tree_, &tris_, &shading_, &accum_};
         static_assert(sizeof(args) / sizeof(args[0]) == BINDING_COUNT, "one argument per binding");
@@ -178,19 +187,23 @@ class OpenClBackend final : public Backend {
                 queue_.enqueueReadBuffer(accum_, CL_TRUE, offset, bytes, to);
                 return;
             }
-            if (pinned_bytes_ < bytes) {
-                if (pinned_ptr_) queue_.enqueueUnmapMemObject(pinned_, pinned_ptr_);
-                pinned_ptr_ = nullptr, pinned_bytes_ = 0;
-                pinned_ = cl::Buffer(context_, CL_MEM_ALLOC_HOST_PTR | CL_MEM_READ_WRITE, bytes);
-                pinned_ptr_ = queue_.enqueueMapBuffer(pinned_, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE,
-                                                      0, bytes);
-                pinned_bytes_ = bytes;
-            }
+            reserve_pinned(bytes);
             queue_.enqueueReadBuffer(accum_, CL_TRUE, offset, bytes, pinned_ptr_);
             copy_on_threads(to, pinned_ptr_, bytes);
         } catch (const cl::Error& e) {
             stopped(e.err(), e.what());
         }
+    }
+
+    // read_back()'s pinned memory, at least `bytes` of it (GPUs only).
+    void reserve_pinned(size_t bytes) {
+        if (pinned_bytes_ >= bytes) return;
+        if (pinned_ptr_) queue_.enqueueUnmapMemObject(pinned_, pinned_ptr_);
+        pinned_ptr_ = nullptr, pinned_bytes_ = 0;
+        pinned_ = cl::Buffer(context_, CL_MEM_ALLOC_HOST_PTR | CL_MEM_READ_WRITE, bytes);
+        pinned_ptr_ =
+            queue_.enqueueMapBuffer(pinned_, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, bytes);
+        pinned_bytes_ = bytes;
     }
 
     // The error for a command that failed while the device worked: OpenCL has no "device

@@ -140,6 +140,22 @@ TEST(Coordinator, DevicesSitOutARoundTooShortToShare) {
     for (const WorkerStats& s : large.stats()) EXPECT_GT(s.samples, 0u) << s.name;
 }
 
+// A short chunk's time is mostly its fixed cost: it may raise a device's speed, not lower it;
+// a long one sets it (a device that slowed down).
+TEST(Coordinator, ShortChunksMeasureSpeedFromBelow) {
+    FakeWorker a("a", 1000);
+    RenderResult total;
+    Coordinator job(total, limits(1000, 0, 1, 0.5), {&a});
+    job.done(0, {0, 10}, 0.01);
+    EXPECT_DOUBLE_EQ(job.stats()[0].rate, 1000.0);
+    job.done(0, {10, 11}, 0.005);  // 200 samples/s, short: a lower bound
+    EXPECT_DOUBLE_EQ(job.stats()[0].rate, 1000.0);
+    job.done(0, {11, 13}, 0.001);  // 2000 samples/s, short but faster
+    EXPECT_DOUBLE_EQ(job.stats()[0].rate, 2000.0);
+    job.done(0, {13, 113}, 0.2);  // 500 samples/s over 0.2 s
+    EXPECT_DOUBLE_EQ(job.stats()[0].rate, 500.0);
+}
+
 TEST(Coordinator, AFailedDeviceEndsTheJobNamedKeepingAPrefix) {
     FakeWorker good("good", 2000), bad("bad", 2000, 8);
     RenderResult total;

@@ -114,7 +114,12 @@ void Coordinator::done(size_t w, const Chunk& chunk, double seconds) {
     ++s.chunks;
     s.samples += chunk.end - chunk.first;
     s.seconds += seconds;
-    if (seconds > 0) s.rate = double(chunk.end - chunk.first) / seconds;
+    // A chunk's time holds a fixed cost (its first dispatch waits, its passes start): a short
+    // chunk's speed is a lower bound, taken only where it is higher than the speed known.
+    if (seconds > 0) {
+        const double rate = double(chunk.end - chunk.first) / seconds;
+        if (seconds >= kShortChunkSeconds || rate > s.rate) s.rate = rate;
+    }
 }
 
 void Coordinator::failed(size_t w, const std::string& why, bool device_lost) {

@@ -59,12 +59,17 @@ struct JobLimits {
     double min_share_seconds = 0;
 };
 
+// A chunk shorter than this measures a worker's speed from below (its fixed cost weighs).
+constexpr double kShortChunkSeconds = 0.02;
+
 struct WorkerStats {
     std::string name;
     uint64_t chunks = 0;
     uint64_t samples = 0;  // samples per pixel rendered, in all chunks
     double seconds = 0;    // time in chunks
-    double rate = 0;       // samples per pixel per second in its last chunk; 0: unknown
+    // Samples per pixel per second in its last chunk (a short one: the fastest since); 0:
+    // unknown.
+    double rate = 0;
 };
 
 // One round of a job: chunks handed out until the limits, then the sums collected.
