@@ -107,7 +107,8 @@ class OpenClBackend final : public Backend {
 
     std::string layout() const override {
         return std::to_string(BINDING_COUNT) + " buffer arguments, workgroup " +
-               std::to_string(local_) + window_note(accum_shape_);
+               std::to_string(local_) + window_note(accum_shape_) +
+               (pinned_bytes_ > 0 ? ", pinned read-back" : "");
     }
 
     void load(const GpuScene& scene, int width, int height, bool exact_sums) override {
@@ -127,14 +128,7 @@ class OpenClBackend final : public Backend {
         shading_ = upload(shading_buffer(scene));
         accum_ = cl::Buffer(context_, CL_MEM_READ_WRITE, accum_bytes);
         // The sums' read-back memory now, not in the first read-back's time.
-        if (dev_.info.type == "gpu") {
-            try {
-                reserve_pinned(sums_floats_ * 4);
-            } catch (const cl::Error& e) {
-                throw Error(std::string("opencl: pinned read-back memory: ") + e.what() +
-                            " failed on " + description());
-            }
-        }
+        if (pinned_read_back()) reserve_pinned(sums_floats_ * 4);
         // Kernel arguments in BINDING_* order.
         const cl::Buffer* args[] = {&params_, &tree_, &tris_, &shading_, &accum_};
         static_assert(sizeof(args) / sizeof(args[0]) == BINDING_COUNT, "one argument per binding");
@@ -183,11 +177,10 @@ class OpenClBackend final : public Backend {
     // own (allocated once, mapped for good) and copies out on the host's threads instead.
     void read_back(size_t offset, size_t bytes, void* to) {
         try {
-            if (dev_.info.type != "gpu") {
+            if (!pinned_read_back() || !reserve_pinned(bytes)) {
                 queue_.enqueueReadBuffer(accum_, CL_TRUE, offset, bytes, to);
                 return;
             }
-            reserve_pinned(bytes);
             queue_.enqueueReadBuffer(accum_, CL_TRUE, offset, bytes, pinned_ptr_);
             copy_on_threads(to, pinned_ptr_, bytes);
         } catch (const cl::Error& e) {
@@ -195,15 +188,32 @@ class OpenClBackend final : public Backend {
         }
     }
 
-    // read_back()'s pinned memory, at least `bytes` of it (GPUs only).
-    void reserve_pinned(size_t bytes) {
-        if (pinned_bytes_ >= bytes) return;
-        if (pinned_ptr_) queue_.enqueueUnmapMemObject(pinned_, pinned_ptr_);
-        pinned_ptr_ = nullptr, pinned_bytes_ = 0;
-        pinned_ = cl::Buffer(context_, CL_MEM_ALLOC_HOST_PTR | CL_MEM_READ_WRITE, bytes);
-        pinned_ptr_ =
-            queue_.enqueueMapBuffer(pinned_, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, bytes);
+    // Read-backs through pinned memory: on GPUs ($MCPT_PINNED_READBACK=0 or 1 overrides; tests
+    // take the path on CPU devices).
+    bool pinned_read_back() const {
+        const char* e = std::getenv("MCPT_PINNED_READBACK");
+        if (e && (e == std::string("0") || e == std::string("1"))) return e[0] == '1';
+        return dev_.info.type == "gpu";
+    }
+
+    // read_back()'s pinned memory, at least `bytes` of it. False where the driver
+    // has none to give: read-backs then go through its pageable path, as before.
+    bool reserve_pinned(size_t bytes) {
+        if (pinned_bytes_ >= bytes) return true;
+        if (pinned_refused_) return false;
+        try {
+            if (pinned_ptr_) queue_.enqueueUnmapMemObject(pinned_, pinned_ptr_);
+            pinned_ptr_ = nullptr, pinned_bytes_ = 0, pinned_ = cl::Buffer();
+            pinned_ = cl::Buffer(context_, CL_MEM_ALLOC_HOST_PTR | CL_MEM_READ_WRITE, bytes);
+            pinned_ptr_ =
+                queue_.enqueueMapBuffer(pinned_, CL_TRUE, CL_MAP_READ | CL_MAP_WRITE, 0, bytes);
+        } catch (const cl::Error&) {
+            pinned_ptr_ = nullptr, pinned_bytes_ = 0, pinned_ = cl::Buffer();
+            pinned_refused_ = true;  // not asked again
+            return false;
+        }
         pinned_bytes_ = bytes;
+        return true;
     }
 
     // The error for a command that failed while the device worked: OpenCL has no "device
@@ -321,6 +331,7 @@ class OpenClBackend final : public Backend {
     cl::Buffer pinned_;  // read_back()'s staging memory (GPUs), mapped at pinned_ptr_
     void* pinned_ptr_ = nullptr;
     size_t pinned_bytes_ = 0;
+    bool pinned_refused_ = false;
     AccumLayout accum_shape_;
     size_t local_ = WORKGROUP_SIZE;
     double compile_seconds_ = 0;

@@ -4,6 +4,8 @@
 // (reproducible mode: same samples, same float sums in the same groups), on both APIs.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+
 #include "common/render/session.h"
 #include "common/scene/scene_load.h"
 #include "test_util.h"
@@ -59,6 +61,40 @@ TEST_P(AccumWindow, ExactSumsOnTheDeviceGiveTheHostsImage) {
     // Negative control: one sample more is another image.
     std::string other_layout;
     EXPECT_NE(render_image(GetParam(), 0, &other_layout, 71), device);
+}
+
+// OpenCL's read-backs through pinned memory (GPUs; $MCPT_PINNED_READBACK=1 takes the path on
+// PoCL): the same sums, bit for bit, with the exact sums folded on the device (read_exact)
+// and on the host (read_accum), and the reads from staging memory whole.
+RenderResult render_sums(bool pinned, uint64_t max_buffer_bytes, std::string* layout) {
+    setenv("MCPT_PINNED_READBACK", pinned ? "1" : "0", 1);
+    BackendOptions o;
+    o.max_buffer_bytes = max_buffer_bytes;
+    Session s(test::test_backend("opencl", o));
+    s.set_scene(load_scene("cornell"));
+    s.settings().width = 48, s.settings().height = 40;
+    s.settings().reproducible = true;
+    s.settings().seed = 5;
+    EXPECT_EQ(s.render(1e6, 0, 70).spp, 70u);
+    unsetenv("MCPT_PINNED_READBACK");
+    *layout = s.backend().layout();
+    return s.result();
+}
+
+TEST(PinnedReadBack, GivesTheSameSums) {
+    const uint64_t npix = 48 * 40;
+    const uint64_t no_room = accum_layout(npix, 0).bytes + 16 * npix;
+    for (const uint64_t max_bytes : {uint64_t(0), no_room}) {
+        std::string plain_layout, pinned_layout;
+        const RenderResult plain = render_sums(false, max_bytes, &plain_layout);
+        const RenderResult pinned = render_sums(true, max_bytes, &pinned_layout);
+        EXPECT_EQ(plain_layout.find("pinned"), std::string::npos) << plain_layout;
+        EXPECT_NE(pinned_layout.find("pinned read-back"), std::string::npos) << pinned_layout;
+        EXPECT_EQ(plain.sum, pinned.sum) << "buffer limit " << max_bytes;
+        EXPECT_EQ(plain.sum_sq, pinned.sum_sq) << "buffer limit " << max_bytes;
+        EXPECT_EQ(plain.nonfinite, pinned.nonfinite) << "buffer limit " << max_bytes;
+        EXPECT_EQ(plain.rays, pinned.rays) << "buffer limit " << max_bytes;
+    }
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, AccumWindow, ::testing::ValuesIn(test::test_apis()),
