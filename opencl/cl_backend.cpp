@@ -83,6 +83,12 @@ class OpenClBackend final : public Backend {
         limit_buffers(dev_.info.memory, options_.max_buffer_bytes);
         context_ = cl::Context(dev_.device);
         queue_ = cl::CommandQueue(context_, dev_.device, CL_QUEUE_PROFILING_ENABLE);
+        // Read-backs through pinned memory on GPUs ($MCPT_PINNED_READBACK=0 or 1 overrides;
+        // tests take the path on CPU devices).
+        const char* pinned = std::getenv("MCPT_PINNED_READBACK");
+        pinned_read_back_ = pinned && (pinned == std::string("0") || pinned == std::string("1"))
+                                ? pinned[0] == '1'
+                                : dev_.info.type == "gpu";
     }
 
     ~OpenClBackend() override {
@@ -128,7 +134,7 @@ class OpenClBackend final : public Backend {
         shading_ = upload(shading_buffer(scene));
         accum_ = cl::Buffer(context_, CL_MEM_READ_WRITE, accum_bytes);
         // The sums' read-back memory now, not in the first read-back's time.
-        if (pinned_read_back()) reserve_pinned(sums_floats_ * 4);
+        if (pinned_read_back_) reserve_pinned(sums_floats_ * 4);
         // Kernel arguments in BINDING_* order.
         const cl::Buffer* args[] = {&params_, &tree_, &tris_, &shading_, &accum_};
         static_assert(sizeof(args) / sizeof(args[0]) == BINDING_COUNT, "one argument per binding");
@@ -177,7 +183,7 @@ class OpenClBackend final : public Backend {
     // own (allocated once, mapped for good) and copies out on the host's threads instead.
     void read_back(size_t offset, size_t bytes, void* to) {
         try {
-            if (!pinned_read_back() || !reserve_pinned(bytes)) {
+            if (!pinned_read_back_ || !reserve_pinned(bytes)) {
                 queue_.enqueueReadBuffer(accum_, CL_TRUE, offset, bytes, to);
                 return;
             }
@@ -186,14 +192,6 @@ class OpenClBackend final : public Backend {
         } catch (const cl::Error& e) {
             stopped(e.err(), e.what());
         }
-    }
-
-    // Read-backs through pinned memory: on GPUs ($MCPT_PINNED_READBACK=0 or 1 overrides; tests
-    // take the path on CPU devices).
-    bool pinned_read_back() const {
-        const char* e = std::getenv("MCPT_PINNED_READBACK");
-        if (e && (e == std::string("0") || e == std::string("1"))) return e[0] == '1';
-        return dev_.info.type == "gpu";
     }
 
     // read_back()'s pinned memory, at least `bytes` of it. False where the driver
@@ -331,7 +329,7 @@ class OpenClBackend final : public Backend {
     cl::Buffer pinned_;  // read_back()'s staging memory (GPUs), mapped at pinned_ptr_
     void* pinned_ptr_ = nullptr;
     size_t pinned_bytes_ = 0;
-    bool pinned_refused_ = false;
+    bool pinned_read_back_ = false, pinned_refused_ = false;
     AccumLayout accum_shape_;
     size_t local_ = WORKGROUP_SIZE;
     double compile_seconds_ = 0;

@@ -252,10 +252,10 @@ void Session::finish_round() {
 }
 
 void Session::add_round_to(RenderResult& total) {
-    if (!round_open_) return;
-    finish_round();
-    accumulate_sums(total, progressive_->settled_sums());
-    round_open_ = round_flushed_ = false;
+    if (const RenderResult* sums = round_sums()) {
+        accumulate_sums(total, *sums);
+        start_round();
+    }
 }
 
 const RenderResult* Session::round_sums() {
