@@ -244,9 +244,11 @@ void run_render(const RenderArgs& a) {
                     session.collect_seconds());
     print_device_shares(session);
     if (a.verbose) {
+        const ProgressiveRender* loop = session.loop();
         std::printf("%s layout: %s, submission budget %.0f ms\n", backend.device().backend.c_str(),
-                    backend.layout().c_str(), s.dispatch_ms);
-        if (const ProgressiveRender* loop = session.loop()) {
+                    backend.layout().c_str(),
+                    loop ? loop->dispatch_ms() : dispatch_budget_ms(backend.device()));
+        if (loop) {
             std::printf("dispatches: %llu, longest %.1f ms (#%llu), median %.1f ms\n",
                         (unsigned long long)loop->dispatches(),
                         1e3 * loop->longest_dispatch_seconds(),

@@ -156,9 +156,16 @@ uint64_t host_bytes_per_pixel() {
     return 7 * sizeof(double) + 8 * sizeof(float);
 }
 
+double dispatch_budget_ms(const DeviceInfo& device) {
+    for (const auto& [name, value] : device.limits)
+        if (name == "limits profile" && value.rfind("phone", 0) == 0) return kGpuDispatchMs;
+    return device.type == "cpu" ? kCpuDispatchMs : kGpuDispatchMs;
+}
+
 ProgressiveRender::ProgressiveRender(Backend& backend, const GpuScene& scene, const Camera& camera,
                                      const RenderOptions& opt)
     : backend_(backend), opt_(opt) {
+    if (!(opt_.dispatch_ms > 0)) opt_.dispatch_ms = dispatch_budget_ms(backend.device());
     npix_ = uint32_t(opt.width) * uint32_t(opt.height);
     // The host accumulators, checked against the memory available before allocating (at
     // most half of it: the process and the system need the rest).

@@ -16,6 +16,14 @@ namespace mcpt {
 
 struct RenderResult;
 
+// Target duration of one dispatch, where RenderOptions::dispatch_ms leaves it to the device.
+// GPUs keep submissions short (drivers reset long ones, phones soonest; a dispatch is also how
+// soon a render can stop). CPU devices (PoCL, lavapipe) pay a fixed cost per dispatch: 30 ms
+// ran the Blender point-lamp scene 12-17% (PoCL) and 30% (lavapipe) slower than 120 ms
+// (docs/benchmarks.md). A device held to the phone's limits keeps the GPU budget.
+constexpr double kGpuDispatchMs = 30, kCpuDispatchMs = 120;
+double dispatch_budget_ms(const DeviceInfo& device);
+
 struct RenderOptions {
     int width = 256, height = 256;
     uint64_t spp = 0;        // samples per pixel; 0: run for `seconds`
@@ -24,7 +32,7 @@ struct RenderOptions {
     uint32_t rr_depth = 3;   // Russian roulette from this bounce on
     uint32_t seed = 0;
     float light_scale = 1.f;   // negative controls only
-    double dispatch_ms = 30;   // target duration of one dispatch
+    double dispatch_ms = 0;    // target duration of one dispatch; 0: the device's own
     uint32_t flush_spp = 128;  // device float sums hold at most this many samples per pixel
     // > 0: reproducible: samples reach the double sums only in groups that end at multiples
     // of group_spp samples (1 when the sums are windowed), and the device adds each sample to
@@ -111,6 +119,8 @@ class ProgressiveRender {
     // The backend must hold the scene at options' size (Backend::load done).
     ProgressiveRender(Backend& backend, const GpuScene& scene, const Camera& camera,
                       const RenderOptions& options);
+    // The target duration of one dispatch: the options', or the device's (dispatch_budget_ms).
+    double dispatch_ms() const { return opt_.dispatch_ms; }
     // One pass: every pixel gets between 1 and max_spp more samples, as many as the dispatch
     // time target allows. Returns the samples per pixel added (not yet in result() until a
     // flush; pass() flushes by itself whenever the device sums reach flush_spp).

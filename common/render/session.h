@@ -39,7 +39,7 @@ struct SessionSettings {
     // Adaptive sampling (render_loop.h): samples where the estimated noise is; spp is then
     // the mean over pixels. Not with `reproducible`, nor in checkpoints.
     bool adaptive = false;
-    double dispatch_ms = 30;  // target duration of one dispatch
+    double dispatch_ms = 0;  // target duration of one dispatch; 0: the device's own
     float light_scale = 1.f;  // negative controls only
     // Several devices (coordinator.h): a chunk's target duration on the device that takes it.
     double chunk_seconds = 0.5;
