@@ -107,12 +107,12 @@ class FakeBackend final : public Backend {
     size_t dispatches = 0, folds = 0;
     uint32_t most_samples_per_round = 0, most_bounces_per_dispatch = 0;
     uint32_t cap = 1u << 20, bounces = 1;
+    DeviceInfo info_;  // type "" (neither GPU nor CPU) unless a test sets it
 
   private:
     struct Slot {
         uint32_t sample = 0, left = 0, done = 0;
     };
-    DeviceInfo info_;
     AccumLayout layout_;
     std::vector<float> accum_;
     std::vector<glm::uvec4> exact_;
@@ -243,6 +243,25 @@ TEST(RenderLoop, AdaptiveSamplesFollowTheNoiseAndArriveOnce) {
     const RenderResult u = render(backend, scene, Camera{}, o);
     EXPECT_TRUE(u.samples.empty());
     EXPECT_EQ(u.spp, o.spp);
+}
+
+// CPU devices get long dispatches (their cost per dispatch), GPUs and devices held to the
+// phone's limits short ones; options that name a duration keep it.
+TEST(RenderLoop, DispatchBudgetFollowsTheDevice) {
+    DeviceInfo gpu, cpu, phone;
+    gpu.type = "gpu", cpu.type = "cpu", phone.type = "cpu";
+    phone.limits = {{"limits profile", "phone (Vulkan 1.1 required minimums)"}};
+    EXPECT_EQ(dispatch_budget_ms(gpu), kGpuDispatchMs);
+    EXPECT_EQ(dispatch_budget_ms(cpu), kCpuDispatchMs);
+    EXPECT_EQ(dispatch_budget_ms(phone), kGpuDispatchMs);
+    EXPECT_GT(kCpuDispatchMs, kGpuDispatchMs);
+    FakeBackend backend;
+    backend.info_.type = "cpu";
+    RenderOptions o;
+    o.width = o.height = 4;
+    EXPECT_EQ(ProgressiveRender(backend, GpuScene{}, Camera{}, o).dispatch_ms(), kCpuDispatchMs);
+    o.dispatch_ms = 45;
+    EXPECT_EQ(ProgressiveRender(backend, GpuScene{}, Camera{}, o).dispatch_ms(), 45);
 }
 
 TEST(RenderLoop, RejectsBadSizes) {
