@@ -17,15 +17,17 @@ namespace {
 
 // A backend that fails when the `fail_at_pass`-th pass after arming starts (a pass starts
 // with a round at pixel 0), after the passes before it completed on the device; it records
-// each pass's samples per pixel and counts read-backs.
+// each pass's samples per pixel, counts read-backs and notes how many passes had started at the
+// last one.
 class FailingBackend final : public Backend {
   public:
     explicit FailingBackend(std::unique_ptr<Backend> inner) : inner_(std::move(inner)) {}
     void arm(int fail_at_pass, bool lost) {
-        fail_at_ = fail_at_pass, lost_ = lost, reads_ = 0;
+        fail_at_ = fail_at_pass, lost_ = lost, reads_ = 0, passes_at_read_ = 0;
         pass_spp_.clear();
     }
     int reads_since_armed() const { return reads_; }
+    size_t passes_before_last_read() const { return passes_at_read_; }
     const std::vector<uint32_t>& pass_spp() const { return pass_spp_; }
 
     std::string description() const override { return inner_->description(); }
@@ -35,7 +37,7 @@ class FailingBackend final : public Backend {
     }
     const AccumLayout& accum_shape() const override { return inner_->accum_shape(); }
     void read_exact(std::vector<uint32_t>& out, uint32_t first, uint32_t count) override {
-        ++reads_;
+        ++reads_, passes_at_read_ = pass_spp_.size();
         inner_->read_exact(out, first, count);
     }
     uint32_t dispatch(const gpu::GpuParams& p) override {
@@ -50,7 +52,7 @@ class FailingBackend final : public Backend {
     }
     void write_plan(const std::vector<uint32_t>& words) override { inner_->write_plan(words); }
     void read_accum(std::vector<float>& out, uint32_t pixels) override {
-        ++reads_;
+        ++reads_, passes_at_read_ = pass_spp_.size();
         inner_->read_accum(out, pixels);
     }
     double compile_seconds() const override { return inner_->compile_seconds(); }
@@ -65,6 +67,7 @@ class FailingBackend final : public Backend {
   private:
     std::unique_ptr<Backend> inner_;
     int fail_at_ = 0, reads_ = 0;
+    size_t passes_at_read_ = 0;
     std::vector<uint32_t> pass_spp_;
     bool lost_ = true;
 };
@@ -105,8 +108,15 @@ TEST_P(DeviceFailure, LostDeviceKeepsExactlyTheSamplesReadBack) {
         EXPECT_EQ(session_->spp(), 4u);
         EXPECT_EQ(session_->image_rgba32f(), before_);
     } else {
+        // The passes read back are kept, exactly those (how many came before the read depends
+        // on the device's dispatch budget: CPU devices' passes are longer).
         ASSERT_EQ(fb_->reads_since_armed(), 1);
-        EXPECT_EQ(session_->spp(), 4u + fb_->pass_spp()[0]);
+        const size_t read = fb_->passes_before_last_read();
+        ASSERT_GE(read, 1u);
+        ASSERT_LE(read, 2u);
+        uint64_t kept = 4;
+        for (size_t k = 0; k < read; ++k) kept += fb_->pass_spp()[k];
+        EXPECT_EQ(session_->spp(), kept);
         EXPECT_NEAR(mean(session_->image_rgba32f()), mean(before_), 0.1 * mean(before_));
     }
     const std::string out = testing::TempDir() + "/device_lost_" + GetParam() + ".exr";
