@@ -250,7 +250,7 @@ TEST(RenderLoop, AdaptiveSamplesFollowTheNoiseAndArriveOnce) {
 TEST(RenderLoop, DispatchBudgetFollowsTheDevice) {
     DeviceInfo gpu, cpu, phone;
     gpu.type = "gpu", cpu.type = "cpu", phone.type = "cpu";
-    phone.limits = {{"limits profile", "phone (Vulkan 1.1 required minimums)"}};
+    phone.phone_limits = true;
     EXPECT_EQ(dispatch_budget_ms(gpu), kGpuDispatchMs);
     EXPECT_EQ(dispatch_budget_ms(cpu), kCpuDispatchMs);
     EXPECT_EQ(dispatch_budget_ms(phone), kGpuDispatchMs);

@@ -371,6 +371,7 @@ std::vector<PhysicalDevice> Instance::devices(const std::string& profile_request
             return std::to_string(v[0]) + " x " + std::to_string(v[1]) + " x " +
                    std::to_string(v[2]);
         };
+        i.phone_limits = profile == "phone";
         i.limits = {
             {"limits profile",
              profile == "phone" ? "phone (Vulkan 1.1 required minimums)" : "device (as reported)"},

@@ -27,6 +27,7 @@ struct DeviceInfo {
     std::string platform;  // OpenCL platform / Vulkan driver
     std::string type;      // "gpu" | "cpu" | "other"
     std::vector<std::pair<std::string, std::string>> limits;  // name, value (for display)
+    bool phone_limits = false;  // held to the phone's limits (Vulkan limits=phone)
     MemoryLimits memory;
     // "opencl: NVIDIA H100": the device in messages and checkpoints.
     std::string label() const { return backend + ": " + name; }

@@ -157,9 +157,7 @@ uint64_t host_bytes_per_pixel() {
 }
 
 double dispatch_budget_ms(const DeviceInfo& device) {
-    for (const auto& [name, value] : device.limits)
-        if (name == "limits profile" && value.rfind("phone", 0) == 0) return kGpuDispatchMs;
-    return device.type == "cpu" ? kCpuDispatchMs : kGpuDispatchMs;
+    return device.type == "cpu" && !device.phone_limits ? kCpuDispatchMs : kGpuDispatchMs;
 }
 
 ProgressiveRender::ProgressiveRender(Backend& backend, const GpuScene& scene, const Camera& camera,

@@ -162,7 +162,7 @@ void Session::commit() {
     if (s.width <= 0 || s.height <= 0 || s.width > 16384 || s.height > 16384)
         throw Error("image size must be between 1x1 and 16384x16384");
     if (!(s.dispatch_ms >= 0) || !(s.light_scale >= 0))
-        throw Error("dispatch time must be 0 (the device's own) or positive, light scale 0 or more");
+        throw Error("dispatch time must be 0 (the device's) or positive, light scale 0 or more");
     if (s.sampler != "sobol" && s.sampler != "independent")
         throw Error("unknown sampler '" + s.sampler + "' (sobol or independent)");
     if (s.adaptive && s.reproducible)
