@@ -67,6 +67,11 @@ BatchSet render_batches(const std::vector<Session*>& sessions, const BatchOption
 struct Agreement {
     size_t pixels_tested = 0;  // pixels with variance or differing means
     double min_p = 1, sidak_level = 0;
+    // The least p-value a pixel can get: that of a permutation test of the two sides' batches
+    // (2 / C(nA + nB, nA)), the finest any test that assumes nothing of their distribution
+    // can resolve. Welch's test, which assumes normal batch means, is floored at it.
+    double p_floor = 0;
+    int batches_needed = 0;  // a side, for p_floor to reach below sidak_level
     size_t sidak_rejections = 0;
     size_t bh_discoveries = 0;  // pixels flagged at false discovery rate alpha
     double mean_z_score = 0;    // sum of signed z / sqrt(m): ~N(0,1) if unbiased
