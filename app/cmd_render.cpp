@@ -247,9 +247,8 @@ void run_render(const RenderArgs& a) {
         const ProgressiveRender* loop = session.loop();
         std::printf("%s layout: %s, submission budget %.0f ms\n", backend.device().backend.c_str(),
                     backend.layout().c_str(),
-                    loop                                 ? loop->dispatch_ms()
-                    : session.settings().dispatch_ms > 0 ? session.settings().dispatch_ms
-                                                         : dispatch_budget_ms(backend.device()));
+                    loop ? loop->dispatch_ms()
+                         : dispatch_budget_ms(backend.device(), session.settings().dispatch_ms));
         if (loop) {
             std::printf("dispatches: %llu, longest %.1f ms (#%llu), median %.1f ms\n",
                         (unsigned long long)loop->dispatches(),

@@ -255,6 +255,7 @@ TEST(RenderLoop, DispatchBudgetFollowsTheDevice) {
     EXPECT_EQ(dispatch_budget_ms(cpu), kCpuDispatchMs);
     EXPECT_EQ(dispatch_budget_ms(phone), kGpuDispatchMs);
     EXPECT_GT(kCpuDispatchMs, kGpuDispatchMs);
+    EXPECT_EQ(dispatch_budget_ms(cpu, 45), 45);
     FakeBackend backend;
     backend.info_.type = "cpu";
     RenderOptions o;

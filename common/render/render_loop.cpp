@@ -70,7 +70,6 @@ double RenderResult::relative_error() const {
     return err / radiance;
 }
 
-
 void RenderResult::materialize() {
     if (exact.empty()) return;
     for_ranges(size_t(width) * size_t(height), [this](size_t begin, size_t end) {
@@ -156,14 +155,15 @@ uint64_t host_bytes_per_pixel() {
     return 7 * sizeof(double) + 8 * sizeof(float);
 }
 
-double dispatch_budget_ms(const DeviceInfo& device) {
+double dispatch_budget_ms(const DeviceInfo& device, double requested) {
+    if (requested > 0) return requested;
     return device.type == "cpu" && !device.phone_limits ? kCpuDispatchMs : kGpuDispatchMs;
 }
 
 ProgressiveRender::ProgressiveRender(Backend& backend, const GpuScene& scene, const Camera& camera,
                                      const RenderOptions& opt)
     : backend_(backend), opt_(opt) {
-    if (!(opt_.dispatch_ms > 0)) opt_.dispatch_ms = dispatch_budget_ms(backend.device());
+    opt_.dispatch_ms = dispatch_budget_ms(backend.device(), opt_.dispatch_ms);
     npix_ = uint32_t(opt.width) * uint32_t(opt.height);
     // The host accumulators, checked against the memory available before allocating (at
     // most half of it: the process and the system need the rest).

@@ -16,13 +16,13 @@ namespace mcpt {
 
 struct RenderResult;
 
-// Target duration of one dispatch, where RenderOptions::dispatch_ms leaves it to the device.
+// Target duration of one dispatch: `requested` where positive, else the device's own.
 // GPUs keep submissions short (drivers reset long ones, phones soonest; a dispatch is also how
 // soon a render can stop). CPU devices (PoCL, lavapipe) pay a fixed cost per dispatch: 30 ms
 // ran the Blender point-lamp scene 12-17% (PoCL) and 30% (lavapipe) slower than 120 ms
 // (docs/benchmarks.md). A device held to the phone's limits keeps the GPU budget.
 constexpr double kGpuDispatchMs = 30, kCpuDispatchMs = 120;
-double dispatch_budget_ms(const DeviceInfo& device);
+double dispatch_budget_ms(const DeviceInfo& device, double requested = 0);
 
 struct RenderOptions {
     int width = 256, height = 256;
