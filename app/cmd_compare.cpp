@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdio>
 #include <functional>
+#include <future>
 #include <thread>
 
 #include "app/commands.h"
@@ -40,8 +41,10 @@ struct CompareArgs {
 };
 
 struct Side {
-    std::unique_ptr<Session> session;               // renders the batches and the same-seed image
-    std::vector<std::unique_ptr<Session>> helpers;  // several devices: the others, batches only
+    std::unique_ptr<Session> session;  // renders the batches and the same-seed image
+    // Several devices: the others, batches only, each opened and committed on a thread of its
+    // own while the first renders; a device joins the batches when it is ready.
+    std::vector<JoiningSession> joining;
     Backend& backend() const { return session->backend(); }
     BatchSet batches;
     RenderResult same_seed;
@@ -205,35 +208,34 @@ void run_compare(const CompareArgs& args) {
     const auto since = [](std::chrono::steady_clock::time_point t) {
         return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
     };
-    // A side's devices opened, its tree built and its kernels compiled.
+    // A side's devices opened, its tree built and its kernels compiled: the first here, the
+    // others on threads of their own, started once the first is open (drivers serialize
+    // their start), to join its batches when ready.
     const auto prepare_side = [&](int s) {
         const BackendOptions opt = side_options(s);
-        // One device, or several: each renders whole batches (independent renders), handed
-        // to whichever is free; the first renders the same-seed image.
-        const std::vector<std::string> devices = mpi.size > 1
-                                                     ? std::vector{rank_side_device(specs[s], mpi)}
-                                                     : device_list(specs[s]);
+        const std::vector<std::string> devices =
+            mpi.size > 1 ? std::vector{rank_side_device(specs[s], mpi)} : device_list(specs[s]);
         const auto t0 = std::chrono::steady_clock::now();
         sides[s].session = std::make_unique<Session>(open_device(devices[0], opt));
-        for (size_t k = 1; k < devices.size(); ++k)
-            sides[s].helpers.push_back(std::make_unique<Session>(open_device(devices[k], opt)));
+        for (size_t k = 1; k < devices.size(); ++k) {
+            const std::string device = devices[k];
+            sides[s].joining.push_back({device, std::async(std::launch::async, [&, device, opt, s] {
+                                                    auto one = std::make_shared<Session>(
+                                                        open_device(device, opt));
+                                                    configure(*one, s);
+                                                    one->commit();
+                                                    return one;
+                                                }).share()});
+        }
         sides[s].devices = devices.size();
-        std::vector<Session*> all{sides[s].session.get()};
-        for (auto& h : sides[s].helpers) all.push_back(h.get());
-        for (Session* one : all) configure(*one, s);
-        // Trees and kernels: every device at once.
-        if (all.size() == 1)
-            all[0]->commit();
-        else
-            commit_all(all);
+        configure(*sides[s].session, s);
+        sides[s].session->commit();
         sides[s].tree = tree_kind_name(sides[s].session->prepared().tree_kind);
         sides[s].open_s = since(t0);
     };
     // A side's batches (independent seeds) and its same-seed render.
     const auto render_side = [&](int s) {
         Session& session = *sides[s].session;
-        std::vector<Session*> all{&session};
-        for (auto& h : sides[s].helpers) all.push_back(h.get());
         // The same-seed image, on the first device while the others (if any) start on the
         // batches.
         double same_seed_device_s = 0;
@@ -263,12 +265,11 @@ void run_compare(const CompareArgs& args) {
             for (auto& r : ranks) remote.push_back(r.get());
             sides[s].devices += ranks.size();
         }
-        sides[s].batches = render_batches(all, side_bo, same_seed, remote);
+        sides[s].batches = render_batches({&session}, side_bo, same_seed, remote, sides[s].joining);
         // (Several devices: only the first's timers are at hand; no device time then.)
-        sides[s].device_seconds =
-            sides[s].devices > 1
-                ? 0
-                : session.backend().device_seconds() - device_before - same_seed_device_s;
+        sides[s].device_seconds = sides[s].devices > 1 ? 0
+                                                       : session.backend().device_seconds() -
+                                                             device_before - same_seed_device_s;
         sides[s].batches_s = since(t1);
     };
     // Work for A and B in two threads; a failure of either is reported after both end.
@@ -311,8 +312,18 @@ void run_compare(const CompareArgs& args) {
         return side.devices > 1 ? d + " (+" + std::to_string(side.devices - 1) + " more)" : d;
     };
     speed.push_back({"backend", described(sides[0]), described(sides[1])});
-    speed.push_back(
-        {"devices", std::to_string(sides[0].devices), std::to_string(sides[1].devices)});
+    // Several devices: how many batches each rendered (a device ready late renders fewer).
+    const auto device_count = [](const Side& side) {
+        std::string d = std::to_string(side.devices);
+        const std::vector<int>& per = side.batches.per_device;
+        if (per.size() > 1) {
+            d += " (batches";
+            for (size_t k = 0; k < per.size(); ++k) d += (k ? "+" : " ") + std::to_string(per[k]);
+            d += ")";
+        }
+        return d;
+    };
+    speed.push_back({"devices", device_count(sides[0]), device_count(sides[1])});
     double rate[2];
     for (int s = 0; s < 2; ++s) {
         const BatchSet& bs = sides[s].batches;
@@ -384,8 +395,7 @@ void run_compare(const CompareArgs& args) {
         "wall time (s): A open+compile %.2f, batches and same seed %.2f (same seed %.2f); B "
         "%.2f, %.2f (%.2f); tests %.2f; total %.2f\n",
         sides[0].open_s, sides[0].batches_s, sides[0].same_seed_s, sides[1].open_s,
-        sides[1].batches_s, sides[1].same_seed_s, seconds_since(tests_start),
-        seconds_since(start));
+        sides[1].batches_s, sides[1].same_seed_s, seconds_since(tests_start), seconds_since(start));
     if (!args.output.empty()) {
         // p-value, signed z (B - A), mean difference per pixel.
         std::vector<float> img(3 * agreement.p_image.size());
@@ -434,8 +444,9 @@ void add_compare_command(CLI::App& app) {
         ->check(CLI::Range(0.0, 1.0))
         ->capture_default_str();
     sub->add_option("--max-depth", a->max_depth, "Bounces (default 8, or the scene's)");
-    sub->add_option("--tree", a->tree,
-                    "auto (each side: the tree its device's cost model picks), sah, median, none, bvh")
+    sub->add_option(
+           "--tree", a->tree,
+           "auto (each side: the tree its device's cost model picks), sah, median, none, bvh")
         ->check(CLI::IsMember({"auto", "sah", "median", "none", "bvh"}))
         ->capture_default_str();
     sub->add_option("--alpha", a->alpha, "Family-wise false alarm rate")

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <future>
 #include <thread>
 
 #include "common/analysis/compare.h"
@@ -314,6 +315,51 @@ TEST(SeveralDevices, PoclAndLavapipeTogetherAgreeWithOneDevice) {
                 100 * twice.fraction_diverged());
     EXPECT_TRUE(same.agree());
     EXPECT_FALSE(twice.agree());
+}
+
+// compare's devices that open late: a device joins the batches when ready (here ready at once,
+// the first device kept busy meanwhile, so that it takes some), each batch its seed's render
+// whoever makes it; one never ready is not waited for; one that failed to open fails them.
+TEST(SeveralDevices, BatchesOnDevicesThatJoinWhenReady) {
+    BatchOptions bo;
+    bo.batches = 6;
+    Session first("opencl");
+    setup(first, 1, false);
+    const BatchSet alone = render_batches(first, bo);
+    ASSERT_EQ(alone.per_device, std::vector<int>{6});
+    const auto joining = [](std::promise<std::shared_ptr<Session>>& p) {
+        return JoiningSession{"opencl (joining)", p.get_future().share()};
+    };
+    // Ready at once: it renders batches while the first device is held up.
+    std::promise<std::shared_ptr<Session>> ready;
+    auto second = std::make_shared<Session>("opencl");
+    setup(*second, 1, false);
+    ready.set_value(second);
+    const auto held_up = [](Session&) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    };
+    const BatchSet joined = render_batches({&first}, bo, held_up, {}, {joining(ready)});
+    ASSERT_EQ(joined.per_device.size(), 2u);
+    EXPECT_EQ(joined.per_device[0] + joined.per_device[1], 6);
+    EXPECT_GE(joined.per_device[1], 1) << "the ready device took no batch";
+    EXPECT_TRUE(bitwise_equal(alone.mean, joined.mean));
+    EXPECT_TRUE(bitwise_equal(alone.var, joined.var));
+    // Never ready during the batches: they end without it.
+    std::promise<std::shared_ptr<Session>> late;
+    const BatchSet without = render_batches({&first}, bo, {}, {}, {joining(late)});
+    EXPECT_EQ(without.per_device, (std::vector<int>{6, 0}));
+    EXPECT_TRUE(bitwise_equal(alone.mean, without.mean));
+    late.set_value(second);
+    // Failed to open: the batches fail, naming it.
+    std::promise<std::shared_ptr<Session>> failed;
+    failed.set_exception(std::make_exception_ptr(Error("no such device")));
+    try {
+        render_batches({&first}, bo, held_up, {}, {joining(failed)});
+        ADD_FAILURE() << "a device that failed to open went unnoticed";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("opencl (joining)"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("no such device"), std::string::npos) << e.what();
+    }
 }
 
 TEST(SeveralDevices, RefusesWhatOneDeviceMust) {

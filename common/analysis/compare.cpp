@@ -84,56 +84,85 @@ BatchSet render_batches(Session& session, const BatchOptions& batch) {
 
 BatchSet render_batches(const std::vector<Session*>& sessions, const BatchOptions& batch,
                         const std::function<void(Session&)>& first,
-                        const std::vector<BatchRenderer*>& remote) {
+                        const std::vector<BatchRenderer*>& remote,
+                        const std::vector<JoiningSession>& joining) {
     if (batch.batches < 2) throw Error("need at least 2 batches");
     if (sessions.empty()) throw Error("no session to render the batches");
     std::vector<BatchMean> batches(size_t(batch.batches));
     std::atomic<int> next{0};
-    std::vector<std::string> failures(sessions.size() + remote.size());
+    const size_t devices = sessions.size() + remote.size() + joining.size();
+    std::vector<std::string> failures(devices);
+    std::vector<int> rendered(devices, 0);
     const auto start = std::chrono::steady_clock::now();
-    // Each session in a thread of its own (one: this thread), taking the next batch when free.
-    const auto work = [&](size_t k) {
-        Session& session = *sessions[k];
+    // Device k takes the next batch while any is left: `one` renders batch b.
+    const auto take_batches = [&](size_t k, const std::function<BatchMean(uint32_t seed)>& one) {
         try {
-            if (k == 0 && first) first(session);
-            for (int b; (b = next.fetch_add(1)) < batch.batches;) {
-                session.settings().seed = batch.seed_base + uint32_t(b);
-                session.reset();
-                RenderGoal goal;
-                goal.spp = batch.spp_per_batch;
-                render_until(session, goal);
-                batches[size_t(b)] = batch_mean(session.result());
-            }
+            for (int b; (b = next.fetch_add(1)) < batch.batches; ++rendered[k])
+                batches[size_t(b)] = one(batch.seed_base + uint32_t(b));
         } catch (const std::exception& e) {
             failures[k] = e.what();
             next.store(batch.batches);  // the others stop after their batch
         }
     };
-    const auto work_remote = [&](size_t r) {
+    const auto on_session = [&](Session& session) {
+        return [&session, &batch](uint32_t seed) {
+            session.settings().seed = seed;
+            session.reset();
+            RenderGoal goal;
+            goal.spp = batch.spp_per_batch;
+            render_until(session, goal);
+            return batch_mean(session.result());
+        };
+    };
+    // Each session in a thread of its own (the first: this thread).
+    const auto work = [&](size_t k) {
         try {
-            for (int b; (b = next.fetch_add(1)) < batch.batches;)
-                batches[size_t(b)] =
-                    remote[r]->render(batch.seed_base + uint32_t(b), batch.spp_per_batch);
+            if (k == 0 && first) first(*sessions[0]);
         } catch (const std::exception& e) {
-            failures[sessions.size() + r] = e.what();
+            failures[k] = e.what();
             next.store(batch.batches);
+            return;
         }
+        take_batches(k, on_session(*sessions[k]));
+    };
+    const auto work_remote = [&](size_t r) {
+        take_batches(sessions.size() + r,
+                     [&](uint32_t seed) { return remote[r]->render(seed, batch.spp_per_batch); });
+    };
+    // A joining device waits while batches are left, then takes them as the others do.
+    const auto work_joining = [&](size_t j) {
+        const size_t k = sessions.size() + remote.size() + j;
+        const auto& ready = joining[j].ready;
+        while (ready.wait_for(std::chrono::milliseconds(2)) != std::future_status::ready)
+            if (next.load() >= batch.batches) return;
+        std::shared_ptr<Session> session;
+        try {
+            session = ready.get();
+        } catch (const std::exception& e) {
+            failures[k] = e.what();
+            next.store(batch.batches);
+            return;
+        }
+        take_batches(k, on_session(*session));
     };
     std::vector<std::thread> threads;
     for (size_t k = 1; k < sessions.size(); ++k) threads.emplace_back(work, k);
     for (size_t r = 0; r < remote.size(); ++r) threads.emplace_back(work_remote, r);
+    for (size_t j = 0; j < joining.size(); ++j) threads.emplace_back(work_joining, j);
     work(0);
     for (std::thread& t : threads) t.join();
-    const size_t devices = sessions.size() + remote.size();
+    const auto name = [&](size_t k) {
+        if (k < sessions.size()) return sessions[k]->device().label();
+        if (k < sessions.size() + remote.size()) return remote[k - sessions.size()]->name();
+        return joining[k - sessions.size() - remote.size()].name;
+    };
     for (size_t k = 0; k < devices; ++k)
         if (!failures[k].empty())
-            throw Error(devices == 1 ? failures[k]
-                                     : "device " + std::to_string(k) + " (" +
-                                           (k < sessions.size()
-                                                ? sessions[k]->device().label()
-                                                : remote[k - sessions.size()]->name()) +
-                                           "): " + failures[k]);
+            throw Error(devices == 1
+                            ? failures[k]
+                            : "device " + std::to_string(k) + " (" + name(k) + "): " + failures[k]);
     BatchSet set = batch_means(batches);
+    set.per_device = rendered;
     if (devices > 1)
         set.seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -4,6 +4,8 @@
 // streams: what differs is float rounding and compiler behaviour).
 #pragma once
 #include <functional>
+#include <future>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -19,6 +21,8 @@ struct BatchSet {
     std::vector<double> mean, var;  // per pixel, over the batch means
     uint64_t nonfinite = 0;
     double seconds = 0, rays = 0;  // totals over all batches
+    // Several devices: the batches each rendered (sessions, then remote, then joining ones).
+    std::vector<int> per_device;
 };
 
 struct BatchOptions {
@@ -55,14 +59,22 @@ class BatchRenderer {
     virtual BatchMean render(uint32_t seed, uint64_t spp) = 0;
 };
 
+// A device still opening (made and committed on a thread of its own): it joins the batches
+// when ready, if any are left; one ready after the last batch was handed out renders none.
+struct JoiningSession {
+    std::string name;                                    // as the user named it, for messages
+    std::shared_future<std::shared_ptr<Session>> ready;  // get() throws what opening threw
+};
+
 // The same batches on several sessions at once (each a device: batches are independent
 // renders, handed to whichever session is free); batch b is the render of seed_base + b
 // whichever renders it. `seconds` is the wall time of them all. `first`, if set, runs on the
 // first session before it takes a batch (the others start on batches meanwhile).
-// `remote` render batches too, each in a thread of its own.
+// `remote` render batches too, each in a thread of its own, and so do `joining` once ready.
 BatchSet render_batches(const std::vector<Session*>& sessions, const BatchOptions& batch,
                         const std::function<void(Session&)>& first = {},
-                        const std::vector<BatchRenderer*>& remote = {});
+                        const std::vector<BatchRenderer*>& remote = {},
+                        const std::vector<JoiningSession>& joining = {});
 
 struct Agreement {
     size_t pixels_tested = 0;  // pixels with variance or differing means
