@@ -94,12 +94,18 @@ std::vector<std::string> device_list(const std::string& side) {
 
 void print_device_shares(const Session& session) {
     const uint64_t spp = session.result().spp;
+    // The render time: what a device did not spend in chunks went to hand-outs, read-backs
+    // and the sums' collection, or to waiting for the round's last chunk.
+    const double seconds = session.result().seconds;
     for (size_t d = 0; d < session.device_stats().size(); ++d) {
         const WorkerStats& w = session.device_stats()[d];
-        std::printf("  device %zu: %s: %llu chunks, %llu spp (%.0f%%), %.2f spp/s\n", d,
-                    w.name.c_str(), (unsigned long long)w.chunks, (unsigned long long)w.samples,
-                    spp > 0 ? 100.0 * double(w.samples) / double(spp) : 0.0,
-                    w.seconds > 0 ? double(w.samples) / w.seconds : 0.0);
+        std::printf(
+            "  device %zu: %s: %llu chunks, %llu spp (%.0f%%), %.2f spp/s, in chunks %.1f%% "
+            "of the time, read-backs %.3f s\n",
+            d, w.name.c_str(), (unsigned long long)w.chunks, (unsigned long long)w.samples,
+            spp > 0 ? 100.0 * double(w.samples) / double(spp) : 0.0,
+            w.seconds > 0 ? double(w.samples) / w.seconds : 0.0,
+            seconds > 0 ? 100 * w.seconds / seconds : 0.0, w.finish_seconds);
     }
 }
 

@@ -321,10 +321,12 @@ TEST(SeveralDevices, PoclAndLavapipeTogetherAgreeWithOneDevice) {
 // the first device kept busy meanwhile, so that it takes some), each batch its seed's render
 // whoever makes it; one never ready is not waited for; one that failed to open fails them.
 TEST(SeveralDevices, BatchesOnDevicesThatJoinWhenReady) {
+    // Reproducible sums: a batch's bits do not depend on how its loop split it into passes.
     BatchOptions bo;
     bo.batches = 6;
+    bo.spp_per_batch = kReproducibleGroupSpp;
     Session first("opencl");
-    setup(first, 1, false);
+    setup(first, 1, true);
     const BatchSet alone = render_batches(first, bo);
     ASSERT_EQ(alone.per_device, std::vector<int>{6});
     const auto joining = [](std::promise<std::shared_ptr<Session>>& p) {
@@ -333,7 +335,7 @@ TEST(SeveralDevices, BatchesOnDevicesThatJoinWhenReady) {
     // Ready at once: it renders batches while the first device is held up.
     std::promise<std::shared_ptr<Session>> ready;
     auto second = std::make_shared<Session>("opencl");
-    setup(*second, 1, false);
+    setup(*second, 1, true);
     ready.set_value(second);
     const auto held_up = [](Session&) {
         std::this_thread::sleep_for(std::chrono::milliseconds(300));
@@ -360,6 +362,41 @@ TEST(SeveralDevices, BatchesOnDevicesThatJoinWhenReady) {
         EXPECT_NE(std::string(e.what()).find("opencl (joining)"), std::string::npos) << e.what();
         EXPECT_NE(std::string(e.what()).find("no such device"), std::string::npos) << e.what();
     }
+}
+
+// A new seed (or light scale) restarts the session's loop instead of making a new one (which
+// starts from small dispatches): the same loop, its dispatches counted on, and the image of
+// that seed bit for bit (reproducible), whatever was rendered before.
+TEST(SessionBatches, NewSeedRestartsTheLoopWithItsTimings) {
+    Session s("opencl");
+    setup(s, 1, true);
+    const auto render = [&](uint32_t seed, float light_scale, uint64_t spp) {
+        s.settings().seed = seed, s.settings().light_scale = light_scale;
+        s.reset();
+        s.render(1e9, 0, spp);
+        return s.result().sum;
+    };
+    // The loop's dispatches count on across restarts; a new loop's count its own (a first
+    // render of 4 groups takes more dispatches than a fresh one of 1 would).
+    const std::vector<double> first = render(1, 1.f, 4 * kReproducibleGroupSpp);
+    const uint64_t d1 = s.loop()->dispatches();
+    const std::vector<double> other = render(2, 1.f, kReproducibleGroupSpp);
+    EXPECT_GT(s.loop()->dispatches(), d1) << "a new seed made a new loop";
+    const std::vector<double> again = render(1, 1.f, 4 * kReproducibleGroupSpp);
+    EXPECT_TRUE(bitwise_equal(first, again));
+    EXPECT_FALSE(bitwise_equal(first, other));  // the control: another seed differs
+    const std::vector<double> brighter = render(1, 2.f, 4 * kReproducibleGroupSpp);
+    double lo = 1e30, hi = 0;
+    for (size_t i = 0; i < first.size(); ++i)
+        if (first[i] > 0)
+            lo = std::min(lo, brighter[i] / first[i]), hi = std::max(hi, brighter[i] / first[i]);
+    EXPECT_NEAR(lo, 2.0, 1e-5) << "the light scale did not reach the restarted loop";
+    EXPECT_NEAR(hi, 2.0, 1e-5);
+    // Anything else the device depends on makes a new loop.
+    const uint64_t before = s.loop()->dispatches();
+    s.settings().max_depth = 3;
+    render(1, 1.f, kReproducibleGroupSpp);
+    EXPECT_LT(s.loop()->dispatches(), before);
 }
 
 TEST(SeveralDevices, RefusesWhatOneDeviceMust) {

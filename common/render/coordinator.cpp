@@ -158,6 +158,7 @@ void Coordinator::run(const std::atomic<bool>* cancel) {
                      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
             }
             // No chunk left for it: its read-back overlaps the others' last chunks.
+            const auto t0 = std::chrono::steady_clock::now();
             try {
                 workers_[w]->finish_round();
             } catch (const DeviceLost& e) {
@@ -165,7 +166,10 @@ void Coordinator::run(const std::atomic<bool>* cancel) {
             } catch (const std::exception& e) {
                 failed(w, e.what(), false);
             }
+            const double finish_s =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
             std::lock_guard<std::mutex> lock(mutex_);
+            stats_[w].finish_seconds += finish_s;
             ++finished;
             changed_.notify_all();
         });

@@ -65,8 +65,9 @@ constexpr double kShortChunkSeconds = 0.02;
 struct WorkerStats {
     std::string name;
     uint64_t chunks = 0;
-    uint64_t samples = 0;  // samples per pixel rendered, in all chunks
-    double seconds = 0;    // time in chunks
+    uint64_t samples = 0;       // samples per pixel rendered, in all chunks
+    double seconds = 0;         // time in chunks
+    double finish_seconds = 0;  // time reading the rounds' sums back (Worker::finish_round)
     // Samples per pixel per second in its last chunk (a short one: the fastest since); 0:
     // unknown.
     double rate = 0;

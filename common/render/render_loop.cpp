@@ -433,6 +433,15 @@ void ProgressiveRender::begin_at(uint64_t first) {
     unflushed_ = 0;
 }
 
+void ProgressiveRender::restart(uint32_t seed, float light_scale, uint64_t first) {
+    if (opt_.adaptive) throw Error("an adaptive render starts over with a new loop");
+    opt_.seed = p_.seed = seed;
+    opt_.light_scale = p_.light_scale = light_scale;
+    begin_at(first);
+    flushed_ = synced_once_ = false;
+    device_spp_ = 0;
+}
+
 void ProgressiveRender::continue_at(uint64_t first) {
     if (group_ > 0 && (first % group_ != 0 || unflushed_ != 0))
         throw Error("a reproducible chunk starts at a multiple of " + std::to_string(group_) +

@@ -143,6 +143,10 @@ class ProgressiveRender {
     // Starts empty sums at sample index `first` (a multiple of group_spp when reproducible):
     // the samples of a chunk (coordinator.h), added elsewhere.
     void begin_at(uint64_t first);
+    // Starts over from empty sums at sample index `first` with another seed and light scale
+    // (a new independent render of the same scene), keeping the measured timings: a new loop
+    // would start from small dispatches.
+    void restart(uint32_t seed, float light_scale, uint64_t first);
     // Continues the sums with samples from index `first` on (another chunk; after whole groups
     // when reproducible): they then hold samples of several ranges, counted in spp.
     void continue_at(uint64_t first);

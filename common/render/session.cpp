@@ -73,6 +73,11 @@ bool same(const SessionSettings& a, const SessionSettings& b) {
            a.reproducible == b.reproducible && a.adaptive == b.adaptive &&
            a.dispatch_ms == b.dispatch_ms && a.light_scale == b.light_scale;
 }
+// All but the seed and the light scale, which a render loop can restart with.
+bool same_but_seed_and_light_scale(SessionSettings a, const SessionSettings& b) {
+    a.seed = b.seed, a.light_scale = b.light_scale;
+    return same(a, b);
+}
 // The settings the device's program and buffers depend on (the rest: seed, light scale,
 // timings, only the render loop's).
 bool same_on_device(const SessionSettings& a, const SessionSettings& b) {
@@ -169,6 +174,16 @@ void Session::commit() {
         throw Error(
             "adaptive sampling is not reproducible (its sample counts follow the noise): "
             "turn one of them off");
+    // Only the seed or the light scale changed (compare's batches, converge's runs): the loop
+    // starts over from empty sums, the scene kept on the device and the loop's measured
+    // timings kept (a new loop starts from small dispatches: ~40 ms a 1024x1024 batch).
+    if (!dirty_ && progressive_ && !several() && !s.adaptive && lost_.empty() &&
+        same_but_seed_and_light_scale(s, committed_settings_)) {
+        progressive_->restart(s.seed, s.light_scale, part_.first);
+        round_open_ = round_flushed_ = false;
+        committed_settings_ = s;
+        return;
+    }
     progressive_.reset();
     dirty_ = true;
     // Tree, layout, limits; then compile and upload (unless only the seed, the light scale
@@ -282,6 +297,7 @@ void Session::add_stats(const std::vector<WorkerStats>& job) {
         WorkerStats& d = device_stats_[w];
         d.name = job[w].name;
         d.chunks += job[w].chunks, d.samples += job[w].samples, d.seconds += job[w].seconds;
+        d.finish_seconds += job[w].finish_seconds;
         d.rate = job[w].rate;
     }
 }
