@@ -174,11 +174,14 @@ double sidak_level(double alpha, size_t m) {
 
 std::vector<bool> benjamini_hochberg(const std::vector<double>& p, double q) {
     const size_t m = p.size();
-    std::vector<size_t> order(m);
-    std::iota(order.begin(), order.end(), 0);
+    // Only p-values up to q can be under a threshold (rank / m * q): those sorted alone have
+    // the ranks they have among all (a million pixels, a few of them candidates).
+    std::vector<size_t> order;
+    for (size_t i = 0; i < m; ++i)
+        if (p[i] <= q) order.push_back(i);
     std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return p[a] < p[b]; });
     size_t k = 0;  // the largest rank whose p-value is under its threshold
-    for (size_t r = 0; r < m; ++r)
+    for (size_t r = 0; r < order.size(); ++r)
         if (p[order[r]] <= double(r + 1) / double(m) * q) k = r + 1;
     std::vector<bool> discovery(m, false);
     for (size_t r = 0; r < k; ++r) discovery[order[r]] = true;
