@@ -385,6 +385,10 @@ TEST(SessionBatches, NewSeedRestartsTheLoopWithItsTimings) {
     const std::vector<double> again = render(1, 1.f, 4 * kReproducibleGroupSpp);
     EXPECT_TRUE(bitwise_equal(first, again));
     EXPECT_FALSE(bitwise_equal(first, other));  // the control: another seed differs
+    // A new seed without reset() starts over too (the restart zeroes what reset() did not).
+    s.settings().seed = 2;
+    s.render(1e9, 0, kReproducibleGroupSpp);
+    EXPECT_TRUE(bitwise_equal(other, s.result().sum));
     const std::vector<double> brighter = render(1, 2.f, 4 * kReproducibleGroupSpp);
     double lo = 1e30, hi = 0;
     for (size_t i = 0; i < first.size(); ++i)

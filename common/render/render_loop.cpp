@@ -399,6 +399,7 @@ void ProgressiveRender::restore(const RenderResult& saved) {
     if (group_ > 0 && (saved.exact.size() != 6 * size_t(npix_) || saved.first % group_ != 0 ||
                        saved.spp % group_ != 0))
         throw Error("saved sums are not a reproducible render's (exact, whole groups)");
+    begun_empty_ = false;
     r_ = saved;
     base_ = saved.first;
     device_groups_ = false;
@@ -428,6 +429,7 @@ void ProgressiveRender::begin_at(uint64_t first) {
     };
     zero(r_);
     if (group_ > 0) zero(settled_), stale_ = false;
+    begun_empty_ = true;
     device_groups_ = false;
     base_ = first;
     unflushed_ = 0;
@@ -437,7 +439,8 @@ void ProgressiveRender::restart(uint32_t seed, float light_scale, uint64_t first
     if (opt_.adaptive) throw Error("an adaptive render starts over with a new loop");
     opt_.seed = p_.seed = seed;
     opt_.light_scale = p_.light_scale = light_scale;
-    begin_at(first);
+    // Session::reset() began empty sums at `first` already (no sample since): not zeroed twice.
+    if (!begun_empty_ || base_ != first) begin_at(first);
     flushed_ = synced_once_ = false;
     device_spp_ = 0;
 }
@@ -451,6 +454,7 @@ void ProgressiveRender::continue_at(uint64_t first) {
 }
 
 uint32_t ProgressiveRender::pass(uint64_t max_spp) {
+    begun_empty_ = false;
     // Adaptive, after the warm-up: samples where the noise is.
     if (opt_.adaptive && r_.spp >= kAdaptiveWarmupSpp) return adaptive_pass(max_spp);
     // Every pixel gets `spp` more samples, in tiles of at most `work` pixel-samples (and at

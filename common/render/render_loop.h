@@ -208,6 +208,7 @@ class ProgressiveRender {
     uint32_t slots_ = 0;     // path-state slots: the largest tile
     bool windowed_ = false;  // the device holds one tile's sums at a time (gpu_scene.h)
     bool flushed_ = false;
+    bool begun_empty_ = false;  // begin_at() zeroed the sums and no pass or restore came since
     std::chrono::steady_clock::time_point flushed_at_;
     std::vector<float> window_sums_;
     // Adaptive sampling: the sums of the warm-up's first half, sigma per pixel (adaptive.h),
