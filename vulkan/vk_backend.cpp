@@ -19,9 +19,9 @@ namespace mcpt {
 
 using vk::Buffer;
 
-// The texel buffers' formats: two 32-bit words per texel for the tree (a k-d node), four for
-// the triangles (two and a half texels each) and the shading buffer (spheres, materials and
-// lights are whole 16-byte texels).
+// The texel buffers' formats: two 32-bit words per texel for a k-d tree (a node), four for a
+// BVH (a node is fourteen), the triangles (two and a half texels each) and the shading buffer
+// (spheres, materials and lights are whole 16-byte texels).
 constexpr VkFormat kPairFormat = VK_FORMAT_R32G32_UINT;
 constexpr VkFormat kQuadFormat = VK_FORMAT_R32G32B32A32_UINT;
 
@@ -315,7 +315,9 @@ struct VulkanBackend::Impl {
         std::vector<uint32_t> tree_words = tree_buffer(scene);
         std::vector<uint32_t> tri_words = triangle_buffer(scene);
         std::vector<uint32_t> shading_words = shading_buffer(scene);
-        tree_words.resize((tree_words.size() + 1) / 2 * 2);
+        // The tree's texels: k-d nodes as word pairs, BVH nodes as quads (scene_access.h).
+        const uint32_t tree_texel = (scene.params.scene_flags & SCENE_BVH) != 0u ? 4u : 2u;
+        tree_words.resize((tree_words.size() + tree_texel - 1) / tree_texel * tree_texel);
         tri_words.resize((tri_words.size() + 3) / 4 * 4);
         shading_words.resize((shading_words.size() + 3) / 4 * 4);
         const VkBufferUsageFlags texel = VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT;
@@ -323,7 +325,7 @@ struct VulkanBackend::Impl {
         tris = upload(tri_words, texel);
         shading = upload(shading_words, texel);
         // Every view is made (the descriptor set binds all three), so `&`, not `&&`.
-        const bool fits = make_view(tree, tree_words.size(), 2, tree_view) &
+        const bool fits = make_view(tree, tree_words.size(), tree_texel, tree_view) &
                           make_view(tris, tri_words.size(), 4, tris_view) &
                           make_view(shading, shading_words.size(), 4, shading_view);
         scene_texels = prefer_texels() && fits;

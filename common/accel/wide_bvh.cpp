@@ -1,4 +1,4 @@
-// Construction of the compressed 8-wide BVH (common/accel/wide_bvh.h):
+// Construction of the 8-wide BVH (common/accel/wide_bvh.h):
 //  1. a binary BVH by binned SAH over triangle box centroids (16 bins on the axis of largest
 //     centroid extent), the two children of large nodes built on two threads;
 //  2. each wide node collapsed from a binary subtree: the child of largest surface area
@@ -7,7 +7,8 @@
 //     internal ones stored contiguously in breadth-first order, the leaves' triangles
 //     contiguously per node;
 //  4. child boxes quantized per axis to a grid 2^e from p = the node's lower corner less a cell,
-//     every box widened by a further cell, so the traversal's rounding never shrinks a box.
+//     every box widened by a further cell, so the traversal's rounding never shrinks a box;
+//     each plane stored as its offset from p in float (exact), which the traversal uses as is.
 #include "common/accel/wide_bvh.h"
 
 #include <algorithm>
@@ -37,7 +38,9 @@ struct Prim {
 };
 
 // A box's centre on axis a (halves first: no overflow at 3.4e38).
-float centroid(const Prim& p, int a) { return 0.5f * p.lo[a] + 0.5f * p.hi[a]; }
+float centroid(const Prim& p, int a) {
+    return 0.5f * p.lo[a] + 0.5f * p.hi[a];
+}
 
 // A binary node: a leaf (count > 0) of refs[first, first + count), or children left, right;
 // `below` triangles in its subtree, whose references are refs[first, first + below).
@@ -129,9 +132,8 @@ struct BinaryBuilder {
             // (About n nodes for n references, leaves holding 1-3: a hint, they grow past it.)
             std::vector<BinNode> left_nodes, right_nodes;
             left_nodes.reserve(mid - begin), right_nodes.reserve(end - mid);
-            auto left = std::async(std::launch::async, [&] {
-                build(begin, mid, left_nodes, threads / 2, left_boxes);
-            });
+            auto left = std::async(std::launch::async,
+                                   [&] { build(begin, mid, left_nodes, threads / 2, left_boxes); });
             build(mid, end, right_nodes, threads - threads / 2, right_boxes);
             left.get();
             append(left_nodes, out);
@@ -198,8 +200,10 @@ struct BinaryBuilder {
             for (int b = kBins - 1; b > 0; --b) {
                 if (b < kBins - 1) acc.add(bins[b].boxes);
                 n += bins[b].n;
-                const double cost = left_cost[b - 1] + (n ? double(half_area(acc.lo, acc.hi)) * n : 0.0);
-                if (cost < best_cost && n > 0 && n < count) best_cost = cost, best_axis = a, best_bin = b;
+                const double cost =
+                    left_cost[b - 1] + (n ? double(half_area(acc.lo, acc.hi)) * n : 0.0);
+                if (cost < best_cost && n > 0 && n < count)
+                    best_cost = cost, best_axis = a, best_bin = b;
             }
         }
         if (best_axis < 0) return begin + count / 2;  // one centroid: halve by index
@@ -242,15 +246,35 @@ AxisGrid axis_grid(double lo, double hi) {
 }
 
 // A grid plane as a byte, 0-255 (NaN: 0; only boxes beyond float range reach the ends).
-uint32_t grid_byte(double q) { return q >= 255.0 ? 255u : (q > 0 ? uint32_t(q) : 0u); }
+uint32_t grid_byte(double q) {
+    return q >= 255.0 ? 255u : (q > 0 ? uint32_t(q) : 0u);
+}
 
 void put_byte(uint32_t& word, int k, uint32_t v) {
     word = (word & ~(0xffu << (8 * k))) | ((v & 0xffu) << (8 * k));
 }
-uint32_t get_byte(uint32_t word, int k) { return (word >> (8 * k)) & 0xffu; }
+uint32_t get_byte(uint32_t word, int k) {
+    return (word >> (8 * k)) & 0xffu;
+}
 
-// Word and byte of a plane: q2 (x), q3 (y), q4 (z) hold lo slots 0-3, 4-7, hi 0-3, 4-7.
-int plane_word(int axis, bool high, int slot) { return 8 + 4 * axis + (high ? 2 : 0) + slot / 4; }
+// Word of a plane: quad 2 + 6h + 2a + hi, slot 4h + k in its word k (shared_types.h).
+int plane_word(int axis, bool high, int slot) {
+    return 4 * int(BVH_PLANES_QUAD + BVH_HALF_QUADS * (slot / 4) + 2 * axis + (high ? 1 : 0)) +
+           slot % 4;
+}
+
+// A plane's grid index q on a grid of 2^e, as the node stores it: its offset q * 2^e from the
+// grid's origin, in float (exact: 8 significant bits; infinite only beyond float range,
+// which widens the box).
+uint32_t plane_bits(uint32_t q, int e) {
+    const uint32_t scale_bits = uint32_t(e + 127) << 23;  // 2^e: e in [-100, 126]
+    float scale;
+    std::memcpy(&scale, &scale_bits, 4);
+    const float d = float(q) * scale;
+    uint32_t bits;
+    std::memcpy(&bits, &d, 4);
+    return bits;
+}
 
 // A wide node's children (binary node indices), at most BVH_WIDTH.
 struct Kids {
@@ -279,6 +303,10 @@ struct Collapser {
             int depth;
         };
         std::deque<Item> queue{{root, 0, 0}};
+        // About one node per 7.6 triangles, one leaf index per triangle (the 871k dragon):
+        // room reserved so that nodes of 224 bytes are not copied as the arrays grow.
+        nodes.reserve(bin[root].below / 6 + 1);
+        leaf_indices.reserve(bin[root].below);
         nodes.resize(1);
         while (!queue.empty()) {
             const Item it = queue.front();
@@ -320,7 +348,8 @@ struct Collapser {
             } else {
                 const uint32_t offset = uint32_t(leaf_indices.size()) - out.words[5];
                 meta = (((1u << c.below) - 1u) << 5) | offset;
-                for (uint32_t i = 0; i < c.below; ++i) leaf_indices.push_back(refs[c.first + i].tri);
+                for (uint32_t i = 0; i < c.below; ++i)
+                    leaf_indices.push_back(refs[c.first + i].tri);
                 stats.leaves += 1;
             }
             put_byte(out.words[6 + s / 4], s % 4, meta);
@@ -403,7 +432,8 @@ struct Collapser {
         float lo[3], hi[3];
         for (int a = 0; a < 3; ++a) {
             lo[a] = std::numeric_limits<float>::max(), hi[a] = -std::numeric_limits<float>::max();
-            for (uint32_t k : kids) lo[a] = std::min(lo[a], bin[k].lo[a]), hi[a] = std::max(hi[a], bin[k].hi[a]);
+            for (uint32_t k : kids)
+                lo[a] = std::min(lo[a], bin[k].lo[a]), hi[a] = std::max(hi[a], bin[k].hi[a]);
         }
         uint32_t exps = 0;
         for (int a = 0; a < 3; ++a) {
@@ -416,8 +446,8 @@ struct Collapser {
                 const BinNode& c = bin[kids[size_t(kid_in_slot[s])]];
                 const double qlo = std::floor((double(c.lo[a]) - g.p) / cell) - 1.0;
                 const double qhi = std::ceil((double(c.hi[a]) - g.p) / cell) + 1.0;
-                put_byte(out.words[plane_word(a, false, s)], s % 4, grid_byte(qlo));
-                put_byte(out.words[plane_word(a, true, s)], s % 4, grid_byte(qhi));
+                out.words[plane_word(a, false, s)] = plane_bits(grid_byte(qlo), g.e);
+                out.words[plane_word(a, true, s)] = plane_bits(grid_byte(qhi), g.e);
             }
         }
         out.words[3] = exps | (imask << 24);
@@ -427,9 +457,10 @@ struct Collapser {
 // The wide tree: its root here, then the subtrees of the root's internal children each
 // collapsed on its own (on up to `threads` threads; the collapse was a third of the 871k
 // dragon's build on one), laid out as [root, the children's roots, the rest of child 0's
-// subtree, of child 1's, ...] and their indices moved there. The same tree on any number of
-// threads.
-Collapser collapse_wide(const std::vector<BinNode>& bin, const std::vector<Prim>& refs, int threads) {
+// subtree, of child 1's, ...] and their indices moved there, into `units` (the tree's 8-byte
+// units). The same tree on any number of threads.
+Collapser collapse_wide(const std::vector<BinNode>& bin, const std::vector<Prim>& refs, int threads,
+                        std::vector<gpu::KdNode>& units) {
     Collapser top{bin, refs, {}, {}, {}};
     top.nodes.resize(1);
     const Kids internal = top.make_node(0, 0);
@@ -438,35 +469,49 @@ Collapser collapse_wide(const std::vector<BinNode>& bin, const std::vector<Prim>
     // Largest subtrees first, each taken by the next free thread.
     std::vector<size_t> order(internal.size());
     for (size_t j = 0; j < order.size(); ++j) order[j] = j;
-    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-        return bin[internal[a]].below > bin[internal[b]].below;
-    });
+    std::sort(order.begin(), order.end(),
+              [&](size_t a, size_t b) { return bin[internal[a]].below > bin[internal[b]].below; });
     std::atomic<size_t> next{0};
     const auto work = [&](size_t, size_t) {
-        for (size_t k; (k = next.fetch_add(1)) < order.size();) subs[order[k]].run(internal[order[k]]);
+        for (size_t k; (k = next.fetch_add(1)) < order.size();)
+            subs[order[k]].run(internal[order[k]]);
     };
-    const size_t workers = std::min<size_t>(std::max(threads, 1), std::max<size_t>(order.size(), 1));
+    const size_t workers =
+        std::min<size_t>(std::max(threads, 1), std::max<size_t>(order.size(), 1));
     for_ranges(workers, work, 1);
-    // Child j's root goes to 1 + j, its other nodes i to base + i - 1; its leaf indices after
-    // those before it.
-    size_t total = top.nodes.size();
-    for (const Collapser& c : subs) total += c.nodes.size() - 1;
-    top.nodes.resize(total);
-    size_t base = 1 + subs.size();
-    for (size_t j = 0; j < subs.size(); ++j) {
-        Collapser& c = subs[j];
-        const uint32_t node_shift = uint32_t(base - 1), leaf_shift = uint32_t(top.leaf_indices.size());
-        for (size_t i = 0; i < c.nodes.size(); ++i) {
-            gpu::BvhNode n = c.nodes[i];
-            n.words[4] += node_shift;  // first child: never a subtree's root (index 0)
-            n.words[5] += leaf_shift;
-            top.nodes[i == 0 ? 1 + j : base + i - 1] = n;
-        }
-        base += c.nodes.size() - 1;
-        top.leaf_indices.insert(top.leaf_indices.end(), c.leaf_indices.begin(), c.leaf_indices.end());
-        top.stats.leaves += c.stats.leaves;
-        top.stats.max_depth = std::max(top.stats.max_depth, c.stats.max_depth + 1);
+    // Child j's root goes to 1 + j, its other nodes i to base_j + i - 1; its leaf indices
+    // after those before it. Written straight into the tree's units, each subtree on a thread
+    // (nodes of 224 bytes: a copy of the 871k dragon's tree is 25 MB).
+    const size_t count = subs.size();
+    std::vector<size_t> base(count), leaf_base(count);
+    size_t nodes = 1 + count, leaves = top.leaf_indices.size();
+    for (size_t j = 0; j < count; ++j) {
+        base[j] = nodes, nodes += subs[j].nodes.size() - 1;
+        leaf_base[j] = leaves, leaves += subs[j].leaf_indices.size();
+        top.stats.leaves += subs[j].stats.leaves;
+        top.stats.max_depth = std::max(top.stats.max_depth, subs[j].stats.max_depth + 1);
     }
+    units.resize(nodes * BVH_NODE_UNITS);
+    std::memcpy(units.data(), &top.nodes[0], sizeof(gpu::BvhNode));
+    top.leaf_indices.resize(leaves);
+    std::atomic<size_t> next_copy{0};
+    const auto copy = [&](size_t, size_t) {
+        for (size_t j; (j = next_copy.fetch_add(1)) < count;) {
+            const Collapser& c = subs[j];
+            const uint32_t node_shift = uint32_t(base[j] - 1), leaf_shift = uint32_t(leaf_base[j]);
+            for (size_t i = 0; i < c.nodes.size(); ++i) {
+                gpu::BvhNode n = c.nodes[i];
+                n.words[4] += node_shift;  // first child: never a subtree's root (index 0)
+                n.words[5] += leaf_shift;
+                const size_t at = i == 0 ? 1 + j : base[j] + i - 1;
+                std::memcpy(units.data() + at * BVH_NODE_UNITS, &n, sizeof n);
+            }
+            std::copy(c.leaf_indices.begin(), c.leaf_indices.end(),
+                      top.leaf_indices.begin() + std::ptrdiff_t(leaf_base[j]));
+        }
+    };
+    for_ranges(workers, copy, 1);
+    top.nodes.resize(nodes);  // (their count, for the stats; the nodes are in `units`)
     top.finish_stats();
     return top;
 }
@@ -503,9 +548,7 @@ KdTree build_wide_bvh(const std::vector<Triangle>& triangles, const TreeOptions&
     } else {
         bin.reserve(refs.size());
         BinaryBuilder{refs}.build(0, uint32_t(refs.size()), bin, threads, Boxes{});
-        const Collapser col = collapse_wide(bin, refs, threads);
-        tree.nodes.resize(col.nodes.size() * BVH_NODE_UNITS);
-        std::memcpy(tree.nodes.data(), col.nodes.data(), col.nodes.size() * sizeof(gpu::BvhNode));
+        Collapser col = collapse_wide(bin, refs, threads, tree.nodes);
         tree.leaf_indices = std::move(col.leaf_indices);
         tree.stats = col.stats;
     }
@@ -529,12 +572,19 @@ void set_bvh_node(KdTree& tree, uint32_t i, const gpu::BvhNode& node) {
     std::memcpy(tree.nodes.data() + size_t(i) * BVH_NODE_UNITS, &node, sizeof node);
 }
 
+// A node's grid exponent on an axis.
+static int grid_exponent(const gpu::BvhNode& node, int axis) {
+    return int(get_byte(node.words[3], axis)) - 127;
+}
+
 uint32_t bvh_plane(const gpu::BvhNode& node, int axis, bool high, int slot) {
-    return get_byte(node.words[plane_word(axis, high, slot)], slot % 4);
+    float d;
+    std::memcpy(&d, &node.words[plane_word(axis, high, slot)], 4);
+    return uint32_t(std::ldexp(double(d), -grid_exponent(node, axis)));
 }
 
 void set_bvh_plane(gpu::BvhNode& node, int axis, bool high, int slot, uint32_t q) {
-    put_byte(node.words[plane_word(axis, high, slot)], slot % 4, q);
+    node.words[plane_word(axis, high, slot)] = plane_bits(q, grid_exponent(node, axis));
 }
 
 std::vector<BvhChild> bvh_children(const gpu::BvhNode& n) {
@@ -553,11 +603,12 @@ std::vector<BvhChild> bvh_children(const gpu::BvhNode& n) {
             c.triangles = uint32_t(__builtin_popcount(meta >> 5));
         }
         for (int a = 0; a < 3; ++a) {
-            float p;
+            float p, lo, hi;
             std::memcpy(&p, &n.words[a], 4);
-            const int e = int(get_byte(n.words[3], a)) - 127;
-            c.lo[a] = p + std::ldexp(double(bvh_plane(n, a, false, s)), e);
-            c.hi[a] = p + std::ldexp(double(bvh_plane(n, a, true, s)), e);
+            std::memcpy(&lo, &n.words[plane_word(a, false, s)], 4);
+            std::memcpy(&hi, &n.words[plane_word(a, true, s)], 4);
+            c.lo[a] = double(p) + lo;
+            c.hi[a] = double(p) + hi;
         }
         out.push_back(c);
     }

@@ -1,7 +1,8 @@
-// The compressed 8-wide BVH (gpu::BvhNode, after Ylitie, Karras & Laine 2017) over a scene's
+// The 8-wide BVH (gpu::BvhNode, after Ylitie, Karras & Laine 2017) over a scene's
 // triangles, beside the k-d tree: a binned-SAH binary BVH built on the host's threads,
 // collapsed to eight children per node (the largest child opened first), children placed in
-// the slots of the octants they are nearest along, and their boxes quantized conservatively.
+// the slots of the octants they are nearest along, and their boxes quantized conservatively
+// (to a grid, stored as float offsets from its origin).
 // It travels in a KdTree of kind TreeKind::Bvh: `nodes` holds the BVH nodes' bytes
 // (BVH_NODE_UNITS 8-byte units each) and `leaf_indices` the leaves' triangles.
 #pragma once

@@ -33,6 +33,8 @@
 #define FIND_MSB(x) uint(31 - __builtin_clz(x))  // x != 0
 #define BIT_COUNT(x) uint(__builtin_popcount(x))
 #define NO_UNROLL  // before a loop the compiler should keep rolled (code size)
+#define AS_VEC4(q) \
+    vec4(uint_as_float((q).x), uint_as_float((q).y), uint_as_float((q).z), uint_as_float((q).w))
 
 // ---------------------------------------------------------------- OpenCL C
 #elif defined(MCPT_OPENCL)
@@ -77,6 +79,7 @@
 #define FIND_MSB(x) (31u - clz(x))
 #define BIT_COUNT(x) popcount(x)
 #define NO_UNROLL _Pragma("unroll 1")
+#define AS_VEC4(q) as_float4(q)
 
 // ---------------------------------------------------------------- GLSL (Vulkan)
 #else
@@ -104,6 +107,7 @@
 #define FIND_MSB(x) uint(findMSB(x))
 #define BIT_COUNT(x) uint(bitCount(x))
 #define NO_UNROLL [[dont_unroll]]  // GL_EXT_control_flow_attributes (shaders/pathtrace.comp)
+#define AS_VEC4(q) uintBitsToFloat(q)
 #endif
 
 #endif  // MCPT_GPU_LANG_H

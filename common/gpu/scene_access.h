@@ -48,7 +48,10 @@ KdNode load_node(uint i) {
     uvec2 w = texelFetch(tree_texels, int(i)).xy;
     return KdNode(w.x, w.y);
 }
+// The tree's texels are word pairs for a k-d tree, quads for a BVH (vulkan/vk_backend.cpp).
 uint load_leaf_index(uint i) {
+    if ((params.scene_flags & SCENE_BVH) != 0u)
+        return texelFetch(tree_texels, int(params.num_nodes / 2u + (i >> 2u)))[i & 3u];
     uvec2 w = texelFetch(tree_texels, int(params.num_nodes + (i >> 1u))).xy;
     return (i & 1u) != 0u ? w.y : w.x;
 }
@@ -74,11 +77,9 @@ GpuLight load_light(uint i) {
 }
 #define NODE(i) load_node(i)
 #define LEAF_INDEX(i) load_leaf_index(i)
-// A BVH quad from two of the tree's word-pair texels (lavapipe: +4 to +12% against the
-// storage buffer's quads on bunny, dragon-48k and the textured scene).
-uvec4 load_bvh_quad(uint i) {
-    return uvec4(texelFetch(tree_texels, int(2u * i)).xy, texelFetch(tree_texels, int(2u * i + 1u)).xy);
-}
+// A BVH quad: one texel of the tree (lavapipe: +4 to +12% against the storage buffer's quads
+// on bunny, dragon-48k and the textured scene, with two word-pair texels a quad).
+uvec4 load_bvh_quad(uint i) { return texelFetch(tree_texels, int(i)); }
 #define BVH_QUAD(i) load_bvh_quad(i)
 // Word pair w of the triangle buffer: half of a 16-byte texel.
 uvec2 triangle_word(uint w) {

@@ -47,7 +47,7 @@ MCPT_NAMESPACE_BEGIN
 #define FEATURE_PUNCTUAL_LIGHTS 4096u  // point, spot and directional lights (KHR_lights_punctual)
 #define FEATURE_ENVIRONMENT 8192u   // an environment map or constant background (lights.h)
 #define FEATURE_LIGHT_TREE 65536u   // next-event estimation picks local lights by a tree
-#define FEATURE_BVH 131072u         // compressed 8-wide BVH traversal (traverse_bvh.h)
+#define FEATURE_BVH 131072u         // 8-wide BVH traversal (traverse_bvh.h)
 #define FEATURE_LIGHT_CONTRIBUTION 262144u  // a few lamps, picked by contribution (integrator.h)
 #define FEATURE_ALL (16383u | FEATURE_LIGHT_TREE | FEATURE_BVH | FEATURE_LIGHT_CONTRIBUTION)
 #define FEATURE_TEST_NAN 16384u     // tests only: poison samples of pixels 0 and 1 (never in ALL)
@@ -107,23 +107,27 @@ MCPT_STRUCT(KdNode) {
     uint flags;
 };
 
-// A node of the compressed 8-wide BVH (Ylitie, Karras & Laine, HPG 2017), five 16-byte
-// quads; the tree buffer holds them in place of k-d nodes (GpuParams.num_nodes counts 8-byte
-// units, ten a node), then the leaf index array. Child boxes are quantized to 8 bits per
-// plane on a grid of 2^e from origin p, conservatively, with a cell of margin on every side.
+// A node of the 8-wide BVH (after Ylitie, Karras & Laine, HPG 2017), fourteen 16-byte quads;
+// the tree buffer holds them in place of k-d nodes (GpuParams.num_nodes counts 8-byte units,
+// 28 a node), then the leaf index array. Child boxes lie on a grid of 2^e from origin p,
+// conservatively, with a cell of margin on every side; each plane is stored as its offset
+// from p in floats (q * 2^e for a grid index q of 0-255, exact), so the traversal converts
+// nothing (bytes converted per child cost NVIDIA 11-16% of its speed, docs/traversal.md).
 //   q0: p.x, p.y, p.z (floats); e_x | e_y << 8 | e_z << 16 (biased by 127) | imask << 24
 //   q1: first internal child's node index, first leaf index of the leaf children, meta 0-3,
 //       meta 4-7 (one byte per slot, slot k in byte k % 4 of word 2 + k / 4)
-//   q2: lo_x slots 0-3, lo_x slots 4-7, hi_x 0-3, hi_x 4-7; q3 the same for y, q4 for z
+//   q2 + 6h + 2a + hi: the plane (hi = 0: low, 1: high) on axis a of slots 4h to 4h + 3
 // imask bit s: slot s holds an internal node; those are stored contiguously from the first
 // child's index, in slot order. meta: 0 for an empty slot; an internal child (1 << 5) | (24 +
 // s); a leaf child of 1-3 triangles (0b1, 0b11, 0b111 << 5) | its first triangle's offset
 // from the node's first leaf index (0-21). Slot s holds the child nearest along the octant
 // of directions whose negative axes are its bits (x = 4, y = 2, z = 1).
 MCPT_STRUCT(BvhNode) {
-    uint words[20];
+    uint words[56];
 };
-#define BVH_NODE_UNITS 10u  // 8-byte units of the tree buffer per BvhNode
+#define BVH_NODE_UNITS 28u  // 8-byte units of the tree buffer per BvhNode
+#define BVH_PLANES_QUAD 2u  // quad of a node's first planes
+#define BVH_HALF_QUADS 6u   // quads of planes per half (four slots)
 #define BVH_WIDTH 8u
 #define BVH_LEAF_MAX 3u     // triangles per leaf child
 
@@ -303,7 +307,8 @@ MCPT_NAMESPACE_END
 
 #if defined(MCPT_CPP)
 static_assert(sizeof(mcpt::gpu::KdNode) == 8, "KdNode must be 8 bytes");
-static_assert(sizeof(mcpt::gpu::BvhNode) == BVH_NODE_UNITS * 8, "BvhNode must be 80 bytes");
+static_assert(sizeof(mcpt::gpu::BvhNode) == BVH_NODE_UNITS * 8, "BvhNode must be 224 bytes");
+static_assert(BVH_PLANES_QUAD + 2 * BVH_HALF_QUADS == BVH_NODE_UNITS / 2, "quads of a BvhNode");
 static_assert(sizeof(mcpt::gpu::GpuTriangle) == 40, "GpuTriangle must be 40 bytes");
 static_assert(sizeof(mcpt::gpu::GpuTriangle) % 8 == 0, "GLSL reads triangles as uvec2 words");
 static_assert(sizeof(mcpt::gpu::GpuSphere) == 32, "GpuSphere must be 32 bytes");

@@ -27,32 +27,39 @@ MCPT_NAMESPACE_BEGIN
 #define BOX_MAX(a, b) MAXF(a, b)
 #endif
 
-// Byte k of a word, as a float (NVIDIA: one conversion with a byte select; building the float
-// from 2^23's mantissa instead ran NVIDIA's Vulkan 7-10% slower, docs/traversal.md).
-#define BVH_BYTE_FLOAT(w, k) F32(((w) >> (8u * (k))) & 0xffu)
+// The node's grid origin (q0.xyz) relative to the ray's origin, in t (ox, oy, oz), and which
+// of each axis's planes is nearer (1: hi, for a negative direction). Scalars, not a vec3:
+// PoCL ran the bunny 5% slower through float3.
+#define BVH_NODE_IN_T(q0, o, inv_d)                                        \
+    float ox = (uint_as_float((q0).x) - (o).x) * (inv_d).x;                \
+    float oy = (uint_as_float((q0).y) - (o).y) * (inv_d).y;                \
+    float oz = (uint_as_float((q0).z) - (o).z) * (inv_d).z;                \
+    uint nx = (inv_d).x < 0.0f ? 1u : 0u, ny = (inv_d).y < 0.0f ? 1u : 0u, \
+         nz = (inv_d).z < 0.0f ? 1u : 0u
 
-// Declares a node's grid cell per axis (a power of two, its exponent in q0.w's low bytes) in
-// units of the ray's t (sx, sy, sz), and the grid's origin (q0.xyz) relative to the ray's, in
-// t (ox, oy, oz). Scalars, not a vec3: PoCL ran the bunny 5% slower through float3.
-#define BVH_NODE_IN_T(q0, o, inv_d)                                         \
-    float sx = uint_as_float(((q0).w & 0xffu) << 23u) * (inv_d).x;          \
-    float sy = uint_as_float((((q0).w >> 8u) & 0xffu) << 23u) * (inv_d).y;  \
-    float sz = uint_as_float((((q0).w >> 16u) & 0xffu) << 23u) * (inv_d).z; \
-    float ox = (uint_as_float((q0).x) - (o).x) * (inv_d).x;                 \
-    float oy = (uint_as_float((q0).y) - (o).y) * (inv_d).y;                 \
-    float oz = (uint_as_float((q0).z) - (o).z) * (inv_d).z
+// Child C (a component: x, y, z, w) of a half's four: its entry and exit distances from the
+// planes in t, and its hit bits (K: 0-3, its byte of the half's meta words) if the ray enters
+// it before t_max.
+#define BVH_CHILD_TEST(K, C)                                                                 \
+    {                                                                                        \
+        float t0 = BOX_MAX(BOX_MAX(near_x.C * inv_d.x + ox, near_y.C * inv_d.y + oy),        \
+                           BOX_MAX(near_z.C * inv_d.z + oz, 0.0f));                          \
+        float t1 = BOX_MIN(BOX_MIN(far_x.C * inv_d.x + ox, far_y.C * inv_d.y + oy),          \
+                           far_z.C * inv_d.z + oz);                                          \
+        bool enter = t0 * (1.0f - BVH_SLACK) <= BOX_MIN(t1 * (1.0f + BVH_SLACK), t_far_max); \
+        uint bits = ((child4 >> (8u * K)) & 0xffu) << ((bit4 >> (8u * K)) & 0xffu);          \
+        hits |= enter ? bits : 0u;                                                           \
+    }
 
 // The node's children the ray enters before t_max: internal children as bits 24 + (slot ^
 // oct_inv) (so the highest bit is the nearest octant's child), leaf triangles as bits at
 // their offsets from the node's first leaf index. Four slots per meta word: a byte of meta
 // is internal when its bits 3 and 4 are set (24 + slot), and its hit bits are its top three
 // (0b1 for a node, 0b1, 0b11 or 0b111 for a leaf of 1-3 triangles; 0 for an empty slot).
-MCPT_FN uint bvh_child_hits(uvec4 q0, uvec4 q1, uvec4 q2, uvec4 q3, uvec4 q4, vec3 o, vec3 inv_d,
+// `base`: the node's first quad; q0, q1 its first two.
+MCPT_FN uint bvh_child_hits(SCENE_PARAMS_ uint base, uvec4 q0, uvec4 q1, vec3 o, vec3 inv_d,
                             uint oct_inv, float t_max) {
-    // Per axis: the grid's cell in t, the origin's offset in t, and the near and far planes
-    // (hi is nearer when the direction is negative).
     BVH_NODE_IN_T(q0, o, inv_d);
-    bool nx = inv_d.x < 0.0f, ny = inv_d.y < 0.0f, nz = inv_d.z < 0.0f;
     float t_far_max = t_max * (1.0f + BVH_SLACK);
     uint hits = 0u;
     // Two halves of four slots: the halves' loop kept rolled (NVIDIA's OpenCL: +3 to +10%,
@@ -64,23 +71,16 @@ MCPT_FN uint bvh_child_hits(uvec4 q0, uvec4 q1, uvec4 q2, uvec4 q3, uvec4 q4, ve
         uint inner4 = (meta4 & (meta4 << 1u)) & 0x10101010u;
         uint bit4 = (meta4 ^ ((inner4 >> 4u) * oct_inv)) & 0x1f1f1f1fu;
         uint child4 = (meta4 >> 5u) & 0x07070707u;
-        uint lo_x = h == 0u ? q2.x : q2.y, hi_x = h == 0u ? q2.z : q2.w;
-        uint lo_y = h == 0u ? q3.x : q3.y, hi_y = h == 0u ? q3.z : q3.w;
-        uint lo_z = h == 0u ? q4.x : q4.y, hi_z = h == 0u ? q4.z : q4.w;
-        uint near_x = nx ? hi_x : lo_x, far_x = nx ? lo_x : hi_x;
-        uint near_y = ny ? hi_y : lo_y, far_y = ny ? lo_y : hi_y;
-        uint near_z = nz ? hi_z : lo_z, far_z = nz ? lo_z : hi_z;
-        for (uint k = 0u; k < 4u; ++k) {
-            float t0 = BOX_MAX(
-                BOX_MAX(BVH_BYTE_FLOAT(near_x, k) * sx + ox, BVH_BYTE_FLOAT(near_y, k) * sy + oy),
-                BOX_MAX(BVH_BYTE_FLOAT(near_z, k) * sz + oz, 0.0f));
-            float t1 = BOX_MIN(
-                BOX_MIN(BVH_BYTE_FLOAT(far_x, k) * sx + ox, BVH_BYTE_FLOAT(far_y, k) * sy + oy),
-                BVH_BYTE_FLOAT(far_z, k) * sz + oz);
-            bool enter = t0 * (1.0f - BVH_SLACK) <= BOX_MIN(t1 * (1.0f + BVH_SLACK), t_far_max);
-            uint bits = ((child4 >> (8u * k)) & 0xffu) << ((bit4 >> (8u * k)) & 0xffu);
-            hits |= enter ? bits : 0u;
-        }
+        // Each axis's near and far planes of the half's four slots (hi is nearer for a
+        // negative direction), loaded by quad index rather than selected.
+        uint qb = base + BVH_PLANES_QUAD + BVH_HALF_QUADS * h;
+        vec4 near_x = AS_VEC4(BVH_QUAD(qb + nx)), far_x = AS_VEC4(BVH_QUAD(qb + 1u - nx));
+        vec4 near_y = AS_VEC4(BVH_QUAD(qb + 2u + ny)), far_y = AS_VEC4(BVH_QUAD(qb + 3u - ny));
+        vec4 near_z = AS_VEC4(BVH_QUAD(qb + 4u + nz)), far_z = AS_VEC4(BVH_QUAD(qb + 5u - nz));
+        BVH_CHILD_TEST(0u, x)
+        BVH_CHILD_TEST(1u, y)
+        BVH_CHILD_TEST(2u, z)
+        BVH_CHILD_TEST(3u, w)
     }
     return hits;
 }
@@ -88,18 +88,18 @@ MCPT_FN uint bvh_child_hits(uvec4 q0, uvec4 q1, uvec4 q2, uvec4 q3, uvec4 q4, ve
 #if defined(MCPT_OPENCL) && defined(MCPT_BVH_VECTOR)
 // OpenCL on CPU devices: the eight slots at once in OpenCL's 8-wide vectors (one AVX register
 // each way), the same arithmetic as bvh_child_hits per lane.
-MCPT_FN uint bvh_child_hits_vector(uvec4 q0, uvec4 q1, uvec4 q2, uvec4 q3, uvec4 q4, vec3 o,
-                                   vec3 inv_d, uint oct_inv, float t_max) {
+MCPT_FN uint bvh_child_hits_vector(SCENE_PARAMS_ uint base, uvec4 q0, uvec4 q1, vec3 o, vec3 inv_d,
+                                   uint oct_inv, float t_max) {
     BVH_NODE_IN_T(q0, o, inv_d);
     // Each axis's near and far planes of the eight slots (hi is nearer for a negative direction).
-    uint2 lo_x = q2.xy, hi_x = q2.zw, lo_y = q3.xy, hi_y = q3.zw, lo_z = q4.xy, hi_z = q4.zw;
-    bool nx = inv_d.x < 0.0f, ny = inv_d.y < 0.0f, nz = inv_d.z < 0.0f;
-    float8 near_x = convert_float8(as_uchar8(nx ? hi_x : lo_x)) * sx + ox;
-    float8 near_y = convert_float8(as_uchar8(ny ? hi_y : lo_y)) * sy + oy;
-    float8 near_z = convert_float8(as_uchar8(nz ? hi_z : lo_z)) * sz + oz;
-    float8 far_x = convert_float8(as_uchar8(nx ? lo_x : hi_x)) * sx + ox;
-    float8 far_y = convert_float8(as_uchar8(ny ? lo_y : hi_y)) * sy + oy;
-    float8 far_z = convert_float8(as_uchar8(nz ? lo_z : hi_z)) * sz + oz;
+    uint q = base + BVH_PLANES_QUAD, r = q + BVH_HALF_QUADS;
+#define BVH_PLANES8(k) (float8)(as_float4(BVH_QUAD(q + (k))), as_float4(BVH_QUAD(r + (k))))
+    float8 near_x = BVH_PLANES8(nx) * inv_d.x + ox, far_x = BVH_PLANES8(1u - nx) * inv_d.x + ox;
+    float8 near_y = BVH_PLANES8(2u + ny) * inv_d.y + oy,
+           far_y = BVH_PLANES8(3u - ny) * inv_d.y + oy;
+    float8 near_z = BVH_PLANES8(4u + nz) * inv_d.z + oz,
+           far_z = BVH_PLANES8(5u - nz) * inv_d.z + oz;
+#undef BVH_PLANES8
     float8 t0 = max(max(near_x, near_y), max(near_z, (float8)(0.0f)));
     float8 t1 = min(min(far_x, far_y), far_z);
     int8 enter =
@@ -198,8 +198,7 @@ MCPT_FN Hit trace_bvh(SCENE_PARAMS_ Ray ray, WoopRay wr, bool any_hit, uint skip
             // Its children: a node group and a triangle group.
             uint base = BVH_NODE_UNITS / 2u * child;
             uvec4 q0 = BVH_QUAD(base), q1 = BVH_QUAD(base + 1u);
-            uint hits = BVH_CHILD_HITS(q0, q1, BVH_QUAD(base + 2u), BVH_QUAD(base + 3u),
-                                       BVH_QUAD(base + 4u), ray.o, inv_d, oct_inv, hit.t);
+            uint hits = BVH_CHILD_HITS(SCENE_ARGS_ base, q0, q1, ray.o, inv_d, oct_inv, hit.t);
             node_group = UV2(q1.x, (hits & 0xff000000u) | (q0.w >> 24u));
             tri_group = UV2(q1.y, hits & 0x00ffffffu);
         }
