@@ -1,4 +1,4 @@
-// Tests of the compressed 8-wide BVH (common/accel/wide_bvh.h) and its shared traversal
+// Tests of the 8-wide BVH (common/accel/wide_bvh.h) and its shared traversal
 // (common/gpu/traverse_bvh.h) on the CPU: every triangle in exactly one leaf inside every box
 // above it, the same tree on any thread count, and closest hits equal bit for bit to brute
 // force and to the k-d tree on the k-d tests' meshes and rays, at extreme scales and far from

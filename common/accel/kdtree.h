@@ -12,7 +12,7 @@ namespace mcpt {
 
 // Auto: the BVH, or none where the cost model says testing every triangle is cheaper (the
 // BVH ran faster than the SAH k-d tree on every device measured: docs/traversal.md).
-// Bvh: the compressed 8-wide BVH (wide_bvh.h), which travels in the same struct.
+// Bvh: the 8-wide BVH (wide_bvh.h), which travels in the same struct.
 enum class TreeKind { Sah, Median, None, Auto, Bvh };
 
 // "sah" | "median" | "none" | "auto" | "bvh"; throws mcpt::Error otherwise.

@@ -39,8 +39,9 @@ layout(std430, binding = BINDING_SHADING) readonly buffer MatBlock { GpuMaterial
 layout(std430, binding = BINDING_SHADING) readonly buffer LightBlock { GpuLight shading_lights[]; };
 #if defined(MCPT_SCENE_TEXELS)
 // The SPIR-V module for CPU devices reads the tree, triangles and shading data through
-// texel-buffer views of the same buffers (shared_types.h): nodes and triangles as word pairs,
-// spheres (two texels), materials (four) and lights (one) as 16-byte texels.
+// texel-buffer views of the same buffers (shared_types.h): k-d nodes and triangles as word
+// pairs; BVH nodes (fourteen), spheres (two), materials (four) and lights (one) as 16-byte
+// texels.
 layout(binding = BINDING_TREE_TEXELS) uniform usamplerBuffer tree_texels;
 layout(binding = BINDING_TRIANGLE_TEXELS) uniform usamplerBuffer triangle_quads;
 layout(binding = BINDING_SHADING_TEXELS) uniform usamplerBuffer shading_quads;

@@ -112,7 +112,7 @@ MCPT_STRUCT(KdNode) {
 // 28 a node), then the leaf index array. Child boxes lie on a grid of 2^e from origin p,
 // conservatively, with a cell of margin on every side; each plane is stored as its offset
 // from p in floats (q * 2^e for a grid index q of 0-255, exact), so the traversal converts
-// nothing (bytes converted per child cost NVIDIA 11-16% of its speed, docs/traversal.md).
+// nothing (on NVIDIA 5-19% faster than bytes converted per child, docs/traversal.md).
 //   q0: p.x, p.y, p.z (floats); e_x | e_y << 8 | e_z << 16 (biased by 127) | imask << 24
 //   q1: first internal child's node index, first leaf index of the leaf children, meta 0-3,
 //       meta 4-7 (one byte per slot, slot k in byte k % 4 of word 2 + k / 4)

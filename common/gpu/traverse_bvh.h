@@ -1,6 +1,6 @@
-// Closest-hit and any-hit traversal of the compressed 8-wide BVH (shared_types.h: BvhNode),
-// after Ylitie, Karras & Laine, "Efficient Incoherent Ray Traversal on GPUs Through
-// Compressed Wide BVHs" (HPG 2017): a node's eight quantized child boxes tested at once, the
+// Closest-hit and any-hit traversal of the 8-wide BVH (shared_types.h: BvhNode), after
+// Ylitie, Karras & Laine, "Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide
+// BVHs" (HPG 2017): a node's eight child boxes (on a grid, as floats) tested at once, the
 // hits kept as bit masks (internal children and leaf triangles) and visited nearest-octant
 // first, one 8-byte stack entry per node left with unvisited hits. Included by traverse.h,
 // whose closer_triangle_hit() tests the triangles; docs/traversal.md: what was measured.
