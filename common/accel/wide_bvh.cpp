@@ -586,7 +586,7 @@ static int grid_exponent(const gpu::BvhNode& node, int axis) {
 uint32_t bvh_plane(const gpu::BvhNode& node, int axis, bool high, int slot) {
     float d;
     std::memcpy(&d, &node.words[plane_word(axis, high, slot)], 4);
-    return uint32_t(std::ldexp(double(d), -grid_exponent(node, axis)));
+    return grid_byte(std::ldexp(double(d), -grid_exponent(node, axis)));  // (an infinite one: 255)
 }
 
 void set_bvh_plane(gpu::BvhNode& node, int axis, bool high, int slot, uint32_t q) {
