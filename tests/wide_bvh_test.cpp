@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <functional>
@@ -108,6 +109,24 @@ TEST(WideBvhBuild, SameTreeForEveryThreadCount) {
         EXPECT_EQ(std::memcmp(many.nodes.data(), one.nodes.data(), one.nodes.size() * 8), 0) << threads;
         EXPECT_EQ(many.leaf_indices, one.leaf_indices) << threads;
     }
+}
+
+// A node of at most four leaves and no internal child keeps them in slots 0-3, so the
+// traversal tests one half of four slots (its second meta word is 0).
+TEST(WideBvhBuild, SmallLeafNodesUseTheFirstHalf) {
+    const KdTree bvh = build_kdtree(blob(20), bvh_options());
+    size_t small = 0;
+    for (uint32_t i = 0; i < bvh_node_count(bvh); ++i) {
+        const gpu::BvhNode node = bvh_node(bvh, i);
+        const std::vector<BvhChild> kids = bvh_children(node);
+        const bool leaves_only =
+            std::none_of(kids.begin(), kids.end(), [](const BvhChild& c) { return c.internal; });
+        if (!leaves_only || kids.size() > BVH_WIDTH / 2) continue;
+        small += 1;
+        for (const BvhChild& c : kids) EXPECT_LT(c.slot, int(BVH_WIDTH / 2)) << "node " << i;
+        EXPECT_EQ(node.words[7], 0u) << "node " << i;
+    }
+    EXPECT_GT(small, bvh_node_count(bvh) / 4);  // most nodes, as on the meshes
 }
 
 // Closest hits: the BVH, the k-d tree and brute force agree bit for bit (ties go to the lower

@@ -418,6 +418,11 @@ struct Collapser {
         }
         std::fill(slot_of, slot_of + BVH_WIDTH, -1);
         bool slot_used[BVH_WIDTH] = {};
+        // At most four leaves and nothing else: slots 0-3 only, so the traversal tests one
+        // half (their order is the leaves' order, not the octants').
+        if (kids.size() <= BVH_WIDTH / 2 &&
+            std::all_of(kids.begin(), kids.end(), [&](uint32_t k) { return is_leaf(k); }))
+            for (int s = int(BVH_WIDTH / 2); s < int(BVH_WIDTH); ++s) slot_used[s] = true;
         for (size_t round = 0; round < kids.size(); ++round) {
             int bk = -1, bs = -1;
             for (size_t k = 0; k < kids.size(); ++k) {

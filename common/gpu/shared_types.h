@@ -121,7 +121,8 @@ MCPT_STRUCT(KdNode) {
 // child's index, in slot order. meta: 0 for an empty slot; an internal child (1 << 5) | (24 +
 // s); a leaf child of 1-3 triangles (0b1, 0b11, 0b111 << 5) | its first triangle's offset
 // from the node's first leaf index (0-21). Slot s holds the child nearest along the octant
-// of directions whose negative axes are its bits (x = 4, y = 2, z = 1).
+// of directions whose negative axes are its bits (x = 4, y = 2, z = 1); a node of at most
+// four leaves and no internal child uses slots 0-3 (meta 4-7 is 0: one half tested).
 MCPT_STRUCT(BvhNode) {
     uint words[56];
 };
