@@ -74,8 +74,9 @@ TEST_P(TraceSites, OutOfRangeIsRefused) {
 INSTANTIATE_TEST_SUITE_P(Backends, TraceSites, ::testing::ValuesIn(test::test_apis()),
                          [](const auto& info) { return info.param; });
 
-// One site where it was measured faster: NVIDIA's Vulkan driver, scenes with textures.
-TEST(TraceSitesChoice, OneForNvidiaVulkanWithTextures) {
+// One site where it was measured faster: NVIDIA's Vulkan driver, scenes with textures or a
+// k-d tree.
+TEST(TraceSitesChoice, OneForNvidiaVulkanWithTexturesOrKdTree) {
     unsetenv("MCPT_TRACE_SITES");
     DeviceInfo nv_vk;
     nv_vk.backend = "vulkan", nv_vk.name = "NVIDIA H100 80GB HBM3", nv_vk.platform = "NVIDIA";
@@ -86,7 +87,11 @@ TEST(TraceSitesChoice, OneForNvidiaVulkanWithTextures) {
     lavapipe.platform = "llvmpipe";
     EXPECT_EQ(trace_sites(nv_vk, FEATURE_TEXTURES), 1u);
     EXPECT_EQ(trace_sites(nv_vk, FEATURE_ALL), 1u);
-    EXPECT_EQ(trace_sites(nv_vk, FEATURE_ALL & ~FEATURE_TEXTURES), 2u);
+    const uint32_t mesh = FEATURE_TRIANGLES | FEATURE_DIFFUSE | FEATURE_TRIANGLE_LIGHTS;
+    EXPECT_EQ(trace_sites(nv_vk, mesh | FEATURE_KDTREE), 1u);
+    EXPECT_EQ(trace_sites(nv_vk, mesh | FEATURE_BVH), 2u);
+    EXPECT_EQ(trace_sites(nv_vk, mesh), 2u);
+    EXPECT_EQ(trace_sites(nv_cl, mesh | FEATURE_KDTREE), 2u);
     EXPECT_EQ(trace_sites(nv_cl, FEATURE_ALL), 2u);
     EXPECT_EQ(trace_sites(lavapipe, FEATURE_ALL), 2u);
 }

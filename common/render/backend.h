@@ -79,7 +79,8 @@ KdSteps kd_steps(const DeviceInfo& device);
 // How many places the kernel traces rays from (MCPT_TRACE_SITES, integrator.h: step_path()):
 // 1, every ray from one traversal call, for NVIDIA's Vulkan driver on scenes with textures
 // (FEATURE_TEXTURES), whose two inlined traversals beside the texture code overflowed its
-// instruction cache; else 2, the shadow ray traced where it is cast (docs/traversal.md).
+// instruction cache, or with the k-d tree (FEATURE_KDTREE: +4 to +29% there); else 2, the
+// shadow ray traced where it is cast (docs/traversal.md).
 // $MCPT_TRACE_SITES (1 or 2) overrides. Images are the same either way.
 uint32_t trace_sites(const DeviceInfo& device, uint32_t features);
 

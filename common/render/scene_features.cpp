@@ -127,10 +127,14 @@ uint32_t trace_sites(const DeviceInfo& device, uint32_t features) {
     }
     // One site measured (1024², H100): NVIDIA's Vulkan on the textured scene 688 -> 858 M
     // rays/s, on the meshes and the Cornell box -5% to +2%; NVIDIA's OpenCL 2-7x slower (the
-    // register cap), PoCL and lavapipe 18-63% slower.
+    // register cap), PoCL and lavapipe 18-63% slower. Through the k-d tree (H200, 2026-11-28)
+    // NVIDIA's Vulkan gained with one site on every scene: the meshes +4 to +6%, the Cornell
+    // box +29%, the materials scene +15%; through the BVH the meshes -8 to +1%, no tree -7 to
+    // -9% (docs/traversal.md).
     const bool nvidia = device.platform.find("NVIDIA") != std::string::npos ||
                         device.name.find("NVIDIA") != std::string::npos;
-    return device.backend == "vulkan" && nvidia && (features & FEATURE_TEXTURES) != 0 ? 1u : 2u;
+    const bool one = (features & (FEATURE_TEXTURES | FEATURE_KDTREE)) != 0;
+    return device.backend == "vulkan" && nvidia && one ? 1u : 2u;
 }
 
 }  // namespace mcpt
