@@ -401,6 +401,13 @@ struct Collapser {
     // Slot of each child: greedily, the (child, slot) pair with the child nearest along the
     // slot's octant direction first.
     void assign_slots(uint32_t b, const Kids& kids, int slot_of[BVH_WIDTH]) const {
+        // Leaves only: slots 0, 1, ... in order. A leaf's triangles are taken by their offsets
+        // whatever the ray's octant, so its slot does not matter, and a node of at most four
+        // leaves has them in the first half, which the traversal tests alone.
+        if (std::all_of(kids.begin(), kids.end(), [&](uint32_t k) { return is_leaf(k); })) {
+            for (size_t k = 0; k < kids.size(); ++k) slot_of[k] = int(k);
+            return;
+        }
         const BinNode& parent = bin[b];
         float centre[3];
         for (int a = 0; a < 3; ++a) centre[a] = 0.5f * (parent.lo[a] + parent.hi[a]);
@@ -418,11 +425,6 @@ struct Collapser {
         }
         std::fill(slot_of, slot_of + BVH_WIDTH, -1);
         bool slot_used[BVH_WIDTH] = {};
-        // At most four leaves and nothing else: slots 0-3 only, so the traversal tests one
-        // half (their order is the leaves' order, not the octants').
-        if (kids.size() <= BVH_WIDTH / 2 &&
-            std::all_of(kids.begin(), kids.end(), [&](uint32_t k) { return is_leaf(k); }))
-            for (int s = int(BVH_WIDTH / 2); s < int(BVH_WIDTH); ++s) slot_used[s] = true;
         for (size_t round = 0; round < kids.size(); ++round) {
             int bk = -1, bs = -1;
             for (size_t k = 0; k < kids.size(); ++k) {
@@ -448,12 +450,13 @@ struct Collapser {
             const AxisGrid g = axis_grid(lo[a], hi[a]);
             std::memcpy(&out.words[a], &g.p, 4);
             exps |= uint32_t(g.e + 127) << (8 * a);
-            const double cell = std::ldexp(1.0, g.e);
+            // 1 / 2^e, exact in double (e in [-100, 126]): the same quotients as a division.
+            const double per_cell = std::ldexp(1.0, -g.e);
             for (int s = 0; s < int(BVH_WIDTH); ++s) {
                 if (kid_in_slot[s] < 0) continue;
                 const BinNode& c = bin[kids[size_t(kid_in_slot[s])]];
-                const double qlo = std::floor((double(c.lo[a]) - g.p) / cell) - 1.0;
-                const double qhi = std::ceil((double(c.hi[a]) - g.p) / cell) + 1.0;
+                const double qlo = std::floor((double(c.lo[a]) - g.p) * per_cell) - 1.0;
+                const double qhi = std::ceil((double(c.hi[a]) - g.p) * per_cell) + 1.0;
                 out.words[plane_word(a, false, s)] = plane_bits(grid_byte(qlo), g.e);
                 out.words[plane_word(a, true, s)] = plane_bits(grid_byte(qhi), g.e);
             }
