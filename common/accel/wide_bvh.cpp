@@ -1,6 +1,7 @@
 // Construction of the 8-wide BVH (common/accel/wide_bvh.h):
-//  1. a binary BVH by binned SAH over triangle box centroids (16 bins on the axis of largest
-//     centroid extent), the two children of large nodes built on two threads;
+//  1. a binary BVH by binned SAH over triangle box centroids (16 bins, or one a reference
+//     below 16, on the axis of largest centroid extent), the two children of large nodes
+//     built on two threads;
 //  2. each wide node collapsed from a binary subtree: the child of largest surface area
 //     opened until eight children or none left to open;
 //  3. children placed in slots greedily by their centre along each octant's direction, the
@@ -62,19 +63,20 @@ struct Binner {
     float lo = 0, scale_f = 0;
     double scale_d = 0;
     bool in_float = false;
-    Binner(float lo_, float hi_) : lo(lo_) {
+    int bins = kBins;
+    Binner(float lo_, float hi_, int bins_) : lo(lo_), bins(bins_) {
         const double extent = double(hi_) - lo_;
-        scale_d = double(kBins) / extent;
+        scale_d = double(bins) / extent;
         scale_f = float(scale_d);
         in_float = extent > 1e-30 && extent < 1e30 && std::abs(lo_) < 1e30 && std::abs(hi_) < 1e30;
     }
     int operator()(float c) const {
         if (in_float) {
             const float x = (c - lo) * scale_f;
-            return x >= float(kBins - 1) ? kBins - 1 : (x > 0 ? int(x) : 0);
+            return x >= float(bins - 1) ? bins - 1 : (x > 0 ? int(x) : 0);
         }
         const double x = (double(c) - lo) * scale_d;
-        return x >= double(kBins - 1) ? kBins - 1 : (x > 0 ? int(x) : 0);
+        return x >= double(bins - 1) ? bins - 1 : (x > 0 ? int(x) : 0);
     }
 };
 
@@ -168,6 +170,9 @@ struct BinaryBuilder {
             Boxes boxes;  // its references' boxes, centroids included
         };
         Bin bins[kBins];
+        // A bin per reference below kBins: the same work per ray on the meshes, the 871k
+        // dragon built 3% faster (fewer bins to clear and sweep at the bottom levels).
+        const int nb = count < uint32_t(kBins) ? int(count) : kBins;
         double best_cost = std::numeric_limits<double>::infinity();
         int best_axis = -1, best_bin = 0;
         // Binned on the axis of the centroids' largest extent: all three axes built the 871k
@@ -178,8 +183,8 @@ struct BinaryBuilder {
             if (double(chi[a]) - clo[a] > double(chi[longest]) - clo[longest]) longest = a;
         for (int a = longest; a == longest; ++a) {
             if (!(chi[a] > clo[a])) continue;
-            for (Bin& b : bins) b.n = 0, b.boxes.clear();
-            const Binner bin_of(clo[a], chi[a]);
+            for (int b = 0; b < nb; ++b) bins[b].n = 0, bins[b].boxes.clear();
+            const Binner bin_of(clo[a], chi[a], nb);
             for (uint32_t i = begin; i < end; ++i) {
                 const Prim& p = refs[i];
                 Bin& bin = bins[bin_of(centroid(p, a))];
@@ -190,15 +195,15 @@ struct BinaryBuilder {
             double left_cost[kBins];
             Boxes acc = bins[0].boxes;
             uint32_t n = 0;
-            for (int b = 0; b < kBins - 1; ++b) {
+            for (int b = 0; b < nb - 1; ++b) {
                 if (b > 0) acc.add(bins[b].boxes);
                 n += bins[b].n;
                 left_cost[b] = n ? double(half_area(acc.lo, acc.hi)) * n : 0.0;
             }
-            acc = bins[kBins - 1].boxes;
+            acc = bins[nb - 1].boxes;
             n = 0;
-            for (int b = kBins - 1; b > 0; --b) {
-                if (b < kBins - 1) acc.add(bins[b].boxes);
+            for (int b = nb - 1; b > 0; --b) {
+                if (b < nb - 1) acc.add(bins[b].boxes);
                 n += bins[b].n;
                 const double cost =
                     left_cost[b - 1] + (n ? double(half_area(acc.lo, acc.hi)) * n : 0.0);
@@ -208,13 +213,13 @@ struct BinaryBuilder {
         }
         if (best_axis < 0) return begin + count / 2;  // one centroid: halve by index
         const int a = best_axis;
-        const Binner bin_of(clo[a], chi[a]);
+        const Binner bin_of(clo[a], chi[a], nb);
         Prim* mid = std::partition(refs.data() + begin, refs.data() + end, [&](const Prim& r) {
             return bin_of(centroid(r, a)) < best_bin;
         });
         // The parts' boxes: their bins' together.
         left.clear(), right.clear();
-        for (int b = 0; b < kBins; ++b)
+        for (int b = 0; b < nb; ++b)
             if (bins[b].n > 0) (b < best_bin ? left : right).add(bins[b].boxes);
         left.known = right.known = true;
         return uint32_t(mid - refs.data());
