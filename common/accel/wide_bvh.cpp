@@ -4,9 +4,9 @@
 //     built on two threads;
 //  2. each wide node collapsed from a binary subtree: the child of largest surface area
 //     opened until eight children or none left to open;
-//  3. children placed in slots greedily by their centre along each octant's direction, the
-//     internal ones stored contiguously in breadth-first order, the leaves' triangles
-//     contiguously per node;
+//  3. children placed in slots greedily by their centre along each octant's direction (a
+//     node of leaves only: in order, from slot 0), the internal ones stored contiguously in
+//     breadth-first order, the leaves' triangles contiguously per node;
 //  4. child boxes quantized per axis to a grid 2^e from p = the node's lower corner less a cell,
 //     every box widened by a further cell, so the traversal's rounding never shrinks a box;
 //     each plane stored as its offset from p in float (exact), which the traversal uses as is.

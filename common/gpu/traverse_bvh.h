@@ -79,8 +79,8 @@ MCPT_FN uint bvh_child_hits(SCENE_PARAMS_ uint base, uvec4 q0, uvec4 q1, vec3 o,
     // unrolled; the slots' loop rolled as well lost 5% on the 871k dragon).
     // A half without children is skipped (a node of at most four leaves has them in the
     // first). With textures the trip count is the node's (1 when its second half is empty),
-    // not a constant: NVIDIA's Vulkan ran the textured scene 18% faster so, the meshes 1-8%
-    // slower (docs/traversal.md, "Empty halves").
+    // not a constant: NVIDIA's Vulkan ran the textured scene 18% faster so, the meshes -8% to
+    // +2% (docs/traversal.md, "Empty halves").
     uint halves = HAS_FEATURE(FEATURE_TEXTURES) && q1.w == 0u ? 1u : 2u;
     NO_UNROLL
     for (uint h = 0u; h < halves; ++h) {
