@@ -11,11 +11,9 @@ MCPT_NAMESPACE_BEGIN
 
 // Relative slack on child-box entry and exit distances: the quantized boxes carry a grid cell
 // of margin for the rounding of large terms (the origin inside a node), this covers the
-// rounding relative to the distance itself.
-#define BVH_SLACK 1.0e-6f
-// The entry test t0 (1 - BVH_SLACK) <= t1 (1 + BVH_SLACK) as t0 <= t1 * BVH_SLACK2, one
-// multiplication instead of two: (1 + s) / (1 - s) = 1 + 2s + O(s^2), rounded up past the
-// products' own rounding (2^-24 each), so at least as conservative.
+// rounding relative to the distance itself. A child is entered when t0 (1 - s) <= t1 (1 + s)
+// for s = 1e-6, tested as t0 <= t1 * BVH_SLACK2, one multiplication: (1 + s) / (1 - s) = 1 +
+// 2s + O(s^2), rounded up past the products' own rounding (2^-24 each).
 #define BVH_SLACK2 (1.0f + 2.5e-6f)
 // Direction components smaller than this take its value (with their sign): finite
 // reciprocals, so no 0 * inf in the box tests.
@@ -41,12 +39,6 @@ MCPT_NAMESPACE_BEGIN
     uint nx = (inv_d).x < 0.0f ? 1u : 0u, ny = (inv_d).y < 0.0f ? 1u : 0u, \
          nz = (inv_d).z < 0.0f ? 1u : 0u
 
-#ifndef MCPT_BVH_TWO_SLACKS
-#define BVH_ENTER_TEST bool enter = t0 <= BOX_MIN(t1, t_max) * BVH_SLACK2;
-#else
-#define BVH_ENTER_TEST \
-    bool enter = t0 * (1.0f - BVH_SLACK) <= BOX_MIN(t1 * (1.0f + BVH_SLACK), t_far_max);
-#endif
 // Child C (a component: x, y, z, w) of a half's four: its entry and exit distances from the
 // planes in t, and its hit bits (K: 0-3, its byte of the half's meta words) if the ray enters
 // it before t_max.
@@ -56,7 +48,7 @@ MCPT_NAMESPACE_BEGIN
                            BOX_MAX(near_z.C * inv_d.z + oz, 0.0f));                          \
         float t1 = BOX_MIN(BOX_MIN(far_x.C * inv_d.x + ox, far_y.C * inv_d.y + oy),          \
                            far_z.C * inv_d.z + oz);                                          \
-        BVH_ENTER_TEST                                                                       \
+        bool enter = t0 <= BOX_MIN(t1, t_max) * BVH_SLACK2;                                  \
         uint bits = ((child4 >> (8u * K)) & 0xffu) << ((bit4 >> (8u * K)) & 0xffu);          \
         hits |= enter ? bits : 0u;                                                           \
     }
@@ -70,9 +62,6 @@ MCPT_NAMESPACE_BEGIN
 MCPT_FN uint bvh_child_hits(SCENE_PARAMS_ uint base, uvec4 q0, uvec4 q1, vec3 o, vec3 inv_d,
                             uint oct_inv, float t_max) {
     BVH_NODE_IN_T(q0, o, inv_d);
-#ifdef MCPT_BVH_TWO_SLACKS
-    float t_far_max = t_max * (1.0f + BVH_SLACK);
-#endif
     uint hits = 0u;
     // Two halves of four slots: the halves' loop kept rolled (NVIDIA's OpenCL: +3 to +10%,
     // the most on the textured scene, whose kernel stalled on instruction fetch with both
@@ -120,12 +109,7 @@ MCPT_FN uint bvh_child_hits_vector(SCENE_PARAMS_ uint base, uvec4 q0, uvec4 q1, 
 #undef BVH_PLANES8
     float8 t0 = max(max(near_x, near_y), max(near_z, (float8)(0.0f)));
     float8 t1 = min(min(far_x, far_y), far_z);
-#ifndef MCPT_BVH_TWO_SLACKS
     int8 enter = t0 <= min(t1, (float8)(t_max)) * BVH_SLACK2;
-#else
-    int8 enter =
-        t0 * (1.0f - BVH_SLACK) <= min(t1 * (1.0f + BVH_SLACK), t_max * (1.0f + BVH_SLACK));
-#endif
     // Each slot's meta byte: its hit bits and where they go.
     uint8 meta = convert_uint8(as_uchar8(q1.zw));
     uint8 inner = (meta & (meta << 1u)) & 0x10u;
