@@ -268,6 +268,8 @@ class OpenClBackend final : public Backend {
         if (dev_.info.type == "gpu") opts += " -DMCPT_TRIANGLE_WORDS";  // scene_access.h
         if (dev_.info.type == "cpu") opts += " -DMCPT_KD_LEAF_LOOP";    // traverse.h
         if (dev_.info.type == "cpu") opts += " -DMCPT_BVH_VECTOR";      // traverse_bvh.h
+        if (dev_.info.type == "cpu") opts += " -DMCPT_SAMPLER_VECTOR";  // sampler.h
+        if (dev_.info.type == "cpu") opts += " -DMCPT_OUT_OF_LINE";     // platform.h
         opts += " -DMCPT_KD_MAILBOX";                                   // traverse.h
         // NVIDIA's compiler takes inline PTX (sampler.h: one instruction for a bit reversal).
         // Left alone it gives the kernel 109-147 registers (its Vulkan driver: 80-96); at most

@@ -50,6 +50,7 @@ inline float uint_as_float(uint u) { float f; std::memcpy(&f, &u, 4); return f; 
 inline float fmax3(float a, float b, float c) { return std::max(a, std::max(b, c)); }
 }  // namespace mcpt::gpu
 #define MCPT_FN inline
+#define MCPT_FN_CALLED inline
 #define MCPT_STRUCT(name) struct name
 #define MCPT_NAMESPACE_BEGIN namespace mcpt::gpu {
 #define MCPT_NAMESPACE_END }
@@ -68,6 +69,14 @@ inline float fmax3(float a, float b, float c) { return std::max(a, std::max(b, c
 // passing their structs through memory (+28 to +37% with them inlined); NVIDIA inlines them
 // anyway (no change there).
 #define MCPT_FN inline __attribute__((always_inline))
+// A few hot functions whose arguments and result travel in registers (no struct) are called
+// on CPU devices instead (MCPT_OUT_OF_LINE): PoCL ran the meshes 5-9% faster with the sampler
+// and the child-box test out of line (docs/traversal.md, "PoCL: calls"). NVIDIA: inlined.
+#if defined(MCPT_OUT_OF_LINE)
+#define MCPT_FN_CALLED __attribute__((noinline))
+#else
+#define MCPT_FN_CALLED MCPT_FN
+#endif
 #define MCPT_STRUCT(name) \
     typedef struct name name; \
     struct name
@@ -80,6 +89,7 @@ inline float fmax3(float a, float b, float c) { return std::max(a, std::max(b, c
 // ---------------------------------------------------------------- GLSL (Vulkan)
 #else
 #define MCPT_FN
+#define MCPT_FN_CALLED
 #define MCPT_STRUCT(name) struct name
 #define MCPT_NAMESPACE_BEGIN
 #define MCPT_NAMESPACE_END

@@ -35,14 +35,37 @@ MCPT_FN uint reverse_bits(uint x) {
 }
 
 // Laine-Karras style permutation with Burley's constants: each bit flips as a hash of the
-// bits below it (the seed picks the hash).
+// bits below it (the seed picks the hash). For one value or, component by component, four.
+#define LAINE_KARRAS_STEPS(x, seed) \
+    x ^= x * 0x3d20adeau;            \
+    x += seed;                       \
+    x *= (seed >> 16u) | 1u;         \
+    x ^= x * 0x05526c56u;            \
+    x ^= x * 0x53a22864u
 MCPT_FN uint laine_karras_permutation(uint x, uint seed) {
-    x ^= x * 0x3d20adeau;
-    x += seed;
-    x *= (seed >> 16u) | 1u;
-    x ^= x * 0x05526c56u;
-    x ^= x * 0x53a22864u;
+    LAINE_KARRAS_STEPS(x, seed);
     return x;
+}
+MCPT_FN uvec4 laine_karras_permutation4(uvec4 x, uvec4 seed) {
+    LAINE_KARRAS_STEPS(x, seed);
+    return x;
+}
+#undef LAINE_KARRAS_STEPS
+
+// reverse_bits of each component; on CPU devices (MCPT_SAMPLER_VECTOR) in vector form, one
+// instruction a step for all four (x86 has no bit reversal).
+MCPT_FN uvec4 reverse_bits4(uvec4 x) {
+#if defined(MCPT_GLSL)
+    return bitfieldReverse(x);
+#elif defined(MCPT_OPENCL) && defined(MCPT_SAMPLER_VECTOR)
+    x = ((x >> 1u) & 0x55555555u) | ((x & 0x55555555u) << 1u);
+    x = ((x >> 2u) & 0x33333333u) | ((x & 0x33333333u) << 2u);
+    x = ((x >> 4u) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4u);
+    x = ((x >> 8u) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8u);
+    return (x >> 16u) | (x << 16u);
+#else
+    return UV4(reverse_bits(x.x), reverse_bits(x.y), reverse_bits(x.z), reverse_bits(x.w));
+#endif
 }
 
 // Owen scrambling of a 32-bit fixed-point value: each bit flips as a hash of the bits above it.
@@ -59,9 +82,7 @@ MCPT_FN uint nested_uniform_scramble(uint x, uint seed) {
 // and no lane diverges.
 #define SOBOL_BIT(bit, v1, v2, v3)     \
     take = 0u - ((index >> bit) & 1u); \
-    x.y ^= (v1)&take;                  \
-    x.z ^= (v2)&take;                  \
-    x.w ^= (v3)&take
+    x ^= UV4(0u, v1, v2, v3) & UV4(take, take, take, take)
 MCPT_FN uvec4 sobol4_reversed(uint index) {
     uvec4 x = UV4(index, 0u, 0u, 0u);
     uint take;
@@ -88,7 +109,8 @@ MCPT_FN uvec4 sobol4_reversed(uint index) {
 #undef SOBOL_BIT
 
 // Four uniforms in [0, 1) for dimension group `group` of sample `sample_index` of `pixel`.
-MCPT_FN vec4 sobol4(uint pixel, uint sample_index, uint group, uint seed) {
+// Called, not inlined, on CPU devices (platform.h: MCPT_FN_CALLED).
+MCPT_FN_CALLED vec4 sobol4(uint pixel, uint sample_index, uint group, uint seed) {
     // Seeds for this pixel, group, seed and block of samples: one for the index, four for
     // the dimensions.
     uvec4 h = pcg4d(UV4(pixel, group, seed, sample_index >> SOBOL_BLOCK_BITS));
@@ -98,12 +120,12 @@ MCPT_FN vec4 sobol4(uint pixel, uint sample_index, uint group, uint seed) {
     uint block_mask = (1u << SOBOL_BLOCK_BITS) - 1u;
     uint index = nested_uniform_scramble(sample_index & block_mask, h.x) & block_mask;
     // The point, Owen-scrambled per dimension in reversed order, then turned back.
-    uvec4 x = sobol4_reversed(index);
+    uvec4 x = reverse_bits4(laine_karras_permutation4(sobol4_reversed(index), s));
     vec4 u;
-    u.x = uint_to_unit_float(reverse_bits(laine_karras_permutation(x.x, s.x)));
-    u.y = uint_to_unit_float(reverse_bits(laine_karras_permutation(x.y, s.y)));
-    u.z = uint_to_unit_float(reverse_bits(laine_karras_permutation(x.z, s.z)));
-    u.w = uint_to_unit_float(reverse_bits(laine_karras_permutation(x.w, s.w)));
+    u.x = uint_to_unit_float(x.x);
+    u.y = uint_to_unit_float(x.y);
+    u.z = uint_to_unit_float(x.z);
+    u.w = uint_to_unit_float(x.w);
     return u;
 }
 
