@@ -70,8 +70,9 @@ inline float fmax3(float a, float b, float c) { return std::max(a, std::max(b, c
 // anyway (no change there).
 #define MCPT_FN inline __attribute__((always_inline))
 // A few hot functions whose arguments and result travel in registers (no struct) are called
-// on CPU devices instead (MCPT_OUT_OF_LINE): PoCL ran the meshes 5-9% faster with the sampler
-// and the child-box test out of line (docs/traversal.md, "PoCL: calls"). NVIDIA: inlined.
+// on CPU devices instead (MCPT_OUT_OF_LINE): PoCL ran 4-12% faster with the Sobol sampler and
+// the child-box test out of line, NVIDIA's OpenCL up to 10% slower (docs/traversal.md, "PoCL:
+// the sampler and the child-box test called").
 #if defined(MCPT_OUT_OF_LINE)
 #define MCPT_FN_CALLED __attribute__((noinline))
 #else
