@@ -8,18 +8,23 @@
 
 MCPT_NAMESPACE_BEGIN
 
+// (In four scalars: PoCL compiled the vector form's chain through lane inserts and extracts.)
 MCPT_FN uvec4 pcg4d(uvec4 v) {
-    v = v * 1664525u + 1013904223u;
-    v.x += v.y * v.w;
-    v.y += v.z * v.x;
-    v.z += v.x * v.y;
-    v.w += v.y * v.z;
-    v = v ^ (v >> 16u);
-    v.x += v.y * v.w;
-    v.y += v.z * v.x;
-    v.z += v.x * v.y;
-    v.w += v.y * v.z;
-    return v;
+    uint x = v.x * 1664525u + 1013904223u, y = v.y * 1664525u + 1013904223u;
+    uint z = v.z * 1664525u + 1013904223u, w = v.w * 1664525u + 1013904223u;
+    x += y * w;
+    y += z * x;
+    z += x * y;
+    w += y * z;
+    x ^= x >> 16u;
+    y ^= y >> 16u;
+    z ^= z >> 16u;
+    w ^= w >> 16u;
+    x += y * w;
+    y += z * x;
+    z += x * y;
+    w += y * z;
+    return UV4(x, y, z, w);
 }
 
 // Top 24 bits to a float in [0, 1).
