@@ -37,10 +37,10 @@ MCPT_FN uint reverse_bits(uint x) {
 // Laine-Karras style permutation with Burley's constants: each bit flips as a hash of the
 // bits below it (the seed picks the hash). For one value or, component by component, four.
 #define LAINE_KARRAS_STEPS(x, seed) \
-    x ^= x * 0x3d20adeau;            \
-    x += seed;                       \
-    x *= (seed >> 16u) | 1u;         \
-    x ^= x * 0x05526c56u;            \
+    x ^= x * 0x3d20adeau;           \
+    x += seed;                      \
+    x *= (seed >> 16u) | 1u;        \
+    x ^= x * 0x05526c56u;           \
     x ^= x * 0x53a22864u
 MCPT_FN uint laine_karras_permutation(uint x, uint seed) {
     LAINE_KARRAS_STEPS(x, seed);

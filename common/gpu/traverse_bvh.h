@@ -96,8 +96,8 @@ MCPT_FN uint bvh_child_hits(SCENE_PARAMS_ uint base, uvec4 q0, uvec4 q1, vec3 o,
 // OpenCL on CPU devices: the eight slots at once in OpenCL's 8-wide vectors (one AVX register
 // each way), the same arithmetic as bvh_child_hits per lane. Called, not inlined (platform.h:
 // MCPT_FN_CALLED).
-MCPT_FN_CALLED uint bvh_child_hits_vector(SCENE_PARAMS_ uint base, uvec4 q0, uvec4 q1, vec3 o, vec3 inv_d,
-                                   uint oct_inv, float t_max) {
+MCPT_FN_CALLED uint bvh_child_hits_vector(SCENE_PARAMS_ uint base, uvec4 q0, uvec4 q1, vec3 o,
+                                          vec3 inv_d, uint oct_inv, float t_max) {
     BVH_NODE_IN_T(q0, o, inv_d);
     // Each axis's near and far planes of the eight slots (hi is nearer for a negative direction).
     uint q = base + BVH_PLANES_QUAD, r = q + BVH_HALF_QUADS;
