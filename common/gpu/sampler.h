@@ -15,7 +15,14 @@ MCPT_NAMESPACE_BEGIN
 // Samples are shuffled within blocks of 2^16; each further block is scrambled anew.
 #define SOBOL_BLOCK_BITS 16u
 
-// The 32 bits of x in reverse order.
+// The 32 bits of x in reverse order: by hardware where there is an instruction, else by
+// swapping ever larger groups of bits (for one value or, component by component, four).
+#define REVERSE_BITS_STEPS(x)                                  \
+    x = ((x >> 1u) & 0x55555555u) | ((x & 0x55555555u) << 1u); \
+    x = ((x >> 2u) & 0x33333333u) | ((x & 0x33333333u) << 2u); \
+    x = ((x >> 4u) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4u); \
+    x = ((x >> 8u) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8u); \
+    return (x >> 16u) | (x << 16u)
 MCPT_FN uint reverse_bits(uint x) {
 #if defined(MCPT_GLSL)
     return bitfieldReverse(x);
@@ -26,11 +33,7 @@ MCPT_FN uint reverse_bits(uint x) {
     __asm__("brev.b32 %0, %1;" : "=r"(r) : "r"(x));  // one PTX instruction
     return r;
 #else
-    x = ((x >> 1u) & 0x55555555u) | ((x & 0x55555555u) << 1u);
-    x = ((x >> 2u) & 0x33333333u) | ((x & 0x33333333u) << 2u);
-    x = ((x >> 4u) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4u);
-    x = ((x >> 8u) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8u);
-    return (x >> 16u) | (x << 16u);
+    REVERSE_BITS_STEPS(x);
 #endif
 }
 
@@ -58,15 +61,12 @@ MCPT_FN uvec4 reverse_bits4(uvec4 x) {
 #if defined(MCPT_GLSL)
     return bitfieldReverse(x);
 #elif defined(MCPT_OPENCL) && defined(MCPT_SAMPLER_VECTOR)
-    x = ((x >> 1u) & 0x55555555u) | ((x & 0x55555555u) << 1u);
-    x = ((x >> 2u) & 0x33333333u) | ((x & 0x33333333u) << 2u);
-    x = ((x >> 4u) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4u);
-    x = ((x >> 8u) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8u);
-    return (x >> 16u) | (x << 16u);
+    REVERSE_BITS_STEPS(x);
 #else
     return UV4(reverse_bits(x.x), reverse_bits(x.y), reverse_bits(x.z), reverse_bits(x.w));
 #endif
 }
+#undef REVERSE_BITS_STEPS
 
 // Owen scrambling of a 32-bit fixed-point value: each bit flips as a hash of the bits above it.
 MCPT_FN uint nested_uniform_scramble(uint x, uint seed) {
