@@ -56,7 +56,7 @@ MCPT_FN BsdfEval eval_bsdf(GpuMaterial m, vec3 n, vec3 wo, vec3 wi, bool enterin
     }
     if (HAS_FEATURE(FEATURE_MICROFACET) && m.type == MAT_ROUGH_GLASS) {
         Frame fr = frame_from_normal(n);
-        float eta = entering ? m.ior : 1.0f / m.ior;
+        float eta = entering ? m.ior : DIVF(1.0f, m.ior);
         return rough_dielectric_eval(frame_to_local(fr, wo), frame_to_local(fr, wi), eta,
                                      material_alpha(m), material_color(m));
     }
@@ -92,11 +92,11 @@ MCPT_FN BsdfSample sample_bsdf(GpuMaterial m, vec3 n, vec3 wo, bool entering, ve
         s.pdf = e.pdf;
         s.specular = false;
         s.valid = e.pdf > 0.0f;
-        s.weight = s.valid ? e.f * (wi_l.z / e.pdf) : V3S(0.0f);
+        s.weight = s.valid ? e.f * DIVF(wi_l.z, e.pdf) : V3S(0.0f);
     } else if (HAS_FEATURE(FEATURE_MICROFACET) && m.type == MAT_ROUGH_GLASS) {
         // Rough dielectric: reflect or refract through a visible normal.
         Frame fr = frame_from_normal(n);
-        float eta = entering ? m.ior : 1.0f / m.ior;
+        float eta = entering ? m.ior : DIVF(1.0f, m.ior);
         float alpha = material_alpha(m);
         vec3 wo_l = frame_to_local(fr, wo);
         vec3 wi_l = rough_dielectric_sample_direction(wo_l, eta, alpha, u);
@@ -105,28 +105,28 @@ MCPT_FN BsdfSample sample_bsdf(GpuMaterial m, vec3 n, vec3 wo, bool entering, ve
         s.pdf = e.pdf;
         s.specular = false;
         s.valid = e.pdf > 0.0f;
-        s.weight = s.valid ? e.f * (ABSF(wi_l.z) / e.pdf) : V3S(0.0f);
+        s.weight = s.valid ? e.f * DIVF(ABSF(wi_l.z), e.pdf) : V3S(0.0f);
         s.eta2 = wi_l.z < 0.0f ? eta * eta : 1.0f;
     } else if (HAS_FEATURE(FEATURE_MIRROR) && m.type == MAT_MIRROR) {
         s.wi = reflect_about(wo, n);
         s.weight = material_color(m);
     } else if (HAS_FEATURE(FEATURE_GLASS) && m.type == MAT_GLASS) {
         // Dielectric: reflect with probability F, else refract (radiance scales by 1/eta^2).
-        float eta = entering ? m.ior : 1.0f / m.ior;
+        float eta = entering ? m.ior : DIVF(1.0f, m.ior);
         float cos_i = MINF(1.0f, dot(wo, n));
         float f = fresnel_dielectric(cos_i, eta);
         if (u.z < f) {
             s.wi = reflect_about(wo, n);
             s.weight = V3S(1.0f);
         } else {
-            float sin2_t = MAXF(0.0f, 1.0f - cos_i * cos_i) / (eta * eta);
+            float sin2_t = DIVF(MAXF(0.0f, 1.0f - cos_i * cos_i), eta * eta);
             float cos_t = sqrt(MAXF(0.0f, 1.0f - sin2_t));
-            s.wi = normalize(-wo / eta + n * (cos_i / eta - cos_t));
+            s.wi = normalize(DIVF(-wo, eta) + n * (DIVF(cos_i, eta) - cos_t));
 #ifdef MCPT_NEGATIVE_CONTROL_NO_REFRACTION
             s.valid = false;  // tests: a variant that drops transmission through glass
 #endif
             s.eta2 = eta * eta;
-            s.weight = material_color(m) / s.eta2;
+            s.weight = DIVF(material_color(m), s.eta2);
         }
     } else {
         s.valid = false;  // a material this build left out: never happens (scene_features.h)

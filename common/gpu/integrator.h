@@ -70,10 +70,10 @@ MCPT_FN SurfacePoint surface_at(SCENE_PARAMS_ Ray ray, Hit hit) {
         GpuSphere sph = SPHERE(hit.prim & ~SPHERE_BIT);
         vec3 c = V3(sph.cx, sph.cy, sph.cz);
         vec3 rel = ray.o + ray.d * hit.t - c;
-        rel = rel * (sph.radius / length(rel));
+        rel = rel * DIVF(sph.radius, length(rel));
         s.p = c + rel;
         s.p_error = VABS(rel) * gamma_bound(5.0f) + VABS(s.p) * gamma_bound(2.0f);
-        s.ng = rel / sph.radius;
+        s.ng = DIVF(rel, sph.radius);
         s.ns = s.ng;
         s.material = sph.material;
     } else {
@@ -95,7 +95,7 @@ MCPT_FN SurfacePoint surface_at(SCENE_PARAMS_ Ray ray, Hit hit) {
                 vec3 ns = normal_from_oct(a.n0) * b0 + normal_from_oct(a.n1) * hit.b1 +
                           normal_from_oct(a.n2) * hit.b2;
                 float len = length(ns);
-                if (len > 0.0f) s.ns = dot(ns, s.ng) < 0.0f ? -ns / len : ns / len;
+                if (len > 0.0f) s.ns = dot(ns, s.ng) < 0.0f ? DIVF(-ns, len) : DIVF(ns, len);
             }
             if (HAS_FEATURE(FEATURE_TEXTURES)) {
                 // Texture coordinates and the surface's derivatives along them (tangents).
@@ -104,8 +104,8 @@ MCPT_FN SurfacePoint surface_at(SCENE_PARAMS_ Ray ray, Hit hit) {
                 float det = du1 * dv2 - du2 * dv1;
                 if (det != 0.0f) {
                     vec3 e1 = v1 - v0, e2 = v2 - v0;
-                    s.dpdu = (e1 * dv2 - e2 * dv1) / det;
-                    s.dpdv = (e2 * du1 - e1 * du2) / det;
+                    s.dpdu = DIVF(e1 * dv2 - e2 * dv1, det);
+                    s.dpdv = DIVF(e2 * du1 - e1 * du2, det);
                 }
             }
         }
@@ -128,10 +128,11 @@ MCPT_FN float triangle_area(GpuTriangle tri) {
 MCPT_FN float emitter_area_pdf(SCENE_PARAMS_ uint light_prim, vec3 x, vec3 rn, GpuMaterial m,
                                float area) {
     if (LIGHT_TREE_ON)
-        return PARAM(light_tree_pmf) *
-               light_tree_pmf(SCENE_ARGS_ x, rn, light_tree_trail(SCENE_ARGS_ light_prim)) / area;
+        return DIVF(PARAM(light_tree_pmf) *
+                        light_tree_pmf(SCENE_ARGS_ x, rn, light_tree_trail(SCENE_ARGS_ light_prim)),
+                    area);
     float faces = emits_from_back(m) ? 2.0f : 1.0f;
-    return faces * mean_component(material_emission(m)) / PARAM(light_power_total);
+    return DIVF(faces * mean_component(material_emission(m)), PARAM(light_power_total));
 }
 
 // Solid-angle pdf that next-event estimation samples a sphere light from x (cone sampling),
@@ -141,7 +142,7 @@ MCPT_FN float sphere_cone_pdf(GpuSphere sph, vec3 x, float pmf) {
     float r2 = sph.radius * sph.radius;
     float d2 = dot(to_c, to_c);
     if (d2 <= r2) return 0.0f;  // inside: never sampled from here
-    return pmf / (2.0f * MCPT_PI * one_minus_cos_cone(r2 / d2));
+    return DIVF(pmf, 2.0f * MCPT_PI * one_minus_cos_cone(DIVF(r2, d2)));
 }
 
 MCPT_FN float sphere_light_pdf(SCENE_PARAMS_ uint index, vec3 x, vec3 rn) {
@@ -171,12 +172,12 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 rn, vec3 u) {
         float pt = PARAM(light_tree_pmf);
         count -= PARAM(num_tree_lights);
         if (pick < pt || count == 0u) {
-            TreePick tp = light_tree_pick(SCENE_ARGS_ x, rn, MINF(pick / pt, 0.99999994f));
+            TreePick tp = light_tree_pick(SCENE_ARGS_ x, rn, MINF(DIVF(pick, pt), 0.99999994f));
             light = LIGHT(tp.slot);
             tree_pmf = pt * tp.pmf;
             by_tree = true;
         } else {
-            pick = MINF((pick - pt) / (1.0f - pt), 0.99999994f);
+            pick = MINF(DIVF(pick - pt, 1.0f - pt), 0.99999994f);
         }
     }
     if (!by_tree) {
@@ -200,14 +201,14 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 rn, vec3 u) {
         float d2 = dot(to_c, to_c);
         if (d2 <= r2) return ls;
         float dc = sqrt(d2);
-        float omc = one_minus_cos_cone(r2 / d2);
+        float omc = one_minus_cos_cone(DIVF(r2, d2));
         vec3 rel = sample_cone(u.y, u.z, omc);
-        ls.wi = normalize(frame_to_world(frame_from_normal(to_c / dc), rel));
+        ls.wi = normalize(frame_to_world(frame_from_normal(DIVF(to_c, dc)), rel));
         // Distance to the near side of the sphere along wi.
         float sin2 = rel.x * rel.x + rel.y * rel.y;
         float ds = dc * rel.z - sqrt(MAXF(0.0f, r2 - d2 * sin2));
         vec3 on = x + ls.wi * ds - c;
-        ls.n = on / length(on);
+        ls.n = DIVF(on, length(on));
         ls.p = c + ls.n * sph.radius;
         ls.p_error = VABS(ls.n * sph.radius) * gamma_bound(5.0f) + VABS(ls.p) * gamma_bound(2.0f);
         GpuMaterial m = MATERIAL(sph.material);
@@ -243,9 +244,9 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 rn, vec3 u) {
             vec4 t = sample_texture(SCENE_ARGS_ m.tex_emission, uv);
             ls.le = ls.le * V3(t.x, t.y, t.z);
         }
-        float area_pdf =
-            by_tree ? pmf / triangle_area(tri) : emitter_area_pdf(SCENE_ARGS_ prim, x, rn, m, 1.0f);
-        ls.pdf = area_pdf * dist2 / cos_l;
+        float area_pdf = by_tree ? DIVF(pmf, triangle_area(tri))
+                                 : emitter_area_pdf(SCENE_ARGS_ prim, x, rn, m, 1.0f);
+        ls.pdf = DIVF(area_pdf * dist2, cos_l);
         ls.valid = true;
     }
     return ls;
@@ -260,8 +261,9 @@ MCPT_FN float emitter_hit_pdf(SCENE_PARAMS_ vec3 x, vec3 rn, Ray ray, Hit hit, S
     float cos_l = ABSF(dot(s.ng, ray.d));  // the front, or a two-sided emitter's back
     vec3 to_l = s.p - x;
     float area = LIGHT_TREE_ON ? triangle_area(TRIANGLE(hit.prim)) : 1.0f;
-    return emitter_area_pdf(SCENE_ARGS_ hit.prim, x, rn, MATERIAL(s.material), area) *
-           dot(to_l, to_l) / cos_l;
+    return DIVF(emitter_area_pdf(SCENE_ARGS_ hit.prim, x, rn, MATERIAL(s.material), area) *
+                    dot(to_l, to_l),
+                cos_l);
 }
 
 MCPT_FN PathResult path_result(vec3 radiance, uint rays) {
@@ -340,8 +342,8 @@ MCPT_FN PathState without_shadow(PathState st) {
 MCPT_FN PathState start_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
     vec4 u_cam = sample4(pixel, sample_index, 0u, PARAM(seed));
     uint px = pixel % PARAM(width), py = pixel / PARAM(width);
-    float fx = (F32(px) + u_cam.x) / F32(PARAM(width)) * 2.0f - 1.0f;
-    float fy = 1.0f - (F32(py) + u_cam.y) / F32(PARAM(height)) * 2.0f;
+    float fx = DIVF(F32(px) + u_cam.x, F32(PARAM(width))) * 2.0f - 1.0f;
+    float fy = 1.0f - DIVF(F32(py) + u_cam.y, F32(PARAM(height))) * 2.0f;
     Ray ray = camera_ray(SCENE_ARGS_ fx, fy);
     PathState st;
     st.o = ray.o;
@@ -404,7 +406,7 @@ MCPT_FN LightSample sample_lamp_by_contribution(SCENE_PARAMS_ GpuMaterial m, vec
         }
     }
     if (!chosen.valid) return chosen;
-    chosen.pdf = chosen_w / total;
+    chosen.pdf = DIVF(chosen_w, total);
     return chosen;
 }
 
@@ -540,7 +542,7 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
                 float w = ls.delta ? 1.0f : power_heuristic(ls.pdf, e.pdf);
                 if (MCPT_ENV_STRATEGY != 0u && ls.at_infinity && !ls.delta)
                     w = MCPT_ENV_STRATEGY == 2u ? 0.0f : (MCPT_ENV_STRATEGY == 4u ? 0.5f : 1.0f);
-                vec3 contribution = st.beta * e.f * ls.le * (light_scale * cos_x * w / ls.pdf);
+                vec3 contribution = st.beta * e.f * ls.le * DIVF(light_scale * cos_x * w, ls.pdf);
 #ifdef MCPT_CARRIED_SHADOW
                 if (MCPT_TRACE_SITES == 1u) {
                     st.shadow_o = shadow.o;
@@ -588,7 +590,7 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
             return st;
         }
 #ifndef MCPT_NEGATIVE_CONTROL_RR
-        st.beta = st.beta / survive;
+        st.beta = DIVF(st.beta, survive);
 #endif
     }
     return st;

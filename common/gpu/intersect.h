@@ -29,6 +29,7 @@ MCPT_FN WoopRay woop_setup(vec3 d) {
         w.kx = w.ky;
         w.ky = tmp;
     }
+    // `/`, not DIVF: the meshes ran 3% slower on NVIDIA's OpenCL with DIVF here (lang.h).
     w.sx = vec3_at(d, w.kx) / dz;
     w.sy = vec3_at(d, w.ky) / dz;
     w.sz = 1.0f / dz;
@@ -180,14 +181,14 @@ MCPT_FN float intersect_sphere(Ray ray, GpuSphere s) {
     float a = dot(ray.d, ray.d);
     float b_half = -dot(f, ray.d);
     // Discriminant from the closest-approach vector, not b^2 - 4ac (no cancellation).
-    vec3 l = f + ray.d * (b_half / a);
+    vec3 l = f + ray.d * DIVF(b_half, a);
     float r2 = s.radius * s.radius;
     float disc = r2 - dot(l, l);
     if (disc < 0.0f) return -1.0f;
     float q = b_half + (b_half >= 0.0f ? 1.0f : -1.0f) * sqrt(a * disc);
     float c = dot(f, f) - r2;
-    float t0 = q != 0.0f ? c / q : 0.0f;
-    float t1 = q / a;
+    float t0 = q != 0.0f ? DIVF(c, q) : 0.0f;
+    float t1 = DIVF(q, a);
     float tnear = MINF(t0, t1), tfar = MAXF(t0, t1);
     if (tnear > 0.0f && tnear < ray.tmax) return tnear;
     if (tfar > 0.0f && tfar < ray.tmax) return tfar;

@@ -29,6 +29,7 @@
 #define ATAN2(y, x) std::atan2(y, x)
 #define SINF(x) std::sin(x)
 #define COSF(x) std::cos(x)
+#define DIVF(a, b) ((a) / (b))
 #define SELECT3(a, b, c) ((c) ? (b) : (a))
 #define FIND_MSB(x) uint(31 - __builtin_clz(x))  // x != 0
 #define BIT_COUNT(x) uint(__builtin_popcount(x))
@@ -63,13 +64,23 @@
 #define SINF(x) sin(x)
 #define COSF(x) cos(x)
 #endif
+// DIVF(a, b): a / b to GLSL's precision (2.5 ulp for |b| in [2^-126, 2^126]), for shading,
+// sampling and sphere hits. NVIDIA: 1 / b, which its OpenCL already takes from the hardware's
+// approximate reciprocal, times a, in place of OpenCL's full-range a / b (div.full: operands
+// beyond 2^126 scaled first); +9% on the materials scene (docs/benchmarks.md). native_divide
+// was no faster (it ignores -cl-denorms-are-zero). Every other device: exactly a / b.
+#if defined(MCPT_NVIDIA_OPENCL)
+#define DIVF(a, b) ((a) * (1.0f / (b)))
+#else
+#define DIVF(a, b) ((a) / (b))
+#endif
 #define inversesqrt(x) rsqrt(x)
 // NVIDIA: normalize and length as GLSL defines them, without OpenCL's rescaling against
 // overflow and underflow (vectors beyond 1e19 or below 1e-19, which the tracer never forms):
 // that guard cost 8% of the Cornell box's speed and 20-23% of the materials and the textured
 // scene's there (docs/benchmarks.md). PoCL's own are faster than these (5% on materials).
 #if defined(MCPT_NVIDIA_OPENCL)
-#define normalize(v) ((v) * rsqrt(dot((v), (v))))
+#define normalize(v) ((v)*rsqrt(dot((v), (v))))
 #define length(v) sqrt(dot((v), (v)))
 #endif
 #define float_as_uint(x) as_uint(x)
@@ -100,6 +111,7 @@
 #define ATAN2(y, x) atan(y, x)
 #define SINF(x) sin(x)
 #define COSF(x) cos(x)
+#define DIVF(a, b) ((a) / (b))
 #define float_as_uint(x) floatBitsToUint(x)
 #define uint_as_float(x) uintBitsToFloat(x)
 #define fmax3(a, b, c) max(a, max(b, c))

@@ -21,7 +21,7 @@ MCPT_NAMESPACE_BEGIN
 #define NO_RECEIVER V2(4.0f, 0.0f)
 MCPT_FN vec2 receiver_encode(vec3 n) {
     float l1 = ABSF(n.x) + ABSF(n.y) + ABSF(n.z);
-    vec2 p = V2(n.x / l1, n.y / l1);
+    vec2 p = V2(DIVF(n.x, l1), DIVF(n.y, l1));
     if (n.z < 0.0f) {
         float px = p.x, py = p.y;
         p.x = (1.0f - ABSF(py)) * (px >= 0.0f ? 1.0f : -1.0f);
@@ -60,12 +60,12 @@ MCPT_FN float light_node_importance(SCENE_PARAMS_ uint i, vec3 x, vec3 rn) {
     vec3 lo = V3(a.x, a.y, a.z), hi = V3(b.x, b.y, b.z);
     vec3 e = hi - lo, d = x - (lo + hi) * 0.5f;
     float r2 = 0.25f * dot(e, e), d2 = dot(d, d);
-    float base = a.w / MAXF(MAXF(d2, r2), PARAM(light_tree_eps2));
+    float base = DIVF(a.w, MAXF(MAXF(d2, r2), PARAM(light_tree_eps2)));
     // x within the bounds' sphere: nothing to take off.
     if (d2 <= r2) return base;
     // theta_b: the bounds seen from x.
     float inv_d = inversesqrt(d2);
-    float sin_b = sqrt(r2 / d2), cos_b = sqrt(MAXF(0.0f, 1.0f - r2 / d2));
+    float sin_b = sqrt(DIVF(r2, d2)), cos_b = sqrt(MAXF(0.0f, 1.0f - DIVF(r2, d2)));
     float bound = 1.0f;
     if (c.w > -1.0f) {
         // theta_w: the axis to the way to x; theta_o: the cone. Each light emits over a
@@ -97,7 +97,7 @@ MCPT_FN float light_first_child_probability(SCENE_PARAMS_ uint c, vec3 x, vec3 r
     float sum = i0 + i1;
     // Both beyond float range or both nothing: alike (never a branch of probability 0 that
     // holds a light, which MIS would then miss).
-    return sum > 0.0f && sum <= MCPT_FLT_MAX ? i0 / sum : 0.5f;
+    return sum > 0.0f && sum <= MCPT_FLT_MAX ? DIVF(i0, sum) : 0.5f;
 }
 
 MCPT_STRUCT(TreePick) {
@@ -118,11 +118,11 @@ MCPT_FN TreePick light_tree_pick(SCENE_PARAMS_ vec3 x, vec3 rn, float u) {
         }
         float first = light_first_child_probability(SCENE_ARGS_ child, x, rn);
         if (u < first) {
-            u = u / first;
+            u = DIVF(u, first);
             p.pmf *= first;
             node = child;
         } else {
-            u = (u - first) / (1.0f - first);
+            u = DIVF(u - first, 1.0f - first);
             p.pmf *= 1.0f - first;
             node = child + 1u;
         }

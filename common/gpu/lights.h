@@ -79,11 +79,11 @@ MCPT_FN LightSample sample_punctual(SCENE_PARAMS_ uint i, vec3 x, float pmf) {
         float d2 = dot(to_l, to_l);
         if (!(d2 > 0.0f)) return ls;
         float d = sqrt(d2);
-        ls.wi = to_l / d;
+        ls.wi = DIVF(to_l, d);
         ls.p = V3(l.px, l.py, l.pz);
-        le = le / d2;
+        le = DIVF(le, d2);
         if (l.range > 0.0f) {
-            float q = d / l.range;
+            float q = DIVF(d, l.range);
             le = le * clamp(1.0f - q * q * q * q, 0.0f, 1.0f);
         }
         if (l.type == PUNCTUAL_SPOT) {
@@ -110,9 +110,9 @@ MCPT_STRUCT(StreamPick) {
 
 MCPT_FN StreamPick stream_pick(float u, float w, float total) {
     StreamPick r;
-    float q = w / total;
+    float q = DIVF(w, total);
     r.take = u < q;
-    r.u = MINF(r.take ? u / q : (u - q) / (1.0f - q), 0.99999994f);
+    r.u = MINF(r.take ? DIVF(u, q) : DIVF(u - q, 1.0f - q), 0.99999994f);
     return r;
 }
 
@@ -180,7 +180,7 @@ MCPT_FN vec3 env_seen(SCENE_PARAMS_ vec3 d) {
 // over the Jacobian 2 pi^2 sin(theta).
 MCPT_FN float env_solid_angle_pdf(vec4 t, vec3 d) {
     float sin_theta = sqrt(d.x * d.x + d.z * d.z);  // accurate near the poles, unlike 1 - y^2
-    return sin_theta > 0.0f ? t.w / (2.0f * MCPT_PI * MCPT_PI * sin_theta) : 0.0f;
+    return sin_theta > 0.0f ? DIVF(t.w, 2.0f * MCPT_PI * MCPT_PI * sin_theta) : 0.0f;
 }
 
 // The interval of a CDF table at word `table` (n + 1 ascending floats from 0 to 1) that holds
@@ -214,7 +214,7 @@ MCPT_FN CdfPick cdf_pick(SCENE_PARAMS_ uint table, uint n, float u) {
     float c1 = uint_as_float(SCENE_WORD(table + lo + 1u));
     CdfPick p;
     p.index = lo;
-    p.u = clamp((u - c0) / (c1 - c0), 0.0f, 0.99999994f);
+    p.u = clamp(DIVF(u - c0, c1 - c0), 0.0f, 0.99999994f);
     return p;
 }
 
@@ -226,8 +226,8 @@ MCPT_FN LightSample sample_environment(SCENE_PARAMS_ float u1, float u2, float p
     uint w = PARAM(env_width), h = PARAM(env_height);
     CdfPick row = cdf_pick(SCENE_ARGS_ PARAM(env_rows_word), h, u1);
     CdfPick col = cdf_pick(SCENE_ARGS_ PARAM(env_cols_word) + (2u * w + 1u) * row.index, w, u2);
-    float u = (F32(col.index) + col.u) / F32(w);
-    float v = (F32(row.index) + row.u) / F32(h);
+    float u = DIVF(F32(col.index) + col.u, F32(w));
+    float v = DIVF(F32(row.index) + row.u, F32(h));
     vec4 t = env_texel(SCENE_ARGS_ col.index, row.index);
     ls.wi = env_direction(SCENE_ARGS_ u, v);
     ls.pdf = pmf * env_solid_angle_pdf(t, ls.wi);

@@ -21,8 +21,8 @@ MCPT_FN vec3 frame_to_local(Frame f, vec3 v) {
 MCPT_FN float ggx_d(vec3 h, float alpha) {
     if (h.z <= 0.0f) return 0.0f;
     float a2 = alpha * alpha;
-    float t = (h.x * h.x + h.y * h.y) / a2 + h.z * h.z;
-    return 1.0f / (MCPT_PI * a2 * t * t);
+    float t = DIVF(h.x * h.x + h.y * h.y, a2) + h.z * h.z;
+    return DIVF(1.0f, MCPT_PI * a2 * t * t);
 }
 
 // sqrt(cos^2 + alpha^2 sin^2) of a direction: Smith's Lambda(w) = (ggx_root(w) / cos - 1) / 2.
@@ -33,14 +33,14 @@ MCPT_FN float ggx_root(vec3 w, float alpha) {
 // Smith masking of one direction, G1 = 1 / (1 + Lambda) (no division by cos).
 MCPT_FN float ggx_g1(vec3 w, float alpha) {
     float c = ABSF(w.z);
-    return 2.0f * c / (c + ggx_root(w, alpha));
+    return DIVF(2.0f * c, c + ggx_root(w, alpha));
 }
 
 // D * G2 / (4 cos_o cos_i) with Smith's height-correlated G2 = 1 / (1 + Lambda_o + Lambda_i):
 // the specular lobe without Fresnel (glTF's V_GGX * D_GGX). wo.z, wi.z > 0.
 MCPT_FN float ggx_dv(vec3 wo, vec3 wi, vec3 h, float alpha) {
     float denom = wi.z * ggx_root(wo, alpha) + wo.z * ggx_root(wi, alpha);
-    return denom > 0.0f ? ggx_d(h, alpha) * 0.5f / denom : 0.0f;
+    return denom > 0.0f ? DIVF(ggx_d(h, alpha) * 0.5f, denom) : 0.0f;
 }
 
 // A visible normal of the GGX surface seen from wo (Heitz 2018): density
@@ -67,16 +67,16 @@ MCPT_FN vec3 sample_ggx_vndf(vec3 wo, float alpha, float u1, float u2) {
 // Solid-angle density of wi = reflect(wo, h) for h drawn by sample_ggx_vndf:
 // D_wo(h) / (4 wo.h) = G1(wo) D(h) / (4 wo.z).
 MCPT_FN float ggx_reflection_pdf(vec3 wo, vec3 h, float alpha) {
-    return ggx_g1(wo, alpha) * ggx_d(h, alpha) / (4.0f * wo.z);
+    return DIVF(ggx_g1(wo, alpha) * ggx_d(h, alpha), 4.0f * wo.z);
 }
 
 // Unpolarized Fresnel reflectance of a dielectric; cos_i > 0, eta = n_transmitted / n_incident.
 MCPT_FN float fresnel_dielectric(float cos_i, float eta) {
-    float sin2_t = (1.0f - cos_i * cos_i) / (eta * eta);
+    float sin2_t = DIVF(1.0f - cos_i * cos_i, eta * eta);
     if (sin2_t >= 1.0f) return 1.0f;  // total internal reflection
     float cos_t = sqrt(MAXF(0.0f, 1.0f - sin2_t));
-    float r_par = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-    float r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    float r_par = DIVF(eta * cos_i - cos_t, eta * cos_i + cos_t);
+    float r_perp = DIVF(cos_i - eta * cos_t, cos_i + eta * cos_t);
     return 0.5f * (r_par * r_par + r_perp * r_perp);
 }
 
@@ -85,7 +85,7 @@ MCPT_FN float fresnel_dielectric(float cos_i, float eta) {
 MCPT_FN float ggx_g2(vec3 wo, vec3 wi, float alpha) {
     float co = ABSF(wo.z), ci = ABSF(wi.z);
     float denom = ci * ggx_root(wo, alpha) + co * ggx_root(wi, alpha);
-    return denom > 0.0f ? 2.0f * co * ci / denom : 0.0f;
+    return denom > 0.0f ? DIVF(2.0f * co * ci, denom) : 0.0f;
 }
 
 MCPT_FN float pow5(float x) {
@@ -95,7 +95,7 @@ MCPT_FN float pow5(float x) {
 
 // The dielectric Fresnel reflectance at normal incidence: ((ior - 1) / (ior + 1))^2.
 MCPT_FN float dielectric_f0(float ior) {
-    float r = (ior - 1.0f) / (ior + 1.0f);
+    float r = DIVF(ior - 1.0f, ior + 1.0f);
     return r * r;
 }
 
@@ -123,7 +123,7 @@ MCPT_FN float pbr_specular_probability(GpuMaterial m, vec3 base, float cos_o) {
     float spec =
         (1.0f - m.metallic) * fd + m.metallic * mean_component(base + (V3S(1.0f) - base) * fw);
     float diff = (1.0f - m.metallic) * (1.0f - fd) * mean_component(base);
-    return spec + diff > 0.0f ? spec / (spec + diff) : 1.0f;
+    return spec + diff > 0.0f ? DIVF(spec, spec + diff) : 1.0f;
 }
 
 // f(wo, wi) and pdf of MAT_PBR in the local frame (glTF 2.0 Appendix B).
@@ -180,20 +180,20 @@ MCPT_FN BsdfEval rough_dielectric_eval(vec3 wo, vec3 wi, float eta, float alpha,
     float f = fresnel_dielectric(dwo, eta);
     float d = ggx_d(wm, alpha);
     float g2 = ggx_g2(wo, wi, alpha);
-    float visible = ggx_g1(wo, alpha) * dwo * d / wo.z;  // D_wo(wm)
+    float visible = DIVF(ggx_g1(wo, alpha) * dwo * d, wo.z);  // D_wo(wm)
     if (reflected) {
-        e.f = V3S(f * d * g2 / (4.0f * wo.z * wi.z));
-        e.pdf = f * visible / (4.0f * dwo);
+        e.f = V3S(DIVF(f * d * g2, 4.0f * wo.z * wi.z));
+        e.pdf = DIVF(f * visible, 4.0f * dwo);
         return e;
     }
-    float denom = dwi + dwo / eta;
+    float denom = dwi + DIVF(dwo, eta);
     denom = denom * denom;
 #ifdef MCPT_NEGATIVE_CONTROL_NO_FRESNEL_T
     f = 0.0f;  // tests: a variant that transmits what it also reflects
 #endif
-    float ft = (1.0f - f) * d * g2 * ABSF(dwi * dwo / (wi.z * wo.z * denom)) / (eta * eta);
+    float ft = DIVF((1.0f - f) * d * g2 * ABSF(DIVF(dwi * dwo, wi.z * wo.z * denom)), eta * eta);
     e.f = tint * ft;
-    e.pdf = (1.0f - fresnel_dielectric(dwo, eta)) * visible * ABSF(dwi) / denom;
+    e.pdf = DIVF((1.0f - fresnel_dielectric(dwo, eta)) * visible * ABSF(dwi), denom);
     return e;
 }
 
@@ -208,9 +208,9 @@ MCPT_FN vec3 rough_dielectric_sample_direction(vec3 wo, float eta, float alpha, 
         wi = h * (2.0f * cos_o) - wo;
         return wi.z > 0.0f ? wi : V3S(0.0f);
     }
-    float sin2_t = MAXF(0.0f, 1.0f - cos_o * cos_o) / (eta * eta);
+    float sin2_t = DIVF(MAXF(0.0f, 1.0f - cos_o * cos_o), eta * eta);
     float cos_t = sqrt(MAXF(0.0f, 1.0f - sin2_t));
-    wi = normalize(-wo / eta + h * (cos_o / eta - cos_t));
+    wi = normalize(DIVF(-wo, eta) + h * (DIVF(cos_o, eta) - cos_t));
     return wi.z < 0.0f ? wi : V3S(0.0f);
 }
 

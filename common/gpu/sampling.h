@@ -43,7 +43,7 @@ MCPT_STRUCT(Frame) {
 };
 MCPT_FN Frame frame_from_normal(vec3 n) {
     float s = n.z >= 0.0f ? 1.0f : -1.0f;
-    float a = -1.0f / (s + n.z);
+    float a = DIVF(-1.0f, s + n.z);
     float c = n.x * n.y * a;
     Frame f;
     f.t = V3(1.0f + s * n.x * n.x * a, s * c, -s * n.x);
@@ -88,7 +88,7 @@ MCPT_FN vec3 sample_cone(float u1, float u2, float omc) {
 MCPT_FN float power_heuristic(float pdf_a, float pdf_b) {
     float a = pdf_a * pdf_a;
     float b = pdf_b * pdf_b;
-    return a + b > 0.0f ? a / (a + b) : 0.0f;
+    return a + b > 0.0f ? DIVF(a, a + b) : 0.0f;
 }
 
 MCPT_NAMESPACE_END

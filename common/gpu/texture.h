@@ -152,12 +152,12 @@ MCPT_FN vec3 normal_mapped(vec4 c, vec3 ns, vec3 dpdu, vec3 dpdv) {
     vec3 t = dpdu - ns * dot(ns, dpdu);
     float len = length(t);
     if (!(len > 0.0f)) return ns;
-    t = t / len;
+    t = DIVF(t, len);
     vec3 b = cross(ns, t);
     if (dot(b, dpdv) > 0.0f) b = -b;
     vec3 m = t * (2.0f * c.x - 1.0f) + b * (2.0f * c.y - 1.0f) + ns * (2.0f * c.z - 1.0f);
     float ml = length(m);
-    return ml > 0.0f ? m / ml : ns;
+    return ml > 0.0f ? DIVF(m, ml) : ns;
 }
 
 // Whether triangle `tri` of material `material` is there at (b1, b2) under alphaMode MASK: the
