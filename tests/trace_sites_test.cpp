@@ -1,7 +1,8 @@
 // Rays traced from one call or two (MCPT_TRACE_SITES: common/gpu/integrator.h, step_path)
 // change where the kernel traverses, not what a path adds: the textured test scene (textures,
 // cut-outs in shadow rays and camera rays, emission textures) renders the same image bit for
-// bit either way, on both APIs, and the choice reaches the compiler. Which devices get one
+// bit either way, on both APIs (the CI's PoCL and lavapipe: on NVIDIA the two programs round
+// differently), and the choice reaches the compiler. Which devices get one
 // site (NVIDIA's Vulkan on scenes with textures) and a value out of range, refused.
 #include <gtest/gtest.h>
 

@@ -67,7 +67,7 @@
 // DIVF(a, b): a / b to GLSL's precision (2.5 ulp for |b| in [2^-126, 2^126]), for shading,
 // sampling and sphere hits. NVIDIA: 1 / b, which its OpenCL already takes from the hardware's
 // approximate reciprocal, times a, in place of OpenCL's full-range a / b (div.full: operands
-// beyond 2^126 scaled first); +9% on the materials scene (docs/benchmarks.md). native_divide
+// beyond 2^126 scaled first); +8% on the materials scene (docs/benchmarks.md). native_divide
 // was no faster (it ignores -cl-denorms-are-zero). Every other device: exactly a / b.
 #if defined(MCPT_NVIDIA_OPENCL)
 #define DIVF(a, b) ((a) * (1.0f / (b)))

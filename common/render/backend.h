@@ -81,7 +81,8 @@ KdSteps kd_steps(const DeviceInfo& device);
 // (FEATURE_TEXTURES), whose two inlined traversals beside the texture code overflowed its
 // instruction cache, or with the k-d tree (FEATURE_KDTREE: +4 to +29% there); else 2, the
 // shadow ray traced where it is cast (docs/traversal.md).
-// $MCPT_TRACE_SITES (1 or 2) overrides. Images are the same either way.
+// $MCPT_TRACE_SITES (1 or 2) overrides. Images are the same either way on PoCL and lavapipe;
+// NVIDIA's compilers round the two programs differently (both APIs, docs/benchmarks.md).
 uint32_t trace_sites(const DeviceInfo& device, uint32_t features);
 
 class Backend {
