@@ -142,7 +142,7 @@ MCPT_FN float sphere_cone_pdf(GpuSphere sph, vec3 x, float pmf) {
     float r2 = sph.radius * sph.radius;
     float d2 = dot(to_c, to_c);
     if (d2 <= r2) return 0.0f;  // inside: never sampled from here
-    return DIVF(pmf, 2.0f * MCPT_PI * one_minus_cos_cone(DIVF(r2, d2)));
+    return DIVF(pmf, 2.0f * MCPT_PI * one_minus_cos_cone(r2 / d2));
 }
 
 MCPT_FN float sphere_light_pdf(SCENE_PARAMS_ uint index, vec3 x, vec3 rn) {
@@ -172,12 +172,12 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 rn, vec3 u) {
         float pt = PARAM(light_tree_pmf);
         count -= PARAM(num_tree_lights);
         if (pick < pt || count == 0u) {
-            TreePick tp = light_tree_pick(SCENE_ARGS_ x, rn, MINF(DIVF(pick, pt), 0.99999994f));
+            TreePick tp = light_tree_pick(SCENE_ARGS_ x, rn, MINF(pick / pt, 0.99999994f));
             light = LIGHT(tp.slot);
             tree_pmf = pt * tp.pmf;
             by_tree = true;
         } else {
-            pick = MINF(DIVF(pick - pt, 1.0f - pt), 0.99999994f);
+            pick = MINF((pick - pt) / (1.0f - pt), 0.99999994f);
         }
     }
     if (!by_tree) {
@@ -201,7 +201,7 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 rn, vec3 u) {
         float d2 = dot(to_c, to_c);
         if (d2 <= r2) return ls;
         float dc = sqrt(d2);
-        float omc = one_minus_cos_cone(DIVF(r2, d2));
+        float omc = one_minus_cos_cone(r2 / d2);
         vec3 rel = sample_cone(u.y, u.z, omc);
         ls.wi = normalize(frame_to_world(frame_from_normal(DIVF(to_c, dc)), rel));
         // Distance to the near side of the sphere along wi.

@@ -67,8 +67,10 @@
 // DIVF(a, b): a / b to GLSL's precision (2.5 ulp for |b| in [2^-126, 2^126]), for shading,
 // sampling and sphere hits. NVIDIA: 1 / b, which its OpenCL already takes from the hardware's
 // approximate reciprocal, times a, in place of OpenCL's full-range a / b (div.full: operands
-// beyond 2^126 scaled first); +8% on the materials scene (docs/benchmarks.md). native_divide
-// was no faster (it ignores -cl-denorms-are-zero). Every other device: exactly a / b.
+// beyond 2^126 scaled first): +8% on the materials scene (docs/benchmarks.md). native_divide
+// was no faster (it ignores -cl-denorms-are-zero). Every other device: exactly a / b. Ratios
+// bounded by 1 that a comparison or a sqrt(1 - x) relies on keep `/` (probabilities, uniforms
+// rescaled for reuse, a cone's sin^2): exact on CPU devices, as before on NVIDIA.
 #if defined(MCPT_NVIDIA_OPENCL)
 #define DIVF(a, b) ((a) * (1.0f / (b)))
 #else

@@ -65,7 +65,7 @@ MCPT_FN float light_node_importance(SCENE_PARAMS_ uint i, vec3 x, vec3 rn) {
     if (d2 <= r2) return base;
     // theta_b: the bounds seen from x.
     float inv_d = inversesqrt(d2);
-    float sin_b = sqrt(DIVF(r2, d2)), cos_b = sqrt(MAXF(0.0f, 1.0f - DIVF(r2, d2)));
+    float sin_b = sqrt(r2 / d2), cos_b = sqrt(MAXF(0.0f, 1.0f - r2 / d2));
     float bound = 1.0f;
     if (c.w > -1.0f) {
         // theta_w: the axis to the way to x; theta_o: the cone. Each light emits over a
@@ -97,7 +97,7 @@ MCPT_FN float light_first_child_probability(SCENE_PARAMS_ uint c, vec3 x, vec3 r
     float sum = i0 + i1;
     // Both beyond float range or both nothing: alike (never a branch of probability 0 that
     // holds a light, which MIS would then miss).
-    return sum > 0.0f && sum <= MCPT_FLT_MAX ? DIVF(i0, sum) : 0.5f;
+    return sum > 0.0f && sum <= MCPT_FLT_MAX ? i0 / sum : 0.5f;
 }
 
 MCPT_STRUCT(TreePick) {
@@ -118,11 +118,11 @@ MCPT_FN TreePick light_tree_pick(SCENE_PARAMS_ vec3 x, vec3 rn, float u) {
         }
         float first = light_first_child_probability(SCENE_ARGS_ child, x, rn);
         if (u < first) {
-            u = DIVF(u, first);
+            u = u / first;
             p.pmf *= first;
             node = child;
         } else {
-            u = DIVF(u - first, 1.0f - first);
+            u = (u - first) / (1.0f - first);
             p.pmf *= 1.0f - first;
             node = child + 1u;
         }

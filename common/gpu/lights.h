@@ -110,9 +110,9 @@ MCPT_STRUCT(StreamPick) {
 
 MCPT_FN StreamPick stream_pick(float u, float w, float total) {
     StreamPick r;
-    float q = DIVF(w, total);
+    float q = w / total;
     r.take = u < q;
-    r.u = MINF(r.take ? DIVF(u, q) : DIVF(u - q, 1.0f - q), 0.99999994f);
+    r.u = MINF(r.take ? u / q : (u - q) / (1.0f - q), 0.99999994f);
     return r;
 }
 
@@ -214,7 +214,7 @@ MCPT_FN CdfPick cdf_pick(SCENE_PARAMS_ uint table, uint n, float u) {
     float c1 = uint_as_float(SCENE_WORD(table + lo + 1u));
     CdfPick p;
     p.index = lo;
-    p.u = clamp(DIVF(u - c0, c1 - c0), 0.0f, 0.99999994f);
+    p.u = clamp((u - c0) / (c1 - c0), 0.0f, 0.99999994f);
     return p;
 }
 

@@ -123,7 +123,7 @@ MCPT_FN float pbr_specular_probability(GpuMaterial m, vec3 base, float cos_o) {
     float spec =
         (1.0f - m.metallic) * fd + m.metallic * mean_component(base + (V3S(1.0f) - base) * fw);
     float diff = (1.0f - m.metallic) * (1.0f - fd) * mean_component(base);
-    return spec + diff > 0.0f ? DIVF(spec, spec + diff) : 1.0f;
+    return spec + diff > 0.0f ? spec / (spec + diff) : 1.0f;
 }
 
 // f(wo, wi) and pdf of MAT_PBR in the local frame (glTF 2.0 Appendix B).

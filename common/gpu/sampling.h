@@ -72,7 +72,8 @@ MCPT_FN vec2 sample_triangle_barycentrics(float u1, float u2) {
 // 1 - cos(theta_max) of the cone subtended by a sphere with sin^2(theta_max) = sin2,
 // accurate for tiny cones (a Taylor expansion where 1 - sqrt(1 - x) cancels).
 MCPT_FN float one_minus_cos_cone(float sin2) {
-    return sin2 < 0.00068523f ? 0.5f * sin2 + 0.125f * sin2 * sin2 : 1.0f - sqrt(1.0f - sin2);
+    return sin2 < 0.00068523f ? 0.5f * sin2 + 0.125f * sin2 * sin2
+                              : 1.0f - sqrt(MAXF(0.0f, 1.0f - sin2));  // sin2 > 1 by an ulp: 1
 }
 
 // Uniform direction in a cone around +z with 1 - cos(theta_max) = omc; pdf = 1/(2 pi omc).
@@ -88,7 +89,7 @@ MCPT_FN vec3 sample_cone(float u1, float u2, float omc) {
 MCPT_FN float power_heuristic(float pdf_a, float pdf_b) {
     float a = pdf_a * pdf_a;
     float b = pdf_b * pdf_b;
-    return a + b > 0.0f ? DIVF(a, a + b) : 0.0f;
+    return a + b > 0.0f ? a / (a + b) : 0.0f;
 }
 
 MCPT_NAMESPACE_END
