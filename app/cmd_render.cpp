@@ -93,6 +93,8 @@ void run_render(const RenderArgs& a) {
     session.set_environment(env);
     Scene loaded = load_scene(a.scene);
     for (const std::string& w : loaded.warnings) std::cerr << "mcpt: warning: " << w << "\n";
+    if (a.verbose && !loaded.extensions.empty())
+        std::printf("glTF extensions: %s\n", extension_list(loaded).c_str());
     if (env.present()) loaded.environment = env;  // the light choice sees it
     apply_light_sampling(loaded, a.lighting);
     session.set_scene(std::move(loaded));

@@ -31,6 +31,8 @@ void run_tree(const TreeArgs& a) {
     const GpuScene g = pack_scene(scene, tree);
     std::printf("%s, %zu triangles, tree %s\n", a.scene.c_str(), scene.triangles.size(),
                 a.tree.c_str());
+    if (!scene.extensions.empty())
+        std::printf("glTF extensions: %s\n", extension_list(scene).c_str());
     std::printf("%s", describe(tree.stats, scene.triangles.size(), tree.kind).c_str());
     const double tri_bytes = double(scene.triangles.size() * sizeof(gpu::GpuTriangle));
     std::printf("  bytes per triangle (tree + triangle data): %.1f\n",

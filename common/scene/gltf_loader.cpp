@@ -22,19 +22,25 @@
 // Lamps (KHR_lights_punctual) on nodes: point, spot and directional lights at the node's
 // world transform (position; direction -Z), color * intensity / 683 lm/W (candela to W/sr,
 // lux to W/m^2, as Blender's importer converts them), range and cone angles as glTF says.
-//   Ignored with a warning: textures (only the factors are used), normal maps, skins,
-//   animations, morph targets, non-perspective cameras, primitive modes other than TRIANGLES
-//   and extensions other than the four above. Alpha is ignored. A file that requires
-//   (extensionsRequired) any other extension is rejected.
+// Textures: base color, metallic-roughness, normal and emissive (texture coordinates 0), PNG
+// and JPEG (stb_image), WebP (EXT_texture_webp, libwebp), each placed by its material's
+// KHR_texture_transform (baked into the triangles' texture coordinates); alphaMode MASK.
+// Meshes as optimizing pipelines ship them: KHR_mesh_quantization (integer and normalized
+// attributes; the node transform undoes the scale), EXT_meshopt_compression and
+// KHR_draco_mesh_compression (gltf_compression.h), decoded before any check.
+//   Ignored with a warning: occlusion textures, texture coordinates other than 0, skins,
+//   animations, morph targets, non-perspective cameras, primitive modes other than TRIANGLES,
+//   KHR_texture_basisu (KTX2: its PNG/JPEG/WebP fallback is used where the file has one) and
+//   the other extensions. A file that requires (extensionsRequired) any other extension is
+//   rejected, naming it.
 
 #include "common/scene/gltf_loader.h"
 
 // tinygltf's implementation lives here. It hands images over undecoded (its image callback
-// keeps the bytes); the loader decodes the ones materials use with stb_image (common/io).
+// keeps the bytes); the loader decodes the ones materials use (common/io/texture_image.h).
 #define TINYGLTF_IMPLEMENTATION
 #define TINYGLTF_NO_STB_IMAGE
 #define TINYGLTF_NO_STB_IMAGE_WRITE
-#include <stb_image.h>
 #include <tiny_gltf.h>
 
 #include <algorithm>
@@ -57,6 +63,8 @@
 
 #include "common/error.h"
 #include "common/io/host_memory.h"
+#include "common/io/texture_image.h"
+#include "common/scene/gltf_compression.h"
 
 namespace mcpt {
 namespace {
@@ -69,10 +77,32 @@ const char* const kIor = "KHR_materials_ior";
 const char* const kSpecular = "KHR_materials_specular";
 
 const char* const kLightsPunctual = "KHR_lights_punctual";
+const char* const kQuantization = "KHR_mesh_quantization";
+const char* const kTextureTransform = "KHR_texture_transform";
+const char* const kTextureWebp = "EXT_texture_webp";
+const char* const kTextureBasisu = "KHR_texture_basisu";
+const char* const kMeshopt = "EXT_meshopt_compression";
+const char* const kDraco = "KHR_draco_mesh_compression";
 
+// Extensions the loader reads (the decoders only where this build has their libraries).
 bool supported_extension(const std::string& name) {
     return name == kEmissiveStrength || name == kTransmission || name == kIor ||
-           name == kSpecular || name == kLightsPunctual;
+           name == kSpecular || name == kLightsPunctual || name == kQuantization ||
+           name == kTextureTransform || (name == kTextureWebp && has_webp_decoder()) ||
+           (name == kMeshopt && GltfCompression::has_meshopt()) ||
+           (name == kDraco && GltfCompression::has_draco());
+}
+
+// What to do about a required extension the loader lacks, where there is something to say.
+std::string unsupported_advice(const std::string& name) {
+    if (name == kTextureBasisu)
+        return " (KTX2 textures: no KTX2 decoder is packaged for Debian 12; export PNG, JPEG "
+               "or WebP textures instead: gltfpack without -tc, gltf-transform without "
+               "etc1s/uastc)";
+    if (name == kTextureWebp) return " (this build has no WebP decoder: libwebp-dev)";
+    if (name == kMeshopt) return " (this build has no meshoptimizer: libmeshoptimizer-dev)";
+    if (name == kDraco) return " (this build has no Draco decoder: libdraco-dev)";
+    return "";
 }
 
 // glTF's photometric units to radiometric ones: 683 lm/W, as Blender's glTF importer.
@@ -292,6 +322,56 @@ size_t index_size(int component_type) {
     }
 }
 
+// Size in bytes of a float or 8-/16-/32-bit integer component, 0 for anything else.
+size_t component_size(int component_type) {
+    switch (component_type) {
+        case TINYGLTF_COMPONENT_TYPE_BYTE:
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+            return 1;
+        case TINYGLTF_COMPONENT_TYPE_SHORT:
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
+            return 2;
+        case TINYGLTF_COMPONENT_TYPE_FLOAT:
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+            return 4;
+        default:
+            return 0;
+    }
+}
+
+// One component as a float: normalized integers as glTF maps them (signed: max(c / (2^(n-1) -
+// 1), -1); unsigned: c / (2^n - 1)), other integers as they are.
+float component_value(const unsigned char* p, int type, bool normalized) {
+    switch (type) {
+        case TINYGLTF_COMPONENT_TYPE_BYTE: {
+            const float c = float(int8_t(*p));
+            return normalized ? std::max(c / 127.f, -1.f) : c;
+        }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+            return normalized ? float(*p) / 255.f : float(*p);
+        case TINYGLTF_COMPONENT_TYPE_SHORT: {
+            int16_t v;
+            std::memcpy(&v, p, 2);
+            return normalized ? std::max(float(v) / 32767.f, -1.f) : float(v);
+        }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+            uint16_t v;
+            std::memcpy(&v, p, 2);
+            return normalized ? float(v) / 65535.f : float(v);
+        }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+            uint32_t v;
+            std::memcpy(&v, p, 4);
+            return normalized ? float(double(v) / 4294967295.0) : float(v);
+        }
+        default: {
+            float v;
+            std::memcpy(&v, p, 4);
+            return v;
+        }
+    }
+}
+
 uint32_t read_index(const unsigned char* p, size_t size) {
     if (size == 1) return *p;
     if (size == 2) {
@@ -341,15 +421,50 @@ class GltfLoader {
     std::vector<T> read_accessor(const tg::Accessor& a, size_t elem, const std::string& what,
                                  Decode decode) const;
     const tg::Accessor& accessor_at(int accessor, const std::string& what) const;
-    std::vector<glm::vec3> read_float_vec3(const tg::Accessor& a, const std::string& what) const;
+    template <int N>
+    std::vector<glm::vec<N, float>> read_vectors(const tg::Accessor& a,
+                                                 const std::string& what) const;
     std::vector<glm::vec3> read_positions(int accessor, const std::string& where) const;
     std::vector<glm::vec3> read_normals(int accessor, const std::string& where) const;
     std::vector<glm::vec2> read_texcoords(int accessor, const std::string& where) const;
-    int texture_for(const tg::TextureInfo& info, bool srgb, const std::string& what);
     int texture_for(int texture, int tex_coord, bool srgb, const std::string& what);
+    int texture_source(const tg::Texture& t, const std::string& what);
+    glm::dmat3 texture_transform(const tg::ExtensionMap& ext, int& tex_coord,
+                                 const std::string& what) const;
+
+    // A material's texture slots and the one KHR_texture_transform baked into its triangles'
+    // texture coordinates (the slots' own where they agree; else the base color's, warned).
+    class MaterialUv {
+      public:
+        explicit MaterialUv(std::string what) : what_(std::move(what)) {}
+        int slot(GltfLoader& loader, int texture, int tex_coord, const tg::ExtensionMap& ext,
+                 bool srgb, const char* name) {
+            const std::string what = what_ + " " + name;
+            const glm::dmat3 t = loader.texture_transform(ext, tex_coord, what);
+            const int index = loader.texture_for(texture, tex_coord, srgb, what);
+            if (index >= 0) transforms_.emplace_back(name, t);
+            return index;
+        }
+        glm::dmat3 transform(GltfLoader& loader) const {
+            if (transforms_.empty()) return glm::dmat3(1.0);
+            for (const auto& [name, t] : transforms_)
+                if (t != transforms_[0].second)
+                    loader.warn_once("uvt:" + what_,
+                                     what_ + ": its textures' " + kTextureTransform +
+                                         " differ; " + transforms_[0].first +
+                                         "'s is applied to all of them");
+            return transforms_[0].second;
+        }
+
+      private:
+        std::string what_;
+        std::vector<std::pair<std::string, glm::dmat3>> transforms_;
+    };
     std::vector<uint32_t> read_indices(int accessor, const std::string& where) const;
 
     void parse_memory();
+    void prepare_compressed(std::vector<unsigned char>& bytes, bool binary);
+    void decode_compressed();
 
     std::string path_;
     const unsigned char* bytes_ = nullptr;
@@ -361,6 +476,9 @@ class GltfLoader {
     std::set<std::string> warned_;
     int default_material_ = -1;
     ImageBytes image_bytes_;
+    GltfCompression compression_;                // meshopt and Draco, set up and decoded
+    std::vector<unsigned char> rewritten_;       // in-memory data as rewritten for tinygltf
+    std::vector<glm::dmat3> uv_transforms_;      // per material: KHR_texture_transform
     std::map<std::pair<int, bool>, int> textures_;  // (glTF texture, sRGB) -> scene texture
     uint64_t texels_ = 0;
 };
@@ -415,6 +533,7 @@ void GltfLoader::read_model() {
     if (json_depth(text, length) > kMaxJsonDepth)
         fail("JSON nested deeper than " + std::to_string(kMaxJsonDepth) + " levels");
     scene_.name = std::filesystem::path(path_).stem().string();
+    prepare_compressed(bytes, binary);
 
     tg::TinyGLTF loader;
     loader.SetImageLoader(&keep_image, &image_bytes_);
@@ -444,6 +563,27 @@ void GltfLoader::read_model() {
     std::string line;
     for (std::istringstream lines(warn); std::getline(lines, line);)
         if (!trim(line).empty()) warn_once("tinygltf:" + line, "glTF: " + trim(line));
+    decode_compressed();
+}
+
+// Compressed meshes: the JSON rewritten so that tinygltf parses it (gltf_compression.h).
+void GltfLoader::prepare_compressed(std::vector<unsigned char>& bytes, bool binary) {
+    try {
+        compression_.prepare(bytes, binary);
+    } catch (const Error& e) {
+        fail(e.what());
+    }
+}
+
+// ... and decoded into plain buffers once it has.
+void GltfLoader::decode_compressed() {
+    try {
+        compression_.decode(model_);
+    } catch (const Error& e) {
+        fail(e.what());
+    } catch (const std::bad_alloc&) {
+        fail("out of memory decoding the compressed meshes");
+    }
 }
 
 // Parses a .glb or .gltf held in memory; external files only from base_dir_.
@@ -461,6 +601,14 @@ void GltfLoader::parse_memory() {
     const auto [text, length] = json_text(static_cast<const unsigned char*>(bytes_), size_, binary);
     if (json_depth(text, length) > kMaxJsonDepth)
         fail("JSON nested deeper than " + std::to_string(kMaxJsonDepth) + " levels");
+    // Compressed meshes: parse the rewritten copy.
+    const std::string_view json(text, length);
+    if (json.find(kMeshopt) != std::string_view::npos ||
+        json.find(kDraco) != std::string_view::npos) {
+        rewritten_.assign(bytes_, bytes_ + size_);
+        prepare_compressed(rewritten_, binary);
+        bytes_ = rewritten_.data(), size_ = rewritten_.size();
+    }
     tg::TinyGLTF loader;
     loader.SetImageLoader(&keep_image, &image_bytes_);
     FolderFs folder;
@@ -506,14 +654,17 @@ void GltfLoader::parse_memory() {
     std::string line;
     for (std::istringstream lines(warn); std::getline(lines, line);)
         if (!trim(line).empty()) warn_once("tinygltf:" + line, "glTF: " + trim(line));
+    decode_compressed();
 }
 
 // Required extensions we lack are errors; everything else we skip is a warning, once.
 void GltfLoader::check_features() {
     std::string missing;
     for (const std::string& name : model_.extensionsRequired)
-        if (!supported_extension(name)) missing += (missing.empty() ? "" : ", ") + name;
+        if (!supported_extension(name))
+            missing += (missing.empty() ? "" : ", ") + name + unsupported_advice(name);
     if (!missing.empty()) fail("requires unsupported glTF extension(s): " + missing);
+    scene_.extensions = model_.extensionsUsed;
     for (const std::string& name : model_.extensionsUsed)
         if (!supported_extension(name))
             warn_once("ext:" + name, "glTF extension " + name + " is not supported; ignored");
@@ -553,14 +704,21 @@ void GltfLoader::convert_materials() {
         // as its mean (a scalar layer; Blender writes [0, 0, 0] for Specular 0).
         m.specular = float(extension_number(g.extensions, kSpecular, "specularFactor", 1.0) *
                            specular_color_mean(g.extensions));
-        // Textures (texture coordinates 0), color ones sRGB-decoded.
+        // Textures (texture coordinates 0), color ones sRGB-decoded, each placed by its
+        // KHR_texture_transform.
         const std::string what = "material '" + m.name + "'";
-        m.tex_base = texture_for(pbr.baseColorTexture, true, what + " baseColorTexture");
-        m.tex_metal_rough =
-            texture_for(pbr.metallicRoughnessTexture, false, what + " metallicRoughnessTexture");
-        m.tex_normal = texture_for(g.normalTexture.index, g.normalTexture.texCoord, false,
-                                   what + " normalTexture");
-        m.tex_emission = texture_for(g.emissiveTexture, true, what + " emissiveTexture");
+        MaterialUv uv(what);
+        m.tex_base = uv.slot(*this, pbr.baseColorTexture.index, pbr.baseColorTexture.texCoord,
+                             pbr.baseColorTexture.extensions, true, "baseColorTexture");
+        m.tex_metal_rough = uv.slot(*this, pbr.metallicRoughnessTexture.index,
+                                    pbr.metallicRoughnessTexture.texCoord,
+                                    pbr.metallicRoughnessTexture.extensions, false,
+                                    "metallicRoughnessTexture");
+        m.tex_normal = uv.slot(*this, g.normalTexture.index, g.normalTexture.texCoord,
+                               g.normalTexture.extensions, false, "normalTexture");
+        m.tex_emission = uv.slot(*this, g.emissiveTexture.index, g.emissiveTexture.texCoord,
+                                 g.emissiveTexture.extensions, true, "emissiveTexture");
+        uv_transforms_.push_back(uv.transform(*this));
         // alphaMode MASK: the cutoff against texture alpha, the factor folded in.
         if (g.alphaMode == "MASK" && g.alphaCutoff > 0.0) {
             const double factor = pbr.baseColorFactor.size() == 4 ? pbr.baseColorFactor[3] : 1.0;
@@ -877,7 +1035,13 @@ void GltfLoader::add_mesh(int mesh, const glm::dmat4& world) {
                     const double len = glm::length(n);
                     va.n[k] = len > 0.0 && std::isfinite(len) ? glm::vec3(n / len) : glm::vec3(0.f);
                 }
-                if (!uvs.empty()) va.uv[k] = uvs[j];
+                if (!uvs.empty()) {
+                    // The material's KHR_texture_transform, baked in.
+                    const glm::dvec3 t = material < uv_transforms_.size()
+                                             ? uv_transforms_[material] * glm::dvec3(uvs[j], 1.0)
+                                             : glm::dvec3(uvs[j], 1.0);
+                    va.uv[k] = glm::vec2(t);
+                }
             }
             if (flip) {
                 std::swap(c[1], c[2]);
@@ -980,24 +1144,30 @@ const tg::Accessor& GltfLoader::accessor_at(int accessor, const std::string& wha
     return model_.accessors[size_t(accessor)];
 }
 
-// The elements of a float VEC3 accessor (the type checked by the caller).
-std::vector<glm::vec3> GltfLoader::read_float_vec3(const tg::Accessor& a,
-                                                   const std::string& what) const {
-    return read_accessor<glm::vec3>(a, 12, what, [](const unsigned char* p) {
-        glm::vec3 v;
-        std::memcpy(&v[0], p, 12);
+// The elements of an accessor of N components of any type the attribute allows, as floats:
+// normalized integers mapped as glTF says, other integers as they are (KHR_mesh_quantization).
+template <int N>
+std::vector<glm::vec<N, float>> GltfLoader::read_vectors(const tg::Accessor& a,
+                                                         const std::string& what) const {
+    const size_t size = component_size(a.componentType);
+    const int type = a.componentType;
+    const bool normalized = a.normalized;
+    return read_accessor<glm::vec<N, float>>(a, N * size, what, [=](const unsigned char* p) {
+        glm::vec<N, float> v;
+        for (int k = 0; k < N; ++k) v[k] = component_value(p + size_t(k) * size, type, normalized);
         return v;
     });
 }
 
+// POSITION: float, or (KHR_mesh_quantization) 8- or 16-bit integers, normalized or not.
 std::vector<glm::vec3> GltfLoader::read_positions(int accessor, const std::string& where) const {
     const std::string what = where + " POSITION accessor " + std::to_string(accessor);
     const tg::Accessor& a = accessor_at(accessor, what);
-    if (a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT || a.type != TINYGLTF_TYPE_VEC3)
-        fail(what +
-             ": POSITION must be float VEC3 (non-float, quantized positions are not "
-             "supported)");
-    std::vector<glm::vec3> out = read_float_vec3(a, what);
+    if (a.type != TINYGLTF_TYPE_VEC3 || component_size(a.componentType) == 0 ||
+        a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+        fail(what + ": POSITION must be VEC3 of float or (KHR_mesh_quantization) byte, "
+                    "unsigned byte, short or unsigned short");
+    std::vector<glm::vec3> out = read_vectors<3>(a, what);
     // Non-finite positions named as the file has them (before any node transform).
     for (size_t i = 0; i < out.size(); ++i) {
         const glm::vec3& v = out[i];
@@ -1011,41 +1181,32 @@ std::vector<glm::vec3> GltfLoader::read_positions(int accessor, const std::strin
     return out;
 }
 
+// NORMAL: float, or (KHR_mesh_quantization) normalized byte or short.
 std::vector<glm::vec3> GltfLoader::read_normals(int accessor, const std::string& where) const {
     const std::string what = where + " NORMAL accessor " + std::to_string(accessor);
     const tg::Accessor& a = accessor_at(accessor, what);
-    if (a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT || a.type != TINYGLTF_TYPE_VEC3)
-        fail(what + ": NORMAL must be float VEC3");
-    std::vector<glm::vec3> out = read_float_vec3(a, what);
+    const bool quantized = a.normalized && (a.componentType == TINYGLTF_COMPONENT_TYPE_BYTE ||
+                                            a.componentType == TINYGLTF_COMPONENT_TYPE_SHORT);
+    if (a.type != TINYGLTF_TYPE_VEC3 ||
+        (a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT && !quantized))
+        fail(what + ": NORMAL must be VEC3 of float or (KHR_mesh_quantization) normalized "
+                    "byte or short");
+    std::vector<glm::vec3> out = read_vectors<3>(a, what);
     for (glm::vec3& n : out)
         if (!std::isfinite(n.x) || !std::isfinite(n.y) || !std::isfinite(n.z)) n = glm::vec3(0.f);
     return out;
 }
 
+// TEXCOORD_0: float, normalized unsigned byte or short, or (KHR_mesh_quantization) any 8- or
+// 16-bit integer, normalized or not.
 std::vector<glm::vec2> GltfLoader::read_texcoords(int accessor, const std::string& where) const {
     const std::string what = where + " TEXCOORD_0 accessor " + std::to_string(accessor);
     const tg::Accessor& a = accessor_at(accessor, what);
     if (a.type != TINYGLTF_TYPE_VEC2) fail(what + ": TEXCOORD_0 must be VEC2");
-    // Float, or normalized unsigned byte / short.
-    std::vector<glm::vec2> out;
-    if (a.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT) {
-        out = read_accessor<glm::vec2>(a, 8, what, [](const unsigned char* p) {
-            glm::vec2 v;
-            std::memcpy(&v[0], p, 8);
-            return v;
-        });
-    } else if (a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE && a.normalized) {
-        out = read_accessor<glm::vec2>(
-            a, 2, what, [](const unsigned char* p) { return glm::vec2(p[0], p[1]) / 255.f; });
-    } else if (a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT && a.normalized) {
-        out = read_accessor<glm::vec2>(a, 4, what, [](const unsigned char* p) {
-            uint16_t u[2];
-            std::memcpy(u, p, 4);
-            return glm::vec2(u[0], u[1]) / 65535.f;
-        });
-    } else {
-        fail(what + ": TEXCOORD_0 must be float or normalized unsigned byte/short");
-    }
+    if (component_size(a.componentType) == 0 ||
+        a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+        fail(what + ": TEXCOORD_0 must be float or 8- or 16-bit integers");
+    std::vector<glm::vec2> out = read_vectors<2>(a, what);
     for (glm::vec2& t : out)
         if (!std::isfinite(t.x) || !std::isfinite(t.y) || std::fabs(t.x) > 1e6f ||
             std::fabs(t.y) > 1e6f)
@@ -1053,8 +1214,46 @@ std::vector<glm::vec2> GltfLoader::read_texcoords(int accessor, const std::strin
     return out;
 }
 
-int GltfLoader::texture_for(const tg::TextureInfo& info, bool srgb, const std::string& what) {
-    return texture_for(info.index, info.texCoord, srgb, what);
+// KHR_texture_transform of a texture slot as the matrix glTF gives, T * R * S (identity when
+// absent); its texCoord, where given, replaces the slot's.
+glm::dmat3 GltfLoader::texture_transform(const tg::ExtensionMap& ext, int& tex_coord,
+                                         const std::string& what) const {
+    const auto it = ext.find(kTextureTransform);
+    if (it == ext.end() || !it->second.IsObject()) return glm::dmat3(1.0);
+    const tg::Value& x = it->second;
+    const std::string label = what + " " + kTextureTransform;
+    // A member of n finite numbers (defaults when absent).
+    const auto numbers = [&](const char* key, glm::dvec2 fallback) {
+        if (!x.Has(key)) return fallback;
+        const tg::Value& v = x.Get(key);
+        glm::dvec2 out = fallback;
+        if (v.IsNumber() && std::string(key) == "rotation") {
+            out.x = v.GetNumberAsDouble();
+        } else if (v.IsArray() && v.ArrayLen() == 2 && v.Get(0).IsNumber() &&
+                   v.Get(1).IsNumber()) {
+            out = glm::dvec2(v.Get(0).GetNumberAsDouble(), v.Get(1).GetNumberAsDouble());
+        } else {
+            fail(label + ": '" + key + "' must be " +
+                 (std::string(key) == "rotation" ? "a number" : "two numbers"));
+        }
+        if (!std::isfinite(out.x) || !std::isfinite(out.y))
+            fail(label + ": '" + key + "' must be finite");
+        return out;
+    };
+    const glm::dvec2 offset = numbers("offset", glm::dvec2(0.0));
+    const double rotation = numbers("rotation", glm::dvec2(0.0)).x;
+    const glm::dvec2 scale = numbers("scale", glm::dvec2(1.0));
+    if (x.Has("texCoord")) {
+        if (!x.Get("texCoord").IsInt() || x.Get("texCoord").GetNumberAsInt() < 0)
+            fail(label + ": 'texCoord' must be an index >= 0");
+        tex_coord = x.Get("texCoord").GetNumberAsInt();
+    }
+    // uv' = T * R * S * uv (column-major): u' = cos sx u + sin sy v + ox,
+    // v' = -sin sx u + cos sy v + oy.
+    const double c = std::cos(rotation), s = std::sin(rotation);
+    return glm::dmat3(glm::dvec3(c * scale.x, -s * scale.x, 0.0),
+                      glm::dvec3(s * scale.y, c * scale.y, 0.0),
+                      glm::dvec3(offset.x, offset.y, 1.0));
 }
 
 // The scene texture of glTF texture `texture` decoded as sRGB color or linear data (each pair
@@ -1071,36 +1270,37 @@ int GltfLoader::texture_for(int texture, int tex_coord, bool srgb, const std::st
     const auto cached = textures_.find({texture, srgb});
     if (cached != textures_.end()) return cached->second;
     const tg::Texture& t = model_.textures[size_t(texture)];
-    if (t.source < 0 || size_t(t.source) >= model_.images.size()) {
-        warn_once("texsource", what + ": texture without a PNG/JPEG image; ignored");
-        return -1;
-    }
-    const auto bytes = image_bytes_.find(t.source);
+    const int source = texture_source(t, what);
+    if (source < 0) return -1;
+    const auto bytes = image_bytes_.find(source);
     if (bytes == image_bytes_.end() || bytes->second.empty()) {
-        const std::string& uri = model_.images[size_t(t.source)].uri;
-        fail(what + ": image " + std::to_string(t.source) + " has no data" +
+        const std::string& uri = model_.images[size_t(source)].uri;
+        fail(what + ": image " + std::to_string(source) + " has no data" +
              (uri.empty() || uri.rfind("data:", 0) == 0
                   ? std::string()
                   : " (file '" + uri + "' missing, unreadable or outside the scene's folder)"));
     }
-    // Decode to 8-bit RGBA (size checked before stb allocates).
+    // Decode to 8-bit RGBA (the size checked before any texel is allocated).
     const std::vector<unsigned char>& b = bytes->second;
-    int w = 0, h = 0, channels = 0;
-    if (b.size() > size_t(std::numeric_limits<int>::max()) ||
-        !stbi_info_from_memory(b.data(), int(b.size()), &w, &h, &channels))
-        fail(what + ": image " + std::to_string(t.source) + " is not a PNG or JPEG file (" +
-             (stbi_failure_reason() ? stbi_failure_reason() : "unknown format") + ")");
-    if (w <= 0 || h <= 0 || w > 16384 || h > 16384 ||
-        texels_ + uint64_t(w) * uint64_t(h) > kMaxTexels)
-        fail(what + ": image " + std::to_string(t.source) + " of " + std::to_string(w) + "x" +
-             std::to_string(h) + " texels exceeds 16384x16384, or 64 M texels in all");
-    unsigned char* rgba = stbi_load_from_memory(b.data(), int(b.size()), &w, &h, &channels, 4);
-    if (!rgba)
-        fail(what + ": cannot decode image " + std::to_string(t.source) + " (" +
-             (stbi_failure_reason() ? stbi_failure_reason() : "unknown error") + ")");
-    const tg::Image& image = model_.images[size_t(t.source)];
-    Texture tex = texture_from_rgba8(image.name.empty() ? image.uri : image.name, w, h, rgba, srgb);
-    stbi_image_free(rgba);
+    const std::string image_what = what + ": image " + std::to_string(source);
+    TextureImageInfo info;
+    std::vector<unsigned char> rgba;
+    try {
+        info = texture_image_info(b.data(), b.size());
+        const int w = info.width, h = info.height;
+        if (w <= 0 || h <= 0 || w > 16384 || h > 16384 ||
+            texels_ + uint64_t(w) * uint64_t(h) > kMaxTexels)
+            fail(image_what + " of " + std::to_string(w) + "x" + std::to_string(h) +
+                 " texels exceeds 16384x16384, or 64 M texels in all");
+        rgba = decode_texture_image(b.data(), b.size(), info);
+    } catch (const Error& e) {
+        if (std::string(e.what()).rfind(path_, 0) == 0) throw;  // already ours
+        fail(image_what + ": " + e.what());
+    }
+    const int w = info.width, h = info.height;
+    const tg::Image& image = model_.images[size_t(source)];
+    Texture tex =
+        texture_from_rgba8(image.name.empty() ? image.uri : image.name, w, h, rgba.data(), srgb);
     texels_ += uint64_t(w) * uint64_t(h);
     // Wrap modes and magnification filter from its sampler.
     if (t.sampler >= 0 && size_t(t.sampler) < model_.samplers.size()) {
@@ -1113,6 +1313,32 @@ int GltfLoader::texture_for(int texture, int tex_coord, bool srgb, const std::st
     const int index = int(scene_.textures.size() - 1);
     textures_[{texture, srgb}] = index;
     return index;
+}
+
+// The image a texture shows: EXT_texture_webp's source, else its own (PNG or JPEG; the
+// fallback of KHR_texture_basisu, whose KTX2 image is not decoded); -1 (warned) for none.
+int GltfLoader::texture_source(const tg::Texture& t, const std::string& what) {
+    int source = t.source;
+    const auto webp = t.extensions.find(kTextureWebp);
+    if (webp != t.extensions.end() && webp->second.Has("source") && has_webp_decoder()) {
+        const tg::Value& v = webp->second.Get("source");
+        if (!v.IsInt()) fail(what + ": " + kTextureWebp + " source must be an image index");
+        source = v.GetNumberAsInt();
+    }
+    if (source < 0 && t.extensions.count(kTextureBasisu)) {
+        warn_once("basisu", what + ": only a KTX2 image (" + kTextureBasisu +
+                                ", not decoded: no KTX2 decoder is packaged for Debian 12); "
+                                "texture ignored");
+        return -1;
+    }
+    if (source < 0) {
+        warn_once("texsource", what + ": texture without an image; ignored");
+        return -1;
+    }
+    if (size_t(source) >= model_.images.size())
+        fail(what + ": image " + std::to_string(source) + " out of range (file has " +
+             std::to_string(model_.images.size()) + " images)");
+    return source;
 }
 
 std::vector<uint32_t> GltfLoader::read_indices(int accessor, const std::string& where) const {

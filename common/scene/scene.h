@@ -121,6 +121,7 @@ struct Scene {
     bool has_camera = false;  // false: frame the scene bounds automatically
     int max_depth_hint = 0;   // > 0: a bounce limit the scene asks for (0: the renderer's default)
     std::vector<std::string> warnings;  // unsupported features met while loading
+    std::vector<std::string> extensions;  // glTF extensions the file uses, as it lists them
     // Next-event estimation picks local lights (emitters, point and spot lamps) by the light
     // tree (common/render/light_tree.h) where true; else every light by power.
     bool light_tree = false;

@@ -52,4 +52,10 @@ int default_max_depth(const Scene& scene) {
     return scene.max_depth_hint > 0 ? scene.max_depth_hint : kDefaultMaxDepth;
 }
 
+std::string extension_list(const Scene& scene) {
+    std::string out;
+    for (const std::string& e : scene.extensions) out += (out.empty() ? "" : ", ") + e;
+    return out;
+}
+
 }  // namespace mcpt

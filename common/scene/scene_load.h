@@ -16,6 +16,9 @@ Scene load_scene(const std::string& name_or_path);
 Scene load_scene_memory(const void* data, size_t size, const std::string& name = "memory",
                         const std::string& base_dir = "");
 
+// The glTF extensions a scene's file uses, comma-separated ("" for none).
+std::string extension_list(const Scene& scene);
+
 // Bounces per path when a client asks for none: the scene's own hint (the furnace asks for
 // unlimited) or kDefaultMaxDepth.
 constexpr int kDefaultMaxDepth = 8;
