@@ -23,6 +23,7 @@ namespace {
 
 struct CompareArgs {
     std::string scene = "cornell";
+    std::string b_scene;  // B renders this file instead (another encoding of the same scene)
     LightingArgs lighting;
     std::string a = "opencl", b = "vulkan";
     int width = 64, height = 64;
@@ -169,10 +170,19 @@ void run_compare(const CompareArgs& args) {
     if (mpi.size > 1 && args.parallel)
         throw Error("under mpirun every rank renders A's batches, then B's: not with --parallel");
     if (mpi.rank == 0 && !args.report.empty()) prepare_report_dir(args.report);  // before rendering
-    Scene scene = load_scene_argument(args.scene);
-    scene.environment = lighting_environment(args.lighting);
-    apply_light_sampling(scene, args.lighting);
-    check_lit(scene);
+    // A's scene, and B's (the same unless --b-scene names another file).
+    Scene scenes[2];
+    for (int s = 0; s < 2; ++s) {
+        if (s == 1 && args.b_scene.empty()) {
+            scenes[1] = scenes[0];
+            break;
+        }
+        scenes[s] = load_scene_argument(s == 0 ? args.scene : args.b_scene);
+        scenes[s].environment = lighting_environment(args.lighting);
+        apply_light_sampling(scenes[s], args.lighting);
+        check_lit(scenes[s]);
+    }
+    const Scene& scene = scenes[0];
     RenderOptions ro;
     ro.width = args.width, ro.height = args.height;
     ro.max_depth = uint32_t(args.max_depth >= 0 ? args.max_depth : default_max_depth(scene));
@@ -188,7 +198,7 @@ void run_compare(const CompareArgs& args) {
         return opt;
     };
     const auto configure = [&](Session& one, int s) {
-        one.set_scene(scene);
+        one.set_scene(scenes[s]);
         one.settings().width = args.width, one.settings().height = args.height;
         one.settings().max_depth = int(ro.max_depth);
         one.settings().light_scale = s == 1 ? args.b_light_scale : 1.f;
@@ -302,8 +312,9 @@ void run_compare(const CompareArgs& args) {
     }
     // Speed, side by side.
     const double pixels = double(args.width) * args.height;
-    std::printf("scene %s, %dx%d, %d batches x %llu spp per backend, max depth %u\n",
-                args.scene.c_str(), args.width, args.height, args.batches,
+    std::printf("scene %s%s, %dx%d, %d batches x %llu spp per backend, max depth %u\n",
+                args.scene.c_str(), args.b_scene.empty() ? "" : (" (B: " + args.b_scene + ")").c_str(),
+                args.width, args.height, args.batches,
                 (unsigned long long)args.spp, ro.max_depth);
     std::printf("%-26s %-40s %-40s\n", "", "A", "B");
     std::vector<SpeedRow> speed;  // printed, and in the report
@@ -423,6 +434,9 @@ void add_compare_command(CLI::App& app) {
     CLI::App* sub = app.add_subcommand("compare", "A/B-test two backends on one scene");
     sub->add_option("scene", a->scene, "Built-in scene or .gltf/.glb file")->capture_default_str();
     add_lighting_options(sub, a->lighting);
+    sub->add_option("--b-scene", a->b_scene,
+                    "B renders this .gltf/.glb instead: the same scene in another encoding "
+                    "(compressed, quantized); its camera and lights as the file has them");
     sub->add_option("--a", a->a,
                     "Backend A: opencl|vulkan[:device][,limits=phone]; several devices, "
                     "comma-separated (opencl:0,opencl:1), render it together")
