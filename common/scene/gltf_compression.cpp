@@ -27,6 +27,10 @@ namespace tg = tinygltf;
 
 const char* const kMeshopt = "EXT_meshopt_compression";
 const char* const kDraco = "KHR_draco_mesh_compression";
+// tinygltf 2.7 takes data URIs of a few media types only; WebP images (EXT_texture_webp) are
+// handed to it as octet streams.
+const char* const kWebpUri = "data:image/webp;base64,";
+const char* const kOctetUri = "data:application/octet-stream;base64,";
 
 // Decoded data in all at most (fallback buffers, Draco's attributes and indices): 2 GiB, and
 // at most half the host's available memory.
@@ -114,7 +118,7 @@ bool GltfCompression::prepare(std::vector<unsigned char>& bytes, bool binary) {
     const char* text = reinterpret_cast<const char*>(bytes.data()) + begin;
     const std::string_view view(text, length);
     if (view.find(kMeshopt) == std::string_view::npos &&
-        view.find(kDraco) == std::string_view::npos)
+        view.find(kDraco) == std::string_view::npos && view.find(kWebpUri) == std::string_view::npos)
         return false;
     json doc = json::parse(text, text + length, nullptr, /*allow_exceptions=*/false);
     if (!doc.is_object()) return false;  // tinygltf says what is wrong with it
@@ -146,6 +150,17 @@ bool GltfCompression::prepare(std::vector<unsigned char>& bytes, bool binary) {
             fallbacks_.push_back({int(i), count_member(b, "byteLength", what)});
             b["byteLength"] = 1;
             b["uri"] = "data:application/octet-stream;base64,AA==";
+            changed = true;
+        }
+    }
+    // WebP images in data URIs.
+    if (auto images = doc.find("images"); images != doc.end() && images->is_array()) {
+        for (json& image : *images) {
+            if (!image.is_object() || !image.contains("uri") || !image["uri"].is_string())
+                continue;
+            const std::string uri = image["uri"].get<std::string>();
+            if (uri.rfind(kWebpUri, 0) != 0) continue;
+            image["uri"] = kOctetUri + uri.substr(std::strlen(kWebpUri));
             changed = true;
         }
     }

@@ -6,6 +6,8 @@
 // no data, and a Draco primitive's index accessor has no buffer view. prepare() rewrites the
 // JSON before tinygltf sees it (the fallback buffer becomes a one-byte data URI, the Draco
 // primitive's indices are set aside) and decode() puts the decoded data in place afterwards.
+// It also hands WebP images in data URIs over as octet streams (tinygltf takes a few image
+// media types only).
 #ifndef MCPT_SCENE_GLTF_COMPRESSION_H
 #define MCPT_SCENE_GLTF_COMPRESSION_H
 

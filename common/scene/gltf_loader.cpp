@@ -604,7 +604,8 @@ void GltfLoader::parse_memory() {
     // Compressed meshes: parse the rewritten copy.
     const std::string_view json(text, length);
     if (json.find(kMeshopt) != std::string_view::npos ||
-        json.find(kDraco) != std::string_view::npos) {
+        json.find(kDraco) != std::string_view::npos ||
+        json.find("data:image/webp") != std::string_view::npos) {
         rewritten_.assign(bytes_, bytes_ + size_);
         prepare_compressed(rewritten_, binary);
         bytes_ = rewritten_.data(), size_ = rewritten_.size();
