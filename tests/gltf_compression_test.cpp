@@ -228,6 +228,31 @@ TEST(GltfCompression, HostileWebpImagesAreRefused) {
 }
 #endif
 
+// tests/data's box as gltfpack -cc (meshopt, quantized: 14-bit positions) and gltf-transform
+// draco wrote it: the same triangles, each corner within the quantization step.
+TEST(GltfCompression, PipelineFilesMatchTheirOriginal) {
+    if (!GltfCompression::has_meshopt() || !GltfCompression::has_draco())
+        GTEST_SKIP() << "this build lacks a decoder";
+    const std::string dir = MCPT_TEST_DATA_DIR;
+    const Scene original = load_gltf(dir + "/cube_box.glb");
+    Bounds box;
+    for (const Triangle& t : original.triangles) box.extend(t.v0), box.extend(t.v1), box.extend(t.v2);
+    const float step = glm::length(box.max - box.min) / 16383.f;
+    for (const char* name : {"cube_box_meshopt.glb", "cube_box_draco.glb"}) {
+        const Scene s = load_gltf(dir + "/" + name);
+        ASSERT_EQ(s.triangles.size(), original.triangles.size()) << name;
+        // Compressors reorder triangles: each corner's nearest corner of the original.
+        for (const Triangle& t : s.triangles)
+            for (const glm::vec3& v : {t.v0, t.v1, t.v2}) {
+                float nearest = 1e30f;
+                for (const Triangle& o : original.triangles)
+                    for (const glm::vec3& w : {o.v0, o.v1, o.v2})
+                        nearest = std::min(nearest, glm::length(v - w));
+                EXPECT_LE(nearest, step) << name;
+            }
+    }
+}
+
 // A build without a decoder names the package to install.
 TEST(GltfCompression, MissingDecodersAreNamed) {
     if (GltfCompression::has_draco()) GTEST_SKIP() << "this build decodes Draco";

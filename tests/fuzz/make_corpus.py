@@ -108,7 +108,9 @@ def gltf_files():
     write("corpus", "gltf", "quad.glb", glb(scene_json(None, len(b)), b))
     write("corpus", "gltf", "quad_sparse.gltf", json.dumps(scene_json(data_uri(b), len(b), sparse=True)))
     write("corpus", "gltf", "quad_hierarchy.glb", glb(scene_json(None, len(b), hierarchy=True), b))
-    for name in ("cube_box.glb", "emissive_triangle.gltf"):
+    # The box also as gltfpack -cc (meshopt, quantized) and gltf-transform draco wrote it.
+    for name in ("cube_box.glb", "emissive_triangle.gltf", "cube_box_meshopt.glb",
+                 "cube_box_draco.glb"):
         shutil.copy(os.path.join(DATA, name), os.path.join(HERE, "corpus", "gltf", name))
     # Past defects: JSON nested 30,000 deep (stack overflow in the parser) ...
     deep = scene_json(None, len(b))
