@@ -313,9 +313,9 @@ void run_compare(const CompareArgs& args) {
     // Speed, side by side.
     const double pixels = double(args.width) * args.height;
     std::printf("scene %s%s, %dx%d, %d batches x %llu spp per backend, max depth %u\n",
-                args.scene.c_str(), args.b_scene.empty() ? "" : (" (B: " + args.b_scene + ")").c_str(),
-                args.width, args.height, args.batches,
-                (unsigned long long)args.spp, ro.max_depth);
+                args.scene.c_str(),
+                args.b_scene.empty() ? "" : (" (B: " + args.b_scene + ")").c_str(), args.width,
+                args.height, args.batches, (unsigned long long)args.spp, ro.max_depth);
     std::printf("%-26s %-40s %-40s\n", "", "A", "B");
     std::vector<SpeedRow> speed;  // printed, and in the report
     const auto described = [&](const Side& side) {

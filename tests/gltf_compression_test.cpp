@@ -1,6 +1,8 @@
 // Compressed glTF made here with the libraries' own encoders (meshoptimizer, Draco, libwebp):
 // the loader decodes each exactly, and refuses a hostile stream (truncated, miscounted,
 // out of its buffer, lying about its size) with an error naming the part and the extension.
+#include "common/scene/gltf_compression.h"
+
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -9,7 +11,6 @@
 #include <vector>
 
 #include "common/io/texture_image.h"
-#include "common/scene/gltf_compression.h"
 #include "tests/gltf_builder.h"
 
 #if defined(MCPT_WITH_MESHOPT)
@@ -53,18 +54,26 @@ std::string meshopt_quad(const std::string& name, const std::function<void(json&
     g.view(vb.data(), vb.size());
     const size_t ib_offset = g.bin.size() + (4 - g.bin.size() % 4) % 4;
     g.view(ib.data(), ib.size());
-    const auto meshopt = [](size_t offset, size_t length, int stride, int count,
-                            const char* mode) {
+    const auto meshopt = [](size_t offset, size_t length, int stride, int count, const char* mode) {
         return json{{"EXT_meshopt_compression",
-                     {{"buffer", 0}, {"byteOffset", offset}, {"byteLength", length},
-                      {"byteStride", stride}, {"count", count}, {"mode", mode}}}};
+                     {{"buffer", 0},
+                      {"byteOffset", offset},
+                      {"byteLength", length},
+                      {"byteStride", stride},
+                      {"count", count},
+                      {"mode", mode}}}};
     };
-    const int pv = g.push("bufferViews", {{"buffer", 1}, {"byteOffset", 0}, {"byteLength", 48},
-                                          {"byteStride", 12},
-                                          {"extensions", meshopt(0, vb.size(), 12, 4, "ATTRIBUTES")}});
-    const int iv = g.push("bufferViews", {{"buffer", 1}, {"byteOffset", 48}, {"byteLength", 12},
-                                          {"extensions", meshopt(ib_offset, ib.size(), 2, 6,
-                                                                 "TRIANGLES")}});
+    const int pv =
+        g.push("bufferViews", {{"buffer", 1},
+                               {"byteOffset", 0},
+                               {"byteLength", 48},
+                               {"byteStride", 12},
+                               {"extensions", meshopt(0, vb.size(), 12, 4, "ATTRIBUTES")}});
+    const int iv =
+        g.push("bufferViews", {{"buffer", 1},
+                               {"byteOffset", 48},
+                               {"byteLength", 12},
+                               {"extensions", meshopt(ib_offset, ib.size(), 2, 6, "TRIANGLES")}});
     const int pos = g.accessor(pv, kFloat, 4, "VEC3");
     const int ind = g.accessor(iv, kU16, 6, "SCALAR");
     g.root({{"mesh", g.mesh(pos, ind, g.emissive_material())}});
@@ -138,13 +147,14 @@ std::string draco_quad(const std::string& name, const std::function<void(json&)>
     EXPECT_TRUE(encoder.EncodeMeshToBuffer(mesh, &out).ok());
     Gltf g;
     const int view = g.view(out.data(), std::min(out.size(), keep));
-    const int pos = g.push("accessors", {{"componentType", kFloat}, {"count", 4}, {"type", "VEC3"}});
-    const int ind = g.push("accessors", {{"componentType", kU16}, {"count", 6}, {"type", "SCALAR"}});
+    const int pos =
+        g.push("accessors", {{"componentType", kFloat}, {"count", 4}, {"type", "VEC3"}});
+    const int ind =
+        g.push("accessors", {{"componentType", kU16}, {"count", 6}, {"type", "SCALAR"}});
     const int mesh_index = g.mesh(pos, ind, g.emissive_material());
     g.doc["meshes"][mesh_index]["primitives"][0]["extensions"] = {
         {"KHR_draco_mesh_compression",
-         {{"bufferView", view},
-          {"attributes", {{"POSITION", mesh.attribute(att)->unique_id()}}}}}};
+         {{"bufferView", view}, {"attributes", {{"POSITION", mesh.attribute(att)->unique_id()}}}}}};
     g.root({{"mesh", mesh_index}});
     g.doc["extensionsUsed"] = {"KHR_draco_mesh_compression"};
     g.doc["extensionsRequired"] = {"KHR_draco_mesh_compression"};
@@ -175,9 +185,8 @@ TEST(GltfCompression, HostileDracoStreamsAreRefused) {
             9;
     }));
     EXPECT_NE(e.find(what + "bufferView 9 out of range"), std::string::npos) << e;
-    e = load_error(draco_quad("draco_indices.gltf", [](json& d) {
-        d["accessors"][1]["count"] = 9;
-    }));
+    e = load_error(
+        draco_quad("draco_indices.gltf", [](json& d) { d["accessors"][1]["count"] = 9; }));
     EXPECT_NE(e.find(what + "decoded 6 indices, the accessor says 9"), std::string::npos) << e;
 }
 #endif
@@ -236,7 +245,8 @@ TEST(GltfCompression, PipelineFilesMatchTheirOriginal) {
     const std::string dir = MCPT_TEST_DATA_DIR;
     const Scene original = load_gltf(dir + "/cube_box.glb");
     Bounds box;
-    for (const Triangle& t : original.triangles) box.extend(t.v0), box.extend(t.v1), box.extend(t.v2);
+    for (const Triangle& t : original.triangles)
+        box.extend(t.v0), box.extend(t.v1), box.extend(t.v2);
     const float step = glm::length(box.max - box.min) / 16383.f;
     for (const char* name : {"cube_box_meshopt.glb", "cube_box_draco.glb"}) {
         const Scene s = load_gltf(dir + "/" + name);

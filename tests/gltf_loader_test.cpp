@@ -596,8 +596,8 @@ Gltf textured_quad(const std::vector<const char*>& slots) {
 // counter-clockwise by pi/2 takes (u, v) to (v, -u)).
 TEST(GltfLoader, TextureTransformIsBakedIntoTextureCoordinates) {
     Gltf g = textured_quad({"baseColorTexture", "emissiveTexture"});
-    const json transform = {{"offset", {0.5, 0.25}}, {"rotation", 1.5707963267948966},
-                            {"scale", {2, 3}}};
+    const json transform = {
+        {"offset", {0.5, 0.25}}, {"rotation", 1.5707963267948966}, {"scale", {2, 3}}};
     json& m = g.doc["materials"][0];
     m["pbrMetallicRoughness"]["baseColorTexture"]["extensions"]["KHR_texture_transform"] =
         transform;

@@ -65,8 +65,8 @@ TEST_P(TextureTransform, QuarterTurnPlacesTexelsAsTurnedOnTheHost) {
     const std::array<Rgb, 4> turned = {kBlue, kRed, kWhite, kGreen};
     const double quarter = 1.5707963267948966;
     const Scene host = emissive_texture_quad(turned, nullptr, "turned_on_host.gltf");
-    const Scene device = emissive_texture_quad(
-        texture, {{"rotation", quarter}, {"offset", {0, 1}}}, "turned_by_transform.gltf");
+    const Scene device = emissive_texture_quad(texture, {{"rotation", quarter}, {"offset", {0, 1}}},
+                                               "turned_by_transform.gltf");
     const Scene control = emissive_texture_quad(
         texture, {{"rotation", -quarter}, {"offset", {1, 0}}}, "turned_the_other_way.gltf");
     constexpr int kSize = 16;

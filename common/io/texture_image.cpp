@@ -48,9 +48,10 @@ TextureImageInfo texture_image_info(const unsigned char* bytes, size_t size) {
 #endif
     }
     if (starts_with(bytes, size, "\xABKTX 20\xBB"))
-        throw Error("KTX2 image (KHR_texture_basisu): no KTX2 decoder is packaged for Debian 12; "
-                    "export the textures as PNG, JPEG or WebP instead (gltfpack without -tc, "
-                    "gltf-transform without etc1s/uastc)");
+        throw Error(
+            "KTX2 image (KHR_texture_basisu): no KTX2 decoder is packaged for Debian 12; "
+            "export the textures as PNG, JPEG or WebP instead (gltfpack without -tc, "
+            "gltf-transform without etc1s/uastc)");
     int channels = 0;
     if (!stbi_info_from_memory(bytes, int(size), &info.width, &info.height, &channels))
         throw Error(std::string("not a PNG, JPEG or WebP image (") +
@@ -67,8 +68,7 @@ std::vector<unsigned char> decode_texture_image(const unsigned char* bytes, size
 #if defined(MCPT_WITH_WEBP)
         uint8_t* rgba = WebPDecodeRGBA(bytes, size, &w, &h);
         if (!rgba) throw Error("WebP image does not decode (truncated or corrupt)");
-        if (w == info.width && h == info.height)
-            out.assign(rgba, rgba + size_t(w) * size_t(h) * 4);
+        if (w == info.width && h == info.height) out.assign(rgba, rgba + size_t(w) * size_t(h) * 4);
         WebPFree(rgba);
 #endif
     } else {
@@ -77,8 +77,7 @@ std::vector<unsigned char> decode_texture_image(const unsigned char* bytes, size
         if (!rgba)
             throw Error(std::string("cannot decode ") + info.format + " image (" +
                         (stbi_failure_reason() ? stbi_failure_reason() : "unknown error") + ")");
-        if (w == info.width && h == info.height)
-            out.assign(rgba, rgba + size_t(w) * size_t(h) * 4);
+        if (w == info.width && h == info.height) out.assign(rgba, rgba + size_t(w) * size_t(h) * 4);
         stbi_image_free(rgba);
     }
     if (out.empty())

@@ -55,8 +55,7 @@ std::string string_member(const json& o, const char* key, const std::string& wha
                           const char* fallback) {
     const auto it = o.find(key);
     if (it == o.end() && fallback) return fallback;
-    if (it == o.end() || !it->is_string())
-        throw Error(what + ": '" + key + "' must be a string");
+    if (it == o.end() || !it->is_string()) throw Error(what + ": '" + key + "' must be a string");
     return it->get<std::string>();
 }
 
@@ -118,7 +117,8 @@ bool GltfCompression::prepare(std::vector<unsigned char>& bytes, bool binary) {
     const char* text = reinterpret_cast<const char*>(bytes.data()) + begin;
     const std::string_view view(text, length);
     if (view.find(kMeshopt) == std::string_view::npos &&
-        view.find(kDraco) == std::string_view::npos && view.find(kWebpUri) == std::string_view::npos)
+        view.find(kDraco) == std::string_view::npos &&
+        view.find(kWebpUri) == std::string_view::npos)
         return false;
     json doc = json::parse(text, text + length, nullptr, /*allow_exceptions=*/false);
     if (!doc.is_object()) return false;  // tinygltf says what is wrong with it
@@ -156,8 +156,7 @@ bool GltfCompression::prepare(std::vector<unsigned char>& bytes, bool binary) {
     // WebP images in data URIs.
     if (auto images = doc.find("images"); images != doc.end() && images->is_array()) {
         for (json& image : *images) {
-            if (!image.is_object() || !image.contains("uri") || !image["uri"].is_string())
-                continue;
+            if (!image.is_object() || !image.contains("uri") || !image["uri"].is_string()) continue;
             const std::string uri = image["uri"].get<std::string>();
             if (uri.rfind(kWebpUri, 0) != 0) continue;
             image["uri"] = kOctetUri + uri.substr(std::strlen(kWebpUri));
@@ -168,8 +167,7 @@ bool GltfCompression::prepare(std::vector<unsigned char>& bytes, bool binary) {
     if (auto meshes = doc.find("meshes"); meshes != doc.end() && meshes->is_array()) {
         for (size_t m = 0; m < meshes->size(); ++m) {
             json& mesh = (*meshes)[m];
-            if (!mesh.is_object() || !mesh.contains("primitives") ||
-                !mesh["primitives"].is_array())
+            if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array())
                 continue;
             json& prims = mesh["primitives"];
             for (size_t p = 0; p < prims.size(); ++p) {
@@ -241,9 +239,9 @@ void GltfCompression::decode_meshopt(tg::Model& model) const {
     for (const FallbackBuffer& f : fallbacks_) {
         total += f.length;
         if (f.length > kMaxDecodedBytes || total > budget)
-            throw Error("buffer " + std::to_string(f.buffer) + " (" + kMeshopt +
-                        " fallback) of " + std::to_string(f.length) +
-                        " bytes: decoded buffers exceed " + human_bytes(budget));
+            throw Error("buffer " + std::to_string(f.buffer) + " (" + kMeshopt + " fallback) of " +
+                        std::to_string(f.length) + " bytes: decoded buffers exceed " +
+                        human_bytes(budget));
         model.buffers[size_t(f.buffer)].data.assign(size_t(f.length), 0);
     }
     for (const MeshoptView& m : meshopt_views_) {
@@ -383,7 +381,8 @@ void GltfCompression::decode_draco(tg::Model& model) const {
                             "primitive");
             tg::Accessor& a = accessor(it->second, name);
             const draco::PointAttribute* pa = mesh->GetAttributeByUniqueId(uint32_t(id));
-            if (!pa) throw Error(what + ": the stream has no attribute of id " + std::to_string(id));
+            if (!pa)
+                throw Error(what + ": the stream has no attribute of id " + std::to_string(id));
             if (!pa->is_mapping_identity() && pa->indices_map_size() < points)
                 throw Error(what + ": attribute " + name + " maps fewer points than the mesh has");
             if (a.count != points)

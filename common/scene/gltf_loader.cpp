@@ -450,9 +450,8 @@ class GltfLoader {
             for (const auto& [name, t] : transforms_)
                 if (t != transforms_[0].second)
                     loader.warn_once("uvt:" + what_,
-                                     what_ + ": its textures' " + kTextureTransform +
-                                         " differ; " + transforms_[0].first +
-                                         "'s is applied to all of them");
+                                     what_ + ": its textures' " + kTextureTransform + " differ; " +
+                                         transforms_[0].first + "'s is applied to all of them");
             return transforms_[0].second;
         }
 
@@ -476,9 +475,9 @@ class GltfLoader {
     std::set<std::string> warned_;
     int default_material_ = -1;
     ImageBytes image_bytes_;
-    GltfCompression compression_;                // meshopt and Draco, set up and decoded
-    std::vector<unsigned char> rewritten_;       // in-memory data as rewritten for tinygltf
-    std::vector<glm::dmat3> uv_transforms_;      // per material: KHR_texture_transform
+    GltfCompression compression_;                   // meshopt and Draco, set up and decoded
+    std::vector<unsigned char> rewritten_;          // in-memory data as rewritten for tinygltf
+    std::vector<glm::dmat3> uv_transforms_;         // per material: KHR_texture_transform
     std::map<std::pair<int, bool>, int> textures_;  // (glTF texture, sRGB) -> scene texture
     uint64_t texels_ = 0;
 };
@@ -711,10 +710,9 @@ void GltfLoader::convert_materials() {
         MaterialUv uv(what);
         m.tex_base = uv.slot(*this, pbr.baseColorTexture.index, pbr.baseColorTexture.texCoord,
                              pbr.baseColorTexture.extensions, true, "baseColorTexture");
-        m.tex_metal_rough = uv.slot(*this, pbr.metallicRoughnessTexture.index,
-                                    pbr.metallicRoughnessTexture.texCoord,
-                                    pbr.metallicRoughnessTexture.extensions, false,
-                                    "metallicRoughnessTexture");
+        m.tex_metal_rough = uv.slot(
+            *this, pbr.metallicRoughnessTexture.index, pbr.metallicRoughnessTexture.texCoord,
+            pbr.metallicRoughnessTexture.extensions, false, "metallicRoughnessTexture");
         m.tex_normal = uv.slot(*this, g.normalTexture.index, g.normalTexture.texCoord,
                                g.normalTexture.extensions, false, "normalTexture");
         m.tex_emission = uv.slot(*this, g.emissiveTexture.index, g.emissiveTexture.texCoord,
@@ -1166,8 +1164,9 @@ std::vector<glm::vec3> GltfLoader::read_positions(int accessor, const std::strin
     const tg::Accessor& a = accessor_at(accessor, what);
     if (a.type != TINYGLTF_TYPE_VEC3 || component_size(a.componentType) == 0 ||
         a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
-        fail(what + ": POSITION must be VEC3 of float or (KHR_mesh_quantization) byte, "
-                    "unsigned byte, short or unsigned short");
+        fail(what +
+             ": POSITION must be VEC3 of float or (KHR_mesh_quantization) byte, "
+             "unsigned byte, short or unsigned short");
     std::vector<glm::vec3> out = read_vectors<3>(a, what);
     // Non-finite positions named as the file has them (before any node transform).
     for (size_t i = 0; i < out.size(); ++i) {
@@ -1190,8 +1189,9 @@ std::vector<glm::vec3> GltfLoader::read_normals(int accessor, const std::string&
                                             a.componentType == TINYGLTF_COMPONENT_TYPE_SHORT);
     if (a.type != TINYGLTF_TYPE_VEC3 ||
         (a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT && !quantized))
-        fail(what + ": NORMAL must be VEC3 of float or (KHR_mesh_quantization) normalized "
-                    "byte or short");
+        fail(what +
+             ": NORMAL must be VEC3 of float or (KHR_mesh_quantization) normalized "
+             "byte or short");
     std::vector<glm::vec3> out = read_vectors<3>(a, what);
     for (glm::vec3& n : out)
         if (!std::isfinite(n.x) || !std::isfinite(n.y) || !std::isfinite(n.z)) n = glm::vec3(0.f);
@@ -1230,8 +1230,7 @@ glm::dmat3 GltfLoader::texture_transform(const tg::ExtensionMap& ext, int& tex_c
         glm::dvec2 out = fallback;
         if (v.IsNumber() && std::string(key) == "rotation") {
             out.x = v.GetNumberAsDouble();
-        } else if (v.IsArray() && v.ArrayLen() == 2 && v.Get(0).IsNumber() &&
-                   v.Get(1).IsNumber()) {
+        } else if (v.IsArray() && v.ArrayLen() == 2 && v.Get(0).IsNumber() && v.Get(1).IsNumber()) {
             out = glm::dvec2(v.Get(0).GetNumberAsDouble(), v.Get(1).GetNumberAsDouble());
         } else {
             fail(label + ": '" + key + "' must be " +
