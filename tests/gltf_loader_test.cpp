@@ -261,7 +261,7 @@ TEST(GltfLoader, BinaryGlb) {
 
 TEST(GltfLoader, UnsupportedFeaturesWarnOnce) {
     Gltf g = quad_gltf();
-    g.doc["extensionsUsed"] = {"KHR_materials_volume", "KHR_materials_sheen"};
+    g.doc["extensionsUsed"] = {"KHR_materials_clearcoat", "KHR_materials_sheen"};
     g.doc["images"] = {{{"uri", "data:image/png;base64,AAAA"}}};  // never decoded
     g.doc["textures"] = {{{"source", 0}}};
     g.doc["materials"][0]["occlusionTexture"] = {{"index", 0}};
@@ -276,7 +276,7 @@ TEST(GltfLoader, UnsupportedFeaturesWarnOnce) {
     Scene s = load_gltf(g.write("warnings.gltf"));
     EXPECT_EQ(s.triangles.size(), 2u);
     for (const char* w :
-         {"KHR_materials_volume", "KHR_materials_sheen", "occlusion textures are not used",
+         {"KHR_materials_clearcoat", "KHR_materials_sheen", "occlusion textures are not used",
           "alphaMode BLEND", "LINES", "morph targets", "skins", "animations"})
         EXPECT_TRUE(has_warning(s, w)) << w << " in " << ::testing::PrintToString(s.warnings);
     EXPECT_EQ(s.warnings.size(), 8u) << ::testing::PrintToString(s.warnings);
@@ -636,6 +636,39 @@ TEST(GltfLoader, TextureTransformIsBakedIntoTextureCoordinates) {
     EXPECT_NE(e.find("emissiveTexture KHR_texture_transform: 'scale' must be two numbers"),
               std::string::npos)
         << e;
+}
+
+// KHR_materials_volume: Beer-Lambert absorption -ln(attenuationColor) / attenuationDistance
+// inside glass that is not thin-walled; thin-walled or opaque materials absorb nothing.
+TEST(GltfLoader, VolumeAbsorption) {
+    Gltf g = quad_gltf();
+    json& m = g.doc["materials"][0];
+    m["extensions"]["KHR_materials_transmission"] = {{"transmissionFactor", 1}};
+    m["extensions"]["KHR_materials_volume"] = {{"thicknessFactor", 1},
+                                               {"attenuationDistance", 2},
+                                               {"attenuationColor", {0.5, 0.25, 1}}};
+    g.doc["extensionsUsed"] = {"KHR_materials_transmission", "KHR_materials_volume"};
+    Scene s = load_gltf(g.write("volume.gltf"));
+    expect_vec(s.materials[0].absorption, {std::log(2.f) / 2, std::log(4.f) / 2, 0});
+    EXPECT_TRUE(s.warnings.empty()) << ::testing::PrintToString(s.warnings);
+    // Thin-walled (thickness 0): clear.
+    m["extensions"]["KHR_materials_volume"]["thicknessFactor"] = 0;
+    expect_vec(load_gltf(g.write("thin.gltf")).materials[0].absorption, {0, 0, 0});
+    // Without transmission: ignored, warned.
+    m["extensions"]["KHR_materials_volume"]["thicknessFactor"] = 1;
+    m["extensions"].erase("KHR_materials_transmission");
+    s = load_gltf(g.write("opaque_volume.gltf"));
+    expect_vec(s.materials[0].absorption, {0, 0, 0});
+    EXPECT_TRUE(has_warning(s, "without KHR_materials_transmission"));
+    // A colour outside [0, 1] or a distance of 0: errors.
+    m["extensions"]["KHR_materials_transmission"] = {{"transmissionFactor", 1}};
+    m["extensions"]["KHR_materials_volume"]["attenuationColor"] = {0.5, 2, 1};
+    std::string e = load_error(g.write("bad_color.gltf"));
+    EXPECT_NE(e.find("attenuationColor must be in [0, 1]"), std::string::npos) << e;
+    m["extensions"]["KHR_materials_volume"]["attenuationColor"] = {0.5, 0.5, 1};
+    m["extensions"]["KHR_materials_volume"]["attenuationDistance"] = 0;
+    e = load_error(g.write("bad_distance.gltf"));
+    EXPECT_NE(e.find("attenuationDistance > 0"), std::string::npos) << e;
 }
 
 // Hand-checked files shipped with the tests.

@@ -22,6 +22,21 @@ MCPT_STRUCT(BsdfSample) {
 MCPT_FN vec3 material_color(GpuMaterial m) { return V3(m.r, m.g, m.b); }
 MCPT_FN vec3 material_emission(GpuMaterial m) { return V3(m.er, m.eg, m.eb); }
 
+// Absorbing glass's coefficient per unit length (MAT_VOLUME): `metallic` holds the largest
+// channel, `specular`'s bits the three channels over it in steps of 1/1023.
+MCPT_FN vec3 material_sigma(GpuMaterial m) {
+    uint bits = float_as_uint(m.specular);
+    vec3 ratio = V3(F32(bits & 1023u), F32((bits >> 10u) & 1023u), F32((bits >> 20u) & 1023u));
+    return ratio * (m.metallic * (1.0f / 1023.0f));
+}
+
+// Beer-Lambert: the fraction of light left after a distance t through coefficient sigma
+// (exactly 1 in a channel that does not absorb, t = MCPT_FLT_MAX included).
+MCPT_FN vec3 transmittance(vec3 sigma, float t) {
+    return V3(exp(-MINF(sigma.x * t, 100.0f)), exp(-MINF(sigma.y * t, 100.0f)),
+              exp(-MINF(sigma.z * t, 100.0f)));
+}
+
 // Whether a triangle of this material emits from its back face too (glTF doubleSided). The
 // BSDFs below read m.type as the kind alone: shade_vertex clears the flags first.
 MCPT_FN bool emits_from_back(GpuMaterial m) { return (m.type & MAT_TWO_SIDED) != 0u; }

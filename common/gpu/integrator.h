@@ -296,6 +296,7 @@ MCPT_STRUCT(PathState) {
 #endif
     float eta_scale, prev_pdf;
     uint depth, rays, status;
+    uint medium;  // absorbing glass the path is inside: its material + 1 (0: none)
     bool specular;
     uint sample_index, samples_left;  // this sample, and the samples this pixel still owes
 #ifdef MCPT_CARRIED_SHADOW
@@ -357,6 +358,7 @@ MCPT_FN PathState start_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
     st.depth = 0u;
     st.rays = 0u;
     st.status = PATH_RUNNING;
+    st.medium = 0u;  // cameras stand outside every volume
     st.specular = true;
     st.sample_index = sample_index;
     st.samples_left = 1u;
@@ -419,6 +421,11 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
     uint seed = PARAM(seed);
     float light_scale = PARAM(light_scale);
     uint depth = st.depth;
+    // Beer-Lambert along the segment just traced, inside absorbing glass (all of it where the
+    // ray escapes: an open volume lets nothing out).
+    if (HAS_FEATURE(FEATURE_VOLUME) && st.medium != 0u)
+        st.beta *= transmittance(material_sigma(MATERIAL(st.medium - 1u)),
+                                 hit.prim == NO_HIT ? MCPT_FLT_MAX : hit.t);
     if (hit.prim == NO_HIT) {
         // The environment, MIS-weighted unless NEE could not have sampled the direction.
         if (HAS_FEATURE(FEATURE_ENVIRONMENT) && PARAM(env_width) > 0u) {
@@ -466,6 +473,7 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
     // material's kind alone, for its BSDF.
     vec3 le = material_emission(m) * light_scale;
     bool emits = front || emits_from_back(m);
+    bool volume = HAS_FEATURE(FEATURE_VOLUME) && (m.type & MAT_VOLUME) != 0u;
     m.type &= MAT_KIND_MASK;
     if (emits && max_component(le) > 0.0f) {
         float w = 1.0f;
@@ -543,6 +551,16 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
                 if (MCPT_ENV_STRATEGY != 0u && ls.at_infinity && !ls.delta)
                     w = MCPT_ENV_STRATEGY == 2u ? 0.0f : (MCPT_ENV_STRATEGY == 4u ? 0.5f : 1.0f);
                 vec3 contribution = st.beta * e.f * ls.le * DIVF(light_scale * cos_x * w, ls.pdf);
+                // Through absorbing glass: this glass's inside where the light lies there,
+                // else the volume the path is in.
+                if (HAS_FEATURE(FEATURE_VOLUME)) {
+                    uint medium =
+                        volume ? (dot(ls.wi, s.ng) < 0.0f ? s.material + 1u : 0u) : st.medium;
+                    if (medium != 0u)
+                        contribution *= transmittance(material_sigma(MATERIAL(medium - 1u)),
+                                                      ls.at_infinity ? MCPT_FLT_MAX
+                                                                     : length(shadow.d));
+                }
 #ifdef MCPT_CARRIED_SHADOW
                 if (MCPT_TRACE_SITES == 1u) {
                     st.shadow_o = shadow.o;
@@ -569,6 +587,8 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
         st.status = PATH_ENDED;
         return st;
     }
+    // Through absorbing glass: into its inside, or out of it.
+    if (volume && dot(bs.wi, s.ng) * dot(wo, s.ng) < 0.0f) st.medium = front ? s.material + 1u : 0u;
     st.beta = st.beta * bs.weight;
     st.eta_scale *= bs.eta2;
     st.specular = bs.specular;
@@ -726,7 +746,7 @@ MCPT_FN PackedState pack_state(PathState st) {
     p.c = V4(st.beta.x, st.beta.y, st.beta.z, uint_as_float(st.depth));
     p.d = V4(st.radiance.x, st.radiance.y, st.radiance.z, uint_as_float(st.rays));
     p.e = V4(st.prev_p.x, st.prev_p.y, st.prev_p.z,
-             uint_as_float(st.status | (st.specular ? 4u : 0u)));
+             uint_as_float(st.status | (st.specular ? 4u : 0u) | (st.medium << 3u)));
     vec2 prev_n = PREV_RECEIVER(st);
     p.f = V4(uint_as_float(st.sample_index), uint_as_float(st.samples_left), prev_n.x, prev_n.y);
     return p;
@@ -746,6 +766,7 @@ MCPT_FN PathState unpack_state(PackedState p) {
     uint flags = float_as_uint(p.e.w);
     st.status = flags & 3u;
     st.specular = (flags & 4u) != 0u;
+    st.medium = flags >> 3u;
     st.sample_index = float_as_uint(p.f.x);
     st.samples_left = float_as_uint(p.f.y);
     SET_PREV_RECEIVER(st, V2(p.f.z, p.f.w));

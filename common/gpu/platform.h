@@ -42,6 +42,7 @@ using glm::mix;
 using glm::normalize;
 using std::abs;
 using std::acos;
+using std::exp;
 using std::floor;
 using std::sqrt;
 inline float inversesqrt(float x) { return 1.0f / std::sqrt(x); }

@@ -17,6 +17,11 @@ MCPT_NAMESPACE_BEGIN
 // GpuMaterial.type: the kind in the low byte; flags above it.
 #define MAT_KIND_MASK 0xffu
 #define MAT_TWO_SIDED 0x100u  // triangles emit from both faces (glTF doubleSided)
+// Glass whose inside absorbs (glTF KHR_materials_volume, Beer-Lambert): the absorption
+// coefficient per unit length in place of the fields glass does not read, `metallic` its
+// largest channel and `specular`'s bits the three channels over it in 10-bit steps
+// (material_sigma in bsdf.h; pack_material on the host).
+#define MAT_VOLUME 0x200u
 
 // Light kinds (GpuLight.prim high bits): a triangle index, a sphere index | LIGHT_SPHERE_BIT,
 // a punctual light index | LIGHT_PUNCTUAL_BIT, or LIGHT_ENVIRONMENT (the one environment).
@@ -49,11 +54,12 @@ MCPT_NAMESPACE_BEGIN
 #define FEATURE_LIGHT_TREE 65536u   // next-event estimation picks local lights by a tree
 #define FEATURE_BVH 131072u         // 8-wide BVH traversal (traverse_bvh.h)
 #define FEATURE_LIGHT_CONTRIBUTION 262144u  // a few lamps, picked by contribution (integrator.h)
-#define FEATURE_ALL (16383u | FEATURE_LIGHT_TREE | FEATURE_BVH | FEATURE_LIGHT_CONTRIBUTION)
+#define FEATURE_VOLUME 524288u      // absorbing glass (MAT_VOLUME): Beer-Lambert inside
+#define FEATURE_ALL (16383u | 983040u)  // bits 0-13 and 16-19: all but the two below
 #define FEATURE_TEST_NAN 16384u     // tests only: poison samples of pixels 0 and 1 (never in ALL)
 #define FEATURE_INDEPENDENT_SAMPLER 32768u  // independent uniforms, not Sobol (A/B, never in ALL)
-#define FEATURE_BITS 524287u        // every bit above
-#define FEATURE_COUNT 19
+#define FEATURE_BITS 1048575u       // every bit above
+#define FEATURE_COUNT 20
 
 // The smallest GGX alpha a MAT_PBR material keeps (roughness 0.01): below it the lobe's peak
 // exceeds float range in NEE; roughness 0 metals are MAT_MIRROR.
@@ -307,6 +313,9 @@ MCPT_STRUCT(GpuParams) {
 MCPT_NAMESPACE_END
 
 #if defined(MCPT_CPP)
+static_assert(FEATURE_ALL == ((FEATURE_ENVIRONMENT * 2u - 1u) | FEATURE_LIGHT_TREE | FEATURE_BVH |
+                              FEATURE_LIGHT_CONTRIBUTION | FEATURE_VOLUME),
+              "FEATURE_ALL: every feature but the two for tests and A/B runs");
 static_assert(sizeof(mcpt::gpu::KdNode) == 8, "KdNode must be 8 bytes");
 static_assert(sizeof(mcpt::gpu::BvhNode) == BVH_NODE_UNITS * 8, "BvhNode must be 224 bytes");
 static_assert(BVH_PLANES_QUAD + 2 * BVH_HALF_QUADS == BVH_NODE_UNITS / 2, "quads of a BvhNode");

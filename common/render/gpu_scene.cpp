@@ -38,6 +38,19 @@ gpu::GpuMaterial pack_material(const Material& m) {
     g.alpha = std::max(m.roughness * m.roughness, MIN_GGX_ALPHA);
     g.specular = m.specular;
     g.alpha_cutoff = m.alpha_cutoff;
+    // Absorbing glass: the largest channel, and each over it in steps of 1/1023, in the fields
+    // glass does not read (material_sigma in gpu/bsdf.h).
+    const float sigma_max = std::max({m.absorption.x, m.absorption.y, m.absorption.z});
+    if ((m.type == MaterialType::Glass || m.type == MaterialType::RoughGlass) && sigma_max > 0.f) {
+        g.type |= MAT_VOLUME;
+        g.metallic = sigma_max;
+        uint32_t bits = 0;
+        for (int c = 0; c < 3; ++c)
+            bits |= uint32_t(std::lround(std::clamp(m.absorption[c] / sigma_max, 0.f, 1.f) *
+                                         1023.f))
+                    << (10 * c);
+        std::memcpy(&g.specular, &bits, 4);
+    }
     const auto tex = [](int i) { return i < 0 ? NO_TEXTURE : uint32_t(i); };
     g.tex_base = tex(m.tex_base);
     g.tex_metal_rough = tex(m.tex_metal_rough);

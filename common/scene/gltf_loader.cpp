@@ -18,6 +18,8 @@
 //       -> Pbr: glTF's metallic-roughness BRDF (gpu/microfacet.h) with baseColorFactor,
 //          metallicFactor, roughnessFactor, KHR_materials_ior.ior and
 //          KHR_materials_specular.specularFactor (default 1).
+//   KHR_materials_volume on glass (thicknessFactor > 0): Beer-Lambert absorption inside,
+//   -ln(attenuationColor) / attenuationDistance per unit length.
 //   A primitive without a material gets a grey (0.8) Diffuse material.
 // Lamps (KHR_lights_punctual) on nodes: point, spot and directional lights at the node's
 // world transform (position; direction -Z), color * intensity / 683 lm/W (candela to W/sr,
@@ -75,6 +77,7 @@ const char* const kEmissiveStrength = "KHR_materials_emissive_strength";
 const char* const kTransmission = "KHR_materials_transmission";
 const char* const kIor = "KHR_materials_ior";
 const char* const kSpecular = "KHR_materials_specular";
+const char* const kVolume = "KHR_materials_volume";
 
 const char* const kLightsPunctual = "KHR_lights_punctual";
 const char* const kQuantization = "KHR_mesh_quantization";
@@ -87,7 +90,7 @@ const char* const kDraco = "KHR_draco_mesh_compression";
 // Extensions the loader reads (the decoders only where this build has their libraries).
 bool supported_extension(const std::string& name) {
     return name == kEmissiveStrength || name == kTransmission || name == kIor ||
-           name == kSpecular || name == kLightsPunctual || name == kQuantization ||
+           name == kSpecular || name == kVolume || name == kLightsPunctual || name == kQuantization ||
            name == kTextureTransform || (name == kTextureWebp && has_webp_decoder()) ||
            (name == kMeshopt && GltfCompression::has_meshopt()) ||
            (name == kDraco && GltfCompression::has_draco());
@@ -429,6 +432,8 @@ class GltfLoader {
     std::vector<glm::vec2> read_texcoords(int accessor, const std::string& where) const;
     int texture_for(int texture, int tex_coord, bool srgb, const std::string& what);
     int texture_source(const tg::Texture& t, const std::string& what);
+    glm::vec3 volume_absorption(const tg::ExtensionMap& ext, const Material& m,
+                                const std::string& what);
     glm::dmat3 texture_transform(const tg::ExtensionMap& ext, int& tex_coord,
                                  const std::string& what) const;
 
@@ -735,8 +740,46 @@ void GltfLoader::convert_materials() {
         } else {
             m.type = MaterialType::Pbr;
         }
+        m.absorption = volume_absorption(g.extensions, m, what);
         scene_.add_material(m);
     }
+}
+
+// KHR_materials_volume on glass that is not thin-walled (thicknessFactor > 0): Beer-Lambert
+// absorption -ln(attenuationColor) / attenuationDistance per unit length (scene units, as the
+// node transforms scale them: a mesh scaled up absorbs more). thicknessFactor itself is for
+// rasterizers and is not used. 0 where the material is clear or thin-walled.
+glm::vec3 GltfLoader::volume_absorption(const tg::ExtensionMap& ext, const Material& m,
+                                        const std::string& what) {
+    const auto it = ext.find(kVolume);
+    if (it == ext.end()) return glm::vec3(0.f);
+    if (m.type != MaterialType::Glass && m.type != MaterialType::RoughGlass) {
+        warn_once("volume:" + what, what + ": " + kVolume +
+                                        " without KHR_materials_transmission; ignored");
+        return glm::vec3(0.f);
+    }
+    const double thickness = extension_number(ext, kVolume, "thicknessFactor", 0.0);
+    const double distance = extension_number(ext, kVolume, "attenuationDistance", HUGE_VAL);
+    if (!(thickness >= 0) || !(distance > 0))
+        fail(what + " " + kVolume + ": thicknessFactor must be >= 0 and attenuationDistance > 0");
+    glm::dvec3 color(1.0);
+    if (it->second.Has("attenuationColor")) {
+        const tg::Value& c = it->second.Get("attenuationColor");
+        if (!c.IsArray() || c.ArrayLen() != 3)
+            fail(what + " " + kVolume + ": attenuationColor must be three numbers");
+        for (int k = 0; k < 3; ++k) {
+            if (!c.Get(k).IsNumber() || !(c.Get(k).GetNumberAsDouble() >= 0) ||
+                !(c.Get(k).GetNumberAsDouble() <= 1))
+                fail(what + " " + kVolume + ": attenuationColor must be in [0, 1]");
+            color[k] = c.Get(k).GetNumberAsDouble();
+        }
+    }
+    if (thickness == 0 || std::isinf(distance)) return glm::vec3(0.f);  // thin-walled, clear
+    // A channel of colour 0 absorbs everything: as good as a coefficient of 1e30 per unit.
+    glm::vec3 sigma;
+    for (int k = 0; k < 3; ++k)
+        sigma[k] = float(std::min(1e30, -std::log(std::max(color[k], 1e-300)) / distance));
+    return sigma;
 }
 
 // The default scene's roots (scene 0 when none is marked; parentless nodes when no scene).

@@ -54,6 +54,9 @@ void check_material(const Scene& scene, uint32_t i) {
          m.type == MaterialType::RoughGlass) &&
         !(m.ior > 0.f))
         throw Error(what + "ior must be > 0, got " + std::to_string(m.ior));
+    // Absorption: finite and non-negative (an opaque inside is glass's business, not this).
+    if (!finite(m.absorption) || !non_negative(m.absorption))
+        throw Error(what + "absorption must be finite and >= 0, got " + str(m.absorption));
     if (m.type == MaterialType::RoughGlass && !(m.roughness >= 0.f && m.roughness <= 1.f))
         throw Error(what + "roughness must be in [0, 1], got " + std::to_string(m.roughness));
     if (m.type == MaterialType::Pbr) {

@@ -30,6 +30,9 @@ struct Material {
     // alphaMode MASK: cut out where the base alpha (factor times texture) < alpha_cutoff;
     // 0: opaque. Kept here as cutoff / alpha factor (the loader folds the factor in).
     float alpha_cutoff = 0.f;
+    // Glass and RoughGlass: the inside's absorption coefficient per unit length (Beer-Lambert;
+    // glTF KHR_materials_volume: -ln(attenuationColor) / attenuationDistance); 0: clear.
+    glm::vec3 absorption{0.f};
     bool is_emissive() const { return emission.x > 0.f || emission.y > 0.f || emission.z > 0.f; }
 };
 
