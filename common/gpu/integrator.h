@@ -296,7 +296,9 @@ MCPT_STRUCT(PathState) {
 #endif
     float eta_scale, prev_pdf;
     uint depth, rays, status;
+#ifdef MCPT_CARRIED_MEDIUM
     uint medium;  // absorbing glass the path is inside: its material + 1 (0: none)
+#endif
     bool specular;
     uint sample_index, samples_left;  // this sample, and the samples this pixel still owes
 #ifdef MCPT_CARRIED_SHADOW
@@ -318,6 +320,16 @@ MCPT_STRUCT(PathState) {
 #else
 #define PREV_RECEIVER(st) NO_RECEIVER
 #define SET_PREV_RECEIVER(st, code)
+#endif
+
+// The absorbing glass the path is inside (its material + 1; 0: none), where the build has
+// volumes.
+#ifdef MCPT_CARRIED_MEDIUM
+#define PATH_MEDIUM(st) (st).medium
+#define SET_PATH_MEDIUM(st, m) (st).medium = (m)
+#else
+#define PATH_MEDIUM(st) 0u
+#define SET_PATH_MEDIUM(st, m)
 #endif
 
 // The path waits on a shadow ray (only with one trace site).
@@ -358,7 +370,7 @@ MCPT_FN PathState start_path(SCENE_PARAMS_ uint pixel, uint sample_index) {
     st.depth = 0u;
     st.rays = 0u;
     st.status = PATH_RUNNING;
-    st.medium = 0u;  // cameras stand outside every volume
+    SET_PATH_MEDIUM(st, 0u);  // cameras stand outside every volume
     st.specular = true;
     st.sample_index = sample_index;
     st.samples_left = 1u;
@@ -423,8 +435,8 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
     uint depth = st.depth;
     // Beer-Lambert along the segment just traced, inside absorbing glass (all of it where the
     // ray escapes: an open volume lets nothing out).
-    if (HAS_FEATURE(FEATURE_VOLUME) && st.medium != 0u)
-        st.beta *= transmittance(material_sigma(MATERIAL(st.medium - 1u)),
+    if (HAS_FEATURE(FEATURE_VOLUME) && PATH_MEDIUM(st) != 0u)
+        st.beta *= transmittance(material_sigma(MATERIAL(PATH_MEDIUM(st) - 1u)),
                                  hit.prim == NO_HIT ? MCPT_FLT_MAX : hit.t);
     if (hit.prim == NO_HIT) {
         // The environment, MIS-weighted unless NEE could not have sampled the direction.
@@ -555,7 +567,7 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
                 // else the volume the path is in.
                 if (HAS_FEATURE(FEATURE_VOLUME)) {
                     uint medium =
-                        volume ? (dot(ls.wi, s.ng) < 0.0f ? s.material + 1u : 0u) : st.medium;
+                        volume ? (dot(ls.wi, s.ng) < 0.0f ? s.material + 1u : 0u) : PATH_MEDIUM(st);
                     if (medium != 0u)
                         contribution *= transmittance(material_sigma(MATERIAL(medium - 1u)),
                                                       ls.at_infinity ? MCPT_FLT_MAX
@@ -588,7 +600,8 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
         return st;
     }
     // Through absorbing glass: into its inside, or out of it.
-    if (volume && dot(bs.wi, s.ng) * dot(wo, s.ng) < 0.0f) st.medium = front ? s.material + 1u : 0u;
+    if (volume && dot(bs.wi, s.ng) * dot(wo, s.ng) < 0.0f)
+        SET_PATH_MEDIUM(st, front ? s.material + 1u : 0u);
     st.beta = st.beta * bs.weight;
     st.eta_scale *= bs.eta2;
     st.specular = bs.specular;
@@ -746,7 +759,7 @@ MCPT_FN PackedState pack_state(PathState st) {
     p.c = V4(st.beta.x, st.beta.y, st.beta.z, uint_as_float(st.depth));
     p.d = V4(st.radiance.x, st.radiance.y, st.radiance.z, uint_as_float(st.rays));
     p.e = V4(st.prev_p.x, st.prev_p.y, st.prev_p.z,
-             uint_as_float(st.status | (st.specular ? 4u : 0u) | (st.medium << 3u)));
+             uint_as_float(st.status | (st.specular ? 4u : 0u) | (PATH_MEDIUM(st) << 3u)));
     vec2 prev_n = PREV_RECEIVER(st);
     p.f = V4(uint_as_float(st.sample_index), uint_as_float(st.samples_left), prev_n.x, prev_n.y);
     return p;
@@ -766,7 +779,7 @@ MCPT_FN PathState unpack_state(PackedState p) {
     uint flags = float_as_uint(p.e.w);
     st.status = flags & 3u;
     st.specular = (flags & 4u) != 0u;
-    st.medium = flags >> 3u;
+    SET_PATH_MEDIUM(st, flags >> 3u);
     st.sample_index = float_as_uint(p.f.x);
     st.samples_left = float_as_uint(p.f.y);
     SET_PREV_RECEIVER(st, V2(p.f.z, p.f.w));
