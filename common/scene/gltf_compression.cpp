@@ -106,6 +106,12 @@ bool GltfCompression::has_draco() {
 #endif
 }
 
+bool GltfCompression::needed(std::string_view json) {
+    return json.find(kMeshopt) != std::string_view::npos ||
+           json.find(kDraco) != std::string_view::npos ||
+           json.find(kWebpUri) != std::string_view::npos;
+}
+
 bool GltfCompression::prepare(std::vector<unsigned char>& bytes, bool binary) {
     // The JSON text: all of a .gltf, the first chunk of a .glb (its layout already checked).
     size_t begin = 0, length = bytes.size();
@@ -115,11 +121,7 @@ bool GltfCompression::prepare(std::vector<unsigned char>& bytes, bool binary) {
         begin = 20, length = json_length;
     }
     const char* text = reinterpret_cast<const char*>(bytes.data()) + begin;
-    const std::string_view view(text, length);
-    if (view.find(kMeshopt) == std::string_view::npos &&
-        view.find(kDraco) == std::string_view::npos &&
-        view.find(kWebpUri) == std::string_view::npos)
-        return false;
+    if (!needed(std::string_view(text, length))) return false;
     json doc = json::parse(text, text + length, nullptr, /*allow_exceptions=*/false);
     if (!doc.is_object()) return false;  // tinygltf says what is wrong with it
     bool changed = false;

@@ -14,6 +14,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace tinygltf {
@@ -28,6 +29,8 @@ class GltfCompression {
     // file uses either extension; returns false, leaving `bytes` as they were, when it uses
     // neither. Throws Error for a malformed extension object.
     bool prepare(std::vector<unsigned char>& bytes, bool binary);
+    // Whether JSON text names anything prepare() rewrites (a quick scan, before any parse).
+    static bool needed(std::string_view json);
     // Decodes every compressed buffer view and primitive of the model tinygltf parsed from the
     // prepared bytes. Throws Error naming the buffer view or mesh and the extension.
     void decode(tinygltf::Model& model) const;

@@ -606,10 +606,7 @@ void GltfLoader::parse_memory() {
     if (json_depth(text, length) > kMaxJsonDepth)
         fail("JSON nested deeper than " + std::to_string(kMaxJsonDepth) + " levels");
     // Compressed meshes: parse the rewritten copy.
-    const std::string_view json(text, length);
-    if (json.find(kMeshopt) != std::string_view::npos ||
-        json.find(kDraco) != std::string_view::npos ||
-        json.find("data:image/webp") != std::string_view::npos) {
+    if (GltfCompression::needed(std::string_view(text, length))) {
         rewritten_.assign(bytes_, bytes_ + size_);
         prepare_compressed(rewritten_, binary);
         bytes_ = rewritten_.data(), size_ = rewritten_.size();
