@@ -1,9 +1,11 @@
 // Materials: Lambertian diffuse, perfect mirror, smooth dielectric (Fresnel, total internal
-// reflection), glTF metallic-roughness and rough dielectric (microfacet.h). Directions point away from the
-// surface; `n` faces the side of `wo`.
+// reflection), glTF metallic-roughness with its layers (microfacet.h, layers.h) and rough
+// dielectric (microfacet.h). Directions point away from the surface; `n` faces the side of
+// `wo`.
 #ifndef MCPT_GPU_BSDF_H
 #define MCPT_GPU_BSDF_H
 
+#include "layers.h"
 #include "microfacet.h"
 #include "sampling.h"
 #include "scene_access.h"  // HAS_FEATURE
@@ -67,7 +69,7 @@ MCPT_FN BsdfEval eval_bsdf(GpuMaterial m, vec3 n, vec3 wo, vec3 wi, bool enterin
     BsdfEval e;
     if (HAS_FEATURE(FEATURE_MICROFACET) && m.type == MAT_PBR) {
         Frame fr = frame_from_normal(n);
-        return pbr_eval(m, frame_to_local(fr, wo), frame_to_local(fr, wi));
+        return coated_eval(m, frame_to_local(fr, wo), frame_to_local(fr, wi));
     }
     if (HAS_FEATURE(FEATURE_MICROFACET) && m.type == MAT_ROUGH_GLASS) {
         Frame fr = frame_from_normal(n);
@@ -101,8 +103,8 @@ MCPT_FN BsdfSample sample_bsdf(GpuMaterial m, vec3 n, vec3 wo, bool entering, ve
         // Metallic-roughness: one lobe drawn, weighted by the pdf of both.
         Frame fr = frame_from_normal(n);
         vec3 wo_l = frame_to_local(fr, wo);
-        vec3 wi_l = pbr_sample_direction(m, wo_l, u);
-        BsdfEval e = pbr_eval(m, wo_l, wi_l);
+        vec3 wi_l = coated_sample_direction(m, wo_l, u);
+        BsdfEval e = coated_eval(m, wo_l, wi_l);
         s.wi = frame_to_world(fr, wi_l);
         s.pdf = e.pdf;
         s.specular = false;

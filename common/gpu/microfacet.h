@@ -115,15 +115,22 @@ MCPT_STRUCT(BsdfEval) {
     float pdf;
 };
 
-// Probability that pbr_sample() takes the specular lobe: its Fresnel-weighted share at wo.
-MCPT_FN float pbr_specular_probability(GpuMaterial m, vec3 base, float cos_o) {
+// The specular and the diffuse lobe's estimated albedo at wo (Fresnel at cos_o, masking
+// ignored): what the lobe choice weighs.
+MCPT_FN vec2 pbr_lobe_albedos(GpuMaterial m, vec3 base, float cos_o) {
     float fw = pow5(1.0f - cos_o);
     float f0 = dielectric_f0(m.ior);
     float fd = m.specular * (f0 + (1.0f - f0) * fw);
     float spec =
         (1.0f - m.metallic) * fd + m.metallic * mean_component(base + (V3S(1.0f) - base) * fw);
     float diff = (1.0f - m.metallic) * (1.0f - fd) * mean_component(base);
-    return spec + diff > 0.0f ? spec / (spec + diff) : 1.0f;
+    return V2(spec, diff);
+}
+
+// Probability that pbr_sample() takes the specular lobe: its Fresnel-weighted share at wo.
+MCPT_FN float pbr_specular_probability(GpuMaterial m, vec3 base, float cos_o) {
+    vec2 a = pbr_lobe_albedos(m, base, cos_o);
+    return a.x + a.y > 0.0f ? a.x / (a.x + a.y) : 1.0f;
 }
 
 // f(wo, wi) and pdf of MAT_PBR in the local frame (glTF 2.0 Appendix B).

@@ -44,6 +44,7 @@ using std::abs;
 using std::acos;
 using std::exp;
 using std::floor;
+using std::pow;
 using std::sqrt;
 inline float inversesqrt(float x) { return 1.0f / std::sqrt(x); }
 inline uint float_as_uint(float f) { uint u; std::memcpy(&u, &f, 4); return u; }
@@ -58,6 +59,9 @@ inline float fmax3(float a, float b, float c) { return std::max(a, std::max(b, c
 #define MCPT_GLOBAL
 #define MCPT_CONST_BUF const
 #define MCPT_PRECISE  // the build compiles with -ffp-contract=off
+// A table of constants: MCPT_TABLE(float, NAME, n) v0, v1, ... MCPT_TABLE_END;
+#define MCPT_TABLE(type, name, n) inline constexpr type name[n] = {
+#define MCPT_TABLE_END }
 
 // ---------------------------------------------------------------- OpenCL C
 #elif defined(MCPT_OPENCL)
@@ -87,6 +91,8 @@ inline float fmax3(float a, float b, float c) { return std::max(a, std::max(b, c
 #define MCPT_GLOBAL __global
 #define MCPT_CONST_BUF __global const
 #define MCPT_PRECISE  // the OpenCL sources turn FP_CONTRACT off where it matters
+#define MCPT_TABLE(type, name, n) __constant type name[n] = {
+#define MCPT_TABLE_END }
 
 // ---------------------------------------------------------------- GLSL (Vulkan)
 #else
@@ -98,6 +104,8 @@ inline float fmax3(float a, float b, float c) { return std::max(a, std::max(b, c
 #define MCPT_GLOBAL
 #define MCPT_CONST_BUF
 #define MCPT_PRECISE precise  // SPIR-V NoContraction: no fused multiply-add
+#define MCPT_TABLE(type, name, n) const type name[n] = type[n](
+#define MCPT_TABLE_END )
 #endif
 
 #endif  // MCPT_GPU_PLATFORM_H

@@ -40,7 +40,7 @@ layout(std430, binding = BINDING_SHADING) readonly buffer LightBlock { GpuLight 
 #if defined(MCPT_SCENE_TEXELS)
 // The SPIR-V module for CPU devices reads the tree, triangles and shading data through
 // texel-buffer views of the same buffers (shared_types.h): k-d nodes and triangles as word
-// pairs; BVH nodes (fourteen), spheres (two), materials (four) and lights (one) as 16-byte
+// pairs; BVH nodes (fourteen), spheres (two), materials (six) and lights (one) as 16-byte
 // texels.
 layout(binding = BINDING_TREE_TEXELS) uniform usamplerBuffer tree_texels;
 layout(binding = BINDING_TRIANGLE_TEXELS) uniform usamplerBuffer triangle_quads;
@@ -63,13 +63,18 @@ GpuSphere load_sphere(uint i) {
                      uintBitsToFloat(a.w), material, 0u, 0u, 0u);
 }
 GpuMaterial load_material(uint i) {
-    int t = int(SHADING_MATERIALS_WORD(params.num_spheres) / 4u + 4u * i);
+    int t = int(SHADING_MATERIALS_WORD(params.num_spheres) / 4u + (MATERIAL_WORDS / 4u) * i);
     uvec4 a = texelFetch(shading_quads, t), b = texelFetch(shading_quads, t + 1);
     uvec4 c = texelFetch(shading_quads, t + 2), d = texelFetch(shading_quads, t + 3);
+    // (The layers' two texels go unread, and their fetches with them, in builds without.)
+    uvec4 e = texelFetch(shading_quads, t + 4), f = texelFetch(shading_quads, t + 5);
     return GpuMaterial(uintBitsToFloat(a.x), uintBitsToFloat(a.y), uintBitsToFloat(a.z), a.w,
                        uintBitsToFloat(b.x), uintBitsToFloat(b.y), uintBitsToFloat(b.z),
                        uintBitsToFloat(b.w), uintBitsToFloat(c.x), uintBitsToFloat(c.y),
-                       uintBitsToFloat(c.z), uintBitsToFloat(c.w), d.x, d.y, d.z, d.w);
+                       uintBitsToFloat(c.z), uintBitsToFloat(c.w), d.x, d.y, d.z, d.w,
+                       uintBitsToFloat(e.x), uintBitsToFloat(e.y), uintBitsToFloat(e.z),
+                       uintBitsToFloat(e.w), uintBitsToFloat(f.x), uintBitsToFloat(f.y), f.z,
+                       f.w);
 }
 GpuLight load_light(uint i) {
     uint w = SHADING_LIGHTS_WORD(params.num_spheres, params.num_materials);
@@ -97,7 +102,7 @@ uvec2 triangle_word(uint w) {
 #define LEAF_INDEX(i) tree_words[2u * params.num_nodes + (i)]
 #define TRIANGLE_WORD(w) triangle_words[w]
 #define SPHERE(i) spheres[i]
-#define MATERIAL(i) shading_materials[SHADING_MATERIALS_WORD(params.num_spheres) / 16u + (i)]
+#define MATERIAL(i) shading_materials[SHADING_MATERIALS_WORD(params.num_spheres) / MATERIAL_WORDS + (i)]
 #define LIGHT(i) shading_lights[SHADING_LIGHTS_WORD(params.num_spheres, params.num_materials) / 4u + (i)]
 #endif
 // Traversal stack entries, from the tree depth, and the scene's features (specialization

@@ -55,15 +55,20 @@ MCPT_NAMESPACE_BEGIN
 #define FEATURE_BVH 131072u         // 8-wide BVH traversal (traverse_bvh.h)
 #define FEATURE_LIGHT_CONTRIBUTION 262144u  // a few lamps, picked by contribution (integrator.h)
 #define FEATURE_VOLUME 524288u      // absorbing glass (MAT_VOLUME): Beer-Lambert inside
-#define FEATURE_ALL (16383u | 983040u)  // bits 0-13 and 16-19: all but the two below
+#define FEATURE_CLEARCOAT 1048576u  // a clear GGX coat over metallic-roughness (layers.h)
+#define FEATURE_SHEEN 2097152u      // a sheen layer over metallic-roughness (layers.h)
+#define FEATURE_ALL (16383u | 4128768u)  // bits 0-13 and 16-21: all but the two below
 #define FEATURE_TEST_NAN 16384u     // tests only: poison samples of pixels 0 and 1 (never in ALL)
 #define FEATURE_INDEPENDENT_SAMPLER 32768u  // independent uniforms, not Sobol (A/B, never in ALL)
-#define FEATURE_BITS 1048575u       // every bit above
-#define FEATURE_COUNT 20
+#define FEATURE_BITS 4194303u       // every bit above
+#define FEATURE_COUNT 22
 
 // The smallest GGX alpha a MAT_PBR material keeps (roughness 0.01): below it the lobe's peak
 // exceeds float range in NEE; roughness 0 metals are MAT_MIRROR.
 #define MIN_GGX_ALPHA 1.0e-4f
+// The smallest sheen roughness kept (glTF's default is 0): below it the sheen's peak at grazing
+// angles exceeds what the albedo table (sheen_albedo_table.h) resolves.
+#define MIN_SHEEN_ROUGHNESS 0.07f
 
 // k-d node layout (pbrt): axis in the low 2 bits of `flags`, 3 = leaf; below child implicit.
 #define KD_LEAF 3u
@@ -72,8 +77,8 @@ MCPT_NAMESPACE_BEGIN
 // Scene arrays share buffers so the shader binds 4 storage buffers, the minimum every Vulkan
 // device supports per stage: the tree buffer holds the k-d nodes, then the leaf index array
 // (from word 2 * num_nodes); the shading buffer holds the spheres (32 bytes each), then the
-// materials (64 bytes each, from the first 64-byte boundary after the spheres), then the
-// lights (16 bytes each), at the words below.
+// materials (96 bytes each, from the first 96-byte boundary after the spheres, so that GLSL
+// indexes them as an array), then the lights (16 bytes each), at the words below.
 #define BINDING_PARAMS 0
 #define BINDING_TREE 1
 #define BINDING_TRIANGLES 2
@@ -89,13 +94,16 @@ MCPT_NAMESPACE_BEGIN
 #define BINDING_TRIANGLE_TEXELS 6
 #define BINDING_SHADING_TEXELS 7
 #define VK_BINDING_COUNT 8
-#define SHADING_MATERIALS_WORD(num_spheres) (16u * (((num_spheres) + 1u) / 2u))
+#define MATERIAL_WORDS 24u
+#define SHADING_MATERIALS_WORD(num_spheres) \
+    (MATERIAL_WORDS * ((8u * (num_spheres) + MATERIAL_WORDS - 1u) / MATERIAL_WORDS))
 #define SHADING_LIGHTS_WORD(num_spheres, num_materials) \
-    (SHADING_MATERIALS_WORD(num_spheres) + 16u * (num_materials))
+    (SHADING_MATERIALS_WORD(num_spheres) + MATERIAL_WORDS * (num_materials))
 // After the lights: the texture table (GpuTexture), then the texels (GpuParams.texels_word,
 // even), two words per texel. The triangle buffer holds the triangles, then (scenes with
 // FEATURE_SHADING_NORMALS or FEATURE_TEXTURES) one GpuTriangleAttributes per triangle.
 #define NO_TEXTURE 0xffffffffu
+#define NO_TEXTURE16 0xffffu
 #define TEXTURE_WRAP_REPEAT 0u
 #define TEXTURE_WRAP_CLAMP 1u
 #define TEXTURE_WRAP_MIRROR 2u
@@ -181,6 +189,13 @@ MCPT_STRUCT(GpuMaterial) {
     // metallic-roughness (b: metallic, g: roughness) times the factors; tangent-space normals;
     // emission times er, eg, eb.
     uint tex_base, tex_metal_rough, tex_normal, tex_emission;
+    // Layers over MAT_PBR (layers.h): KHR_materials_clearcoat's weight (0: none) and the coat's
+    // GGX alpha; KHR_materials_sheen's color (0: none) and roughness. Their textures, two
+    // 16-bit indices a word (NO_TEXTURE16: none): clearcoat (r) | clearcoat roughness (g) << 16,
+    // sheen color (rgb) | sheen roughness (a) << 16.
+    float clearcoat, clearcoat_alpha;
+    float sheen_r, sheen_g, sheen_b, sheen_roughness;
+    uint tex_clearcoat, tex_sheen;
 };
 
 // A punctual light (KHR_lights_punctual) in world space: 64 bytes, in the texel region from
@@ -314,7 +329,8 @@ MCPT_NAMESPACE_END
 
 #if defined(MCPT_CPP)
 static_assert(FEATURE_ALL == ((FEATURE_ENVIRONMENT * 2u - 1u) | FEATURE_LIGHT_TREE | FEATURE_BVH |
-                              FEATURE_LIGHT_CONTRIBUTION | FEATURE_VOLUME),
+                              FEATURE_LIGHT_CONTRIBUTION | FEATURE_VOLUME | FEATURE_CLEARCOAT |
+                              FEATURE_SHEEN),
               "FEATURE_ALL: every feature but the two for tests and A/B runs");
 static_assert(sizeof(mcpt::gpu::KdNode) == 8, "KdNode must be 8 bytes");
 static_assert(sizeof(mcpt::gpu::BvhNode) == BVH_NODE_UNITS * 8, "BvhNode must be 224 bytes");
@@ -322,7 +338,7 @@ static_assert(BVH_PLANES_QUAD + 2 * BVH_HALF_QUADS == BVH_NODE_UNITS / 2, "quads
 static_assert(sizeof(mcpt::gpu::GpuTriangle) == 40, "GpuTriangle must be 40 bytes");
 static_assert(sizeof(mcpt::gpu::GpuTriangle) % 8 == 0, "GLSL reads triangles as uvec2 words");
 static_assert(sizeof(mcpt::gpu::GpuSphere) == 32, "GpuSphere must be 32 bytes");
-static_assert(sizeof(mcpt::gpu::GpuMaterial) == 64, "GpuMaterial must be 64 bytes");
+static_assert(sizeof(mcpt::gpu::GpuMaterial) == MATERIAL_WORDS * 4, "GpuMaterial: 96 bytes");
 static_assert(sizeof(mcpt::gpu::GpuLight) == 16, "GpuLight must be 16 bytes");
 static_assert(sizeof(mcpt::gpu::GpuParams) == 64 * 4, "GpuParams must be 64 words");
 static_assert(sizeof(mcpt::gpu::GpuLightTreeNode) == 48, "GpuLightTreeNode must be 48 bytes");

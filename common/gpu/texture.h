@@ -114,16 +114,22 @@ MCPT_STRUCT(TexturedMaterial) {
     vec4 normal_texel;
 };
 
-// One fetch in a loop kept rolled over the four maps, not one inlined copy of
-// sample_texture() a map (code size: NVIDIA's Vulkan inlines every call).
+// One fetch in a loop kept rolled over the four maps (eight with the layers' halves), not one
+// inlined copy of sample_texture() a map (code size: NVIDIA's Vulkan inlines every call).
 MCPT_FN TexturedMaterial textured_material(SCENE_PARAMS_ GpuMaterial m, vec2 uv) {
     TexturedMaterial r;
     r.normal_texel = V4S(0.0f);
+    uint maps = HAS_FEATURE(FEATURE_CLEARCOAT | FEATURE_SHEEN) ? 8u : 4u;
     NO_UNROLL
-    for (uint k = 0u; k < 4u; ++k) {
+    for (uint k = 0u; k < maps; ++k) {
         uint tex = k == 0u
                        ? m.tex_base
                        : (k == 1u ? m.tex_metal_rough : (k == 2u ? m.tex_emission : m.tex_normal));
+        if (k >= 4u) {
+            uint word = k < 6u ? m.tex_clearcoat : m.tex_sheen;
+            tex = (k & 1u) == 0u ? (word & 0xffffu) : (word >> 16u);
+            if (tex == NO_TEXTURE16) continue;
+        }
         if (tex == NO_TEXTURE || (k == 3u && !HAS_FEATURE(FEATURE_SHADING_NORMALS))) continue;
         vec4 t = sample_texture(SCENE_ARGS_ tex, uv);
         if (k == 0u) {
@@ -138,8 +144,19 @@ MCPT_FN TexturedMaterial textured_material(SCENE_PARAMS_ GpuMaterial m, vec2 uv)
             m.er *= t.x;
             m.eg *= t.y;
             m.eb *= t.z;
-        } else {
+        } else if (k == 3u) {
             r.normal_texel = t;
+        } else if (k == 4u) {
+            m.clearcoat *= t.x;
+        } else if (k == 5u) {
+            float roughness = sqrt(m.clearcoat_alpha) * t.y;
+            m.clearcoat_alpha = MAXF(roughness * roughness, MIN_GGX_ALPHA);
+        } else if (k == 6u) {
+            m.sheen_r *= t.x;
+            m.sheen_g *= t.y;
+            m.sheen_b *= t.z;
+        } else {
+            m.sheen_roughness = MAXF(m.sheen_roughness * t.w, MIN_SHEEN_ROUGHNESS);
         }
     }
     r.m = m;

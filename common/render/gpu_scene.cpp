@@ -56,6 +56,20 @@ gpu::GpuMaterial pack_material(const Material& m) {
     g.tex_metal_rough = tex(m.tex_metal_rough);
     g.tex_normal = tex(m.tex_normal);
     g.tex_emission = tex(m.tex_emission);
+    // Layers over metallic-roughness: a coat (GGX alpha as the base's) and a sheen.
+    const auto tex16 = [](int i) { return i < 0 ? NO_TEXTURE16 : uint32_t(i); };
+    g.tex_clearcoat = g.tex_sheen = NO_TEXTURE;
+    if (m.type == MaterialType::Pbr && m.has_clearcoat()) {
+        g.clearcoat = std::min(m.clearcoat, 1.f);
+        g.clearcoat_alpha =
+            std::max(m.clearcoat_roughness * m.clearcoat_roughness, MIN_GGX_ALPHA);
+        g.tex_clearcoat = tex16(m.tex_clearcoat) | (tex16(m.tex_clearcoat_roughness) << 16);
+    }
+    if (m.type == MaterialType::Pbr && m.has_sheen()) {
+        g.sheen_r = m.sheen_color.x, g.sheen_g = m.sheen_color.y, g.sheen_b = m.sheen_color.z;
+        g.sheen_roughness = std::clamp(m.sheen_roughness, MIN_SHEEN_ROUGHNESS, 1.f);
+        g.tex_sheen = tex16(m.tex_sheen_color) | (tex16(m.tex_sheen_roughness) << 16);
+    }
     return g;
 }
 
@@ -298,7 +312,9 @@ size_t GpuScene::device_bytes() const {
     return nodes.size() * sizeof(gpu::KdNode) + leaf_indices.size() * 4 +
            triangles.size() * sizeof(gpu::GpuTriangle) + spheres.size() * sizeof(gpu::GpuSphere) +
            materials.size() * sizeof(gpu::GpuMaterial) + lights.size() * sizeof(gpu::GpuLight) +
-           (spheres.size() % 2) * sizeof(gpu::GpuSphere) +  // materials on a 64-byte boundary
+           // (the materials start on a 96-byte boundary)
+           (SHADING_MATERIALS_WORD(uint32_t(spheres.size())) * 4 -
+            spheres.size() * sizeof(gpu::GpuSphere)) +
            attributes.size() * sizeof(gpu::GpuTriangleAttributes) +
            textures.size() * sizeof(gpu::GpuTexture) + texels.size() * 4;
 }
@@ -551,7 +567,7 @@ std::vector<uint32_t> tree_buffer(const GpuScene& s) {
 std::vector<uint32_t> shading_buffer(const GpuScene& s) {
     std::vector<uint32_t> out;
     append_words(out, s.spheres);
-    out.resize(SHADING_MATERIALS_WORD(uint32_t(s.spheres.size())), 0u);  // 64-byte boundary
+    out.resize(SHADING_MATERIALS_WORD(uint32_t(s.spheres.size())), 0u);  // 96-byte boundary
     append_words(out, s.materials);
     append_words(out, s.lights);
     append_words(out, s.textures);

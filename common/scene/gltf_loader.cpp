@@ -20,6 +20,8 @@
 //          KHR_materials_specular.specularFactor (default 1).
 //   KHR_materials_volume on glass (thicknessFactor > 0): Beer-Lambert absorption inside,
 //   -ln(attenuationColor) / attenuationDistance per unit length.
+//   KHR_materials_clearcoat and KHR_materials_sheen (factors and textures) make a material
+//   Pbr with those layers (gpu/layers.h); on glass they are not read.
 //   A primitive without a material gets a grey (0.8) Diffuse material.
 // Lamps (KHR_lights_punctual) on nodes: point, spot and directional lights at the node's
 // world transform (position; direction -Z), color * intensity / 683 lm/W (candela to W/sr,
@@ -61,6 +63,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 #include <utility>
 
 #include "common/error.h"
@@ -78,6 +81,8 @@ const char* const kTransmission = "KHR_materials_transmission";
 const char* const kIor = "KHR_materials_ior";
 const char* const kSpecular = "KHR_materials_specular";
 const char* const kVolume = "KHR_materials_volume";
+const char* const kClearcoat = "KHR_materials_clearcoat";
+const char* const kSheen = "KHR_materials_sheen";
 
 const char* const kLightsPunctual = "KHR_lights_punctual";
 const char* const kQuantization = "KHR_mesh_quantization";
@@ -90,7 +95,8 @@ const char* const kDraco = "KHR_draco_mesh_compression";
 // Extensions the loader reads (the decoders only where this build has their libraries).
 bool supported_extension(const std::string& name) {
     return name == kEmissiveStrength || name == kTransmission || name == kIor ||
-           name == kSpecular || name == kVolume || name == kLightsPunctual || name == kQuantization ||
+           name == kSpecular || name == kVolume || name == kClearcoat || name == kSheen ||
+           name == kLightsPunctual || name == kQuantization ||
            name == kTextureTransform || (name == kTextureWebp && has_webp_decoder()) ||
            (name == kMeshopt && GltfCompression::has_meshopt()) ||
            (name == kDraco && GltfCompression::has_draco());
@@ -434,6 +440,9 @@ class GltfLoader {
     int texture_source(const tg::Texture& t, const std::string& what);
     glm::vec3 volume_absorption(const tg::ExtensionMap& ext, const Material& m,
                                 const std::string& what);
+    class MaterialUv;
+    void material_layers(const tg::ExtensionMap& ext, Material& m, MaterialUv& uv,
+                         const std::string& what);
     glm::dmat3 texture_transform(const tg::ExtensionMap& ext, int& tex_coord,
                                  const std::string& what) const;
 
@@ -719,6 +728,7 @@ void GltfLoader::convert_materials() {
                                g.normalTexture.extensions, false, "normalTexture");
         m.tex_emission = uv.slot(*this, g.emissiveTexture.index, g.emissiveTexture.texCoord,
                                  g.emissiveTexture.extensions, true, "emissiveTexture");
+        material_layers(g.extensions, m, uv, what);
         uv_transforms_.push_back(uv.transform(*this));
         // alphaMode MASK: the cutoff against texture alpha, the factor folded in.
         if (g.alphaMode == "MASK" && g.alphaCutoff > 0.0) {
@@ -729,6 +739,8 @@ void GltfLoader::convert_materials() {
         if (extension_number(g.extensions, kTransmission, "transmissionFactor", 0.0) > 0.5) {
             // Smooth glass is the limit of roughness 0, traced exactly.
             m.type = pbr.roughnessFactor <= 0.01 ? MaterialType::Glass : MaterialType::RoughGlass;
+        } else if (m.has_clearcoat() || m.has_sheen()) {
+            m.type = MaterialType::Pbr;  // layers over metallic-roughness
         } else if (pbr.metallicFactor >= 1.0 && pbr.roughnessFactor <= 0.01 &&
                    m.tex_metal_rough < 0) {
             m.type = MaterialType::Mirror;  // the limit of roughness 0, traced exactly
@@ -739,6 +751,92 @@ void GltfLoader::convert_materials() {
         }
         m.absorption = volume_absorption(g.extensions, m, what);
         scene_.add_material(m);
+    }
+}
+
+// A number of a material extension in [0, 1] (`fallback` when absent).
+double unit_number(const tg::Value& ext, const char* key, double fallback,
+                   const std::string& label) {
+    if (!ext.Has(key)) return fallback;
+    const tg::Value& v = ext.Get(key);
+    if (!v.IsNumber() || !(v.GetNumberAsDouble() >= 0) || !(v.GetNumberAsDouble() <= 1))
+        throw std::invalid_argument(label + ": '" + key + "' must be a number in [0, 1]");
+    return v.GetNumberAsDouble();
+}
+
+// A textureInfo inside a material extension: index (-1: none), texCoord, its extensions.
+struct ExtensionTexture {
+    int index = -1, tex_coord = 0;
+    tg::ExtensionMap extensions;
+};
+ExtensionTexture extension_texture(const tg::Value& ext, const char* key,
+                                   const std::string& label) {
+    ExtensionTexture t;
+    if (!ext.Has(key)) return t;
+    const tg::Value& v = ext.Get(key);
+    const auto index_of = [&](const char* name, int fallback) {
+        if (!v.Has(name)) return fallback;
+        const tg::Value& i = v.Get(name);
+        if (!i.IsInt() || i.GetNumberAsInt() < 0)
+            throw std::invalid_argument(label + ": " + key + "." + name + " must be an index >= 0");
+        return i.GetNumberAsInt();
+    };
+    if (!v.IsObject() || !v.Has("index"))
+        throw std::invalid_argument(label + ": '" + key + "' must be an object with an index");
+    t.index = index_of("index", -1);
+    t.tex_coord = index_of("texCoord", 0);
+    if (v.Has("extensions") && v.Get("extensions").IsObject())
+        for (const std::string& name : v.Get("extensions").Keys())
+            t.extensions[name] = v.Get("extensions").Get(name);
+    return t;
+}
+
+// KHR_materials_clearcoat and KHR_materials_sheen: factors in [0, 1] and their textures (the
+// coat's normal texture is not read: the coat takes the base's shading normal).
+void GltfLoader::material_layers(const tg::ExtensionMap& ext, Material& m, MaterialUv& uv,
+                                 const std::string& what) {
+    const auto texture = [&](const tg::Value& x, const char* key, bool srgb,
+                             const std::string& label) {
+        const ExtensionTexture t = extension_texture(x, key, label);
+        return uv.slot(*this, t.index, t.tex_coord, t.extensions, srgb, key);
+    };
+    try {
+        if (const auto it = ext.find(kClearcoat); it != ext.end() && it->second.IsObject()) {
+            const tg::Value& x = it->second;
+            const std::string label = what + " " + kClearcoat;
+            m.clearcoat = float(unit_number(x, "clearcoatFactor", 0.0, label));
+            m.clearcoat_roughness = float(unit_number(x, "clearcoatRoughnessFactor", 0.0, label));
+            if (m.clearcoat > 0.f) {
+                m.tex_clearcoat = texture(x, "clearcoatTexture", false, label);
+                m.tex_clearcoat_roughness = texture(x, "clearcoatRoughnessTexture", false, label);
+                if (x.Has("clearcoatNormalTexture"))
+                    warn_once("coat normal", "clearcoatNormalTexture is not used (the coat "
+                                             "takes the base's normal), e.g. " + what);
+            }
+        }
+        if (const auto it = ext.find(kSheen); it != ext.end() && it->second.IsObject()) {
+            const tg::Value& x = it->second;
+            const std::string label = what + " " + kSheen;
+            if (x.Has("sheenColorFactor")) {
+                const tg::Value& c = x.Get("sheenColorFactor");
+                if (!c.IsArray() || c.ArrayLen() != 3)
+                    fail(label + ": 'sheenColorFactor' must be three numbers in [0, 1]");
+                for (int k = 0; k < 3; ++k) {
+                    const tg::Value& v = c.Get(k);
+                    if (!v.IsNumber() || !(v.GetNumberAsDouble() >= 0) ||
+                        !(v.GetNumberAsDouble() <= 1))
+                        fail(label + ": 'sheenColorFactor' must be three numbers in [0, 1]");
+                    m.sheen_color[k] = float(v.GetNumberAsDouble());
+                }
+            }
+            m.sheen_roughness = float(unit_number(x, "sheenRoughnessFactor", 0.0, label));
+            if (m.has_sheen()) {
+                m.tex_sheen_color = texture(x, "sheenColorTexture", true, label);
+                m.tex_sheen_roughness = texture(x, "sheenRoughnessTexture", false, label);
+            }
+        }
+    } catch (const std::invalid_argument& e) {
+        fail(e.what());
     }
 }
 

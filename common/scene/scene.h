@@ -33,6 +33,16 @@ struct Material {
     // Glass and RoughGlass: the inside's absorption coefficient per unit length (Beer-Lambert;
     // glTF KHR_materials_volume: -ln(attenuationColor) / attenuationDistance); 0: clear.
     glm::vec3 absorption{0.f};
+    // Pbr: KHR_materials_clearcoat (a clear GGX coat of ior 1.5: weight, 0 none; perceptual
+    // roughness) and KHR_materials_sheen (color, 0 none; roughness), with their textures (-1:
+    // none): clearcoat (r), clearcoat roughness (g), sheen color (rgb), sheen roughness (a).
+    float clearcoat = 0.f, clearcoat_roughness = 0.f;
+    glm::vec3 sheen_color{0.f};
+    float sheen_roughness = 0.f;
+    int tex_clearcoat = -1, tex_clearcoat_roughness = -1, tex_sheen_color = -1,
+        tex_sheen_roughness = -1;
+    bool has_clearcoat() const { return clearcoat > 0.f; }
+    bool has_sheen() const { return sheen_color.x > 0.f || sheen_color.y > 0.f || sheen_color.z > 0.f; }
     bool is_emissive() const { return emission.x > 0.f || emission.y > 0.f || emission.z > 0.f; }
 };
 
