@@ -261,7 +261,7 @@ TEST(GltfLoader, BinaryGlb) {
 
 TEST(GltfLoader, UnsupportedFeaturesWarnOnce) {
     Gltf g = quad_gltf();
-    g.doc["extensionsUsed"] = {"KHR_materials_clearcoat", "KHR_materials_sheen"};
+    g.doc["extensionsUsed"] = {"KHR_materials_iridescence", "KHR_materials_anisotropy"};
     g.doc["images"] = {{{"uri", "data:image/png;base64,AAAA"}}};  // never decoded
     g.doc["textures"] = {{{"source", 0}}};
     g.doc["materials"][0]["occlusionTexture"] = {{"index", 0}};
@@ -276,7 +276,7 @@ TEST(GltfLoader, UnsupportedFeaturesWarnOnce) {
     Scene s = load_gltf(g.write("warnings.gltf"));
     EXPECT_EQ(s.triangles.size(), 2u);
     for (const char* w :
-         {"KHR_materials_clearcoat", "KHR_materials_sheen", "occlusion textures are not used",
+         {"KHR_materials_iridescence", "KHR_materials_anisotropy", "occlusion textures are not used",
           "alphaMode BLEND", "LINES", "morph targets", "skins", "animations"})
         EXPECT_TRUE(has_warning(s, w)) << w << " in " << ::testing::PrintToString(s.warnings);
     EXPECT_EQ(s.warnings.size(), 8u) << ::testing::PrintToString(s.warnings);
@@ -555,10 +555,10 @@ TEST(GltfLoader, QuantizedAttributes) {
 
 TEST(GltfLoader, UnsupportedRequiredExtension) {
     Gltf g = quad_gltf();
-    g.doc["extensionsUsed"] = {"KHR_materials_sheen"};
-    g.doc["extensionsRequired"] = {"KHR_materials_sheen"};
-    std::string e = load_error(g.write("sheen.gltf"));
-    EXPECT_NE(e.find("KHR_materials_sheen"), std::string::npos) << e;
+    g.doc["extensionsUsed"] = {"KHR_materials_iridescence"};
+    g.doc["extensionsRequired"] = {"KHR_materials_iridescence"};
+    std::string e = load_error(g.write("iridescence.gltf"));
+    EXPECT_NE(e.find("KHR_materials_iridescence"), std::string::npos) << e;
     EXPECT_NE(e.find("requires unsupported"), std::string::npos) << e;
     // KTX2 textures: named, with what to do instead.
     g.doc["extensionsUsed"] = {"KHR_texture_basisu"};
@@ -669,6 +669,53 @@ TEST(GltfLoader, VolumeAbsorption) {
     m["extensions"]["KHR_materials_volume"]["attenuationDistance"] = 0;
     e = load_error(g.write("bad_distance.gltf"));
     EXPECT_NE(e.find("attenuationDistance > 0"), std::string::npos) << e;
+}
+
+// KHR_materials_clearcoat and KHR_materials_sheen: factors, textures, and the material they
+// make (metallic-roughness with layers, even where it would have been a mirror).
+TEST(GltfLoader, ClearcoatAndSheen) {
+    Gltf g = quad_gltf();
+    json& m = g.doc["materials"][0];
+    m["pbrMetallicRoughness"] = {{"metallicFactor", 1}, {"roughnessFactor", 0}};
+    g.doc["images"] = {{{"uri", "data:image/png;base64," + base64(encode_png8(2, 1, {255, 0, 0, 0, 0, 255}))}}};
+    g.doc["textures"] = {{{"source", 0}}};
+    m["extensions"]["KHR_materials_clearcoat"] = {{"clearcoatFactor", 0.5},
+                                                  {"clearcoatRoughnessFactor", 0.25},
+                                                  {"clearcoatRoughnessTexture", {{"index", 0}}},
+                                                  {"clearcoatNormalTexture", {{"index", 0}}}};
+    m["extensions"]["KHR_materials_sheen"] = {{"sheenColorFactor", {1, 0.5, 0.25}},
+                                              {"sheenRoughnessFactor", 0.75}};
+    g.doc["extensionsUsed"] = {"KHR_materials_clearcoat", "KHR_materials_sheen"};
+    Scene s = load_gltf(g.write("layers.gltf"));
+    const Material& l = s.materials[0];
+    EXPECT_EQ(l.type, MaterialType::Pbr);
+    EXPECT_FLOAT_EQ(l.clearcoat, 0.5f);
+    EXPECT_FLOAT_EQ(l.clearcoat_roughness, 0.25f);
+    EXPECT_EQ(l.tex_clearcoat, -1);
+    EXPECT_GE(l.tex_clearcoat_roughness, 0);
+    expect_vec(l.sheen_color, {1, 0.5, 0.25});
+    EXPECT_FLOAT_EQ(l.sheen_roughness, 0.75f);
+    EXPECT_TRUE(has_warning(s, "clearcoatNormalTexture is not used"))
+        << ::testing::PrintToString(s.warnings);
+    // Without layers the same factors make the mirror.
+    m.erase("extensions");
+    EXPECT_EQ(load_gltf(g.write("mirror.gltf")).materials[0].type, MaterialType::Mirror);
+    // Factors outside [0, 1] and a texture without an index: errors naming the material.
+    m["extensions"]["KHR_materials_clearcoat"] = {{"clearcoatFactor", 1.5}};
+    std::string e = load_error(g.write("bad_coat.gltf"));
+    EXPECT_NE(e.find("KHR_materials_clearcoat: 'clearcoatFactor' must be a number in [0, 1]"),
+              std::string::npos)
+        << e;
+    m["extensions"]["KHR_materials_clearcoat"] = {{"clearcoatFactor", 1},
+                                                  {"clearcoatTexture", {{"texCoord", 0}}}};
+    e = load_error(g.write("bad_coat_texture.gltf"));
+    EXPECT_NE(e.find("'clearcoatTexture' must be an object with an index"), std::string::npos)
+        << e;
+    m["extensions"].erase("KHR_materials_clearcoat");
+    m["extensions"]["KHR_materials_sheen"] = {{"sheenColorFactor", {1, -0.5, 0}}};
+    e = load_error(g.write("bad_sheen.gltf"));
+    EXPECT_NE(e.find("'sheenColorFactor' must be three numbers in [0, 1]"), std::string::npos)
+        << e;
 }
 
 // Hand-checked files shipped with the tests.

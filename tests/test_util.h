@@ -2,6 +2,7 @@
 #pragma once
 
 #include <gtest/gtest.h>
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <memory>
@@ -95,6 +96,28 @@ inline MeanEstimate pooled_mean(const RenderResult& r) {
     // Channels of one sample are correlated (grey scene): count samples, not channels.
     e.std_error = std::sqrt(var / (n / 3));
     return e;
+}
+
+// Channel c's mean over every sample and its standard error.
+struct ChannelMean {
+    double mean = 0, std_error = 0;
+    // Within 4.5 standard errors of `expected`, and within 1e-5 of it where the samples barely
+    // vary (the clear channel: every path brings back exactly the background, up to rounding).
+    bool near(double expected) const {
+        return std::abs(mean - expected) <= 4.5 * std_error + 1e-5 * expected;
+    }
+    double z(double expected) const { return (mean - expected) / std_error; }
+};
+inline ChannelMean channel_mean(const RenderResult& res, int c) {
+    double n = 0, s = 0, s2 = 0;
+    for (size_t i = 0; i < res.nonfinite.size(); ++i) {
+        n += double(res.spp) - res.nonfinite[i];
+        s += res.sum[3 * i + size_t(c)], s2 += res.sum_sq[3 * i + size_t(c)];
+    }
+    ChannelMean m;
+    m.mean = s / n;
+    m.std_error = std::sqrt(std::max(0.0, (s2 / n - m.mean * m.mean) * n / (n - 1)) / n);
+    return m;
 }
 
 }  // namespace mcpt::test

@@ -57,28 +57,6 @@ double exact(double sigma) {
     return r + t * t * tau / (1 - r * tau);
 }
 
-// Channel c's mean over every sample and its standard error.
-struct ChannelMean {
-    double mean = 0, std_error = 0;
-    // Within 4.5 standard errors of `expected`, and within 1e-5 of it where the samples barely
-    // vary (the clear channel: every path brings back exactly the background, up to rounding).
-    bool near(double expected) const {
-        return std::abs(mean - expected) <= 4.5 * std_error + 1e-5 * expected;
-    }
-    double z(double expected) const { return (mean - expected) / std_error; }
-};
-ChannelMean channel_mean(const RenderResult& res, int c) {
-    double n = 0, s = 0, s2 = 0;
-    for (size_t i = 0; i < res.nonfinite.size(); ++i) {
-        n += double(res.spp) - res.nonfinite[i];
-        s += res.sum[3 * i + size_t(c)], s2 += res.sum_sq[3 * i + size_t(c)];
-    }
-    ChannelMean m;
-    m.mean = s / n;
-    m.std_error = std::sqrt(std::max(0.0, (s2 / n - m.mean * m.mean) * n / (n - 1)) / n);
-    return m;
-}
-
 class Volume : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(Volume, SlabTransmitsExactlyAndADistanceFivePercentLongerIsRejected) {
@@ -90,14 +68,14 @@ TEST_P(Volume, SlabTransmitsExactlyAndADistanceFivePercentLongerIsRejected) {
     EXPECT_EQ(r.nonfinite_total, 0u);
     const double sigmas[3] = {kSigma / 3, kSigma, 0};
     for (int c = 0; c < 3; ++c) {
-        const ChannelMean m = channel_mean(r, c);
+        const test::ChannelMean m = test::channel_mean(r, c);
         EXPECT_TRUE(m.near(exact(sigmas[c])))
             << api << " channel " << c << ": " << m.mean << " against " << exact(sigmas[c])
             << ", z " << m.z(exact(sigmas[c]));
     }
     // Control: attenuationDistance x 1.05.
     const RenderResult control = test::render_case(api, slab(kSigma / 1.05f), 16, how);
-    const double z = channel_mean(control, 1).z(exact(kSigma));
+    const double z = test::channel_mean(control, 1).z(exact(kSigma));
     EXPECT_GT(z, 6.0) << api << ": the control's z " << z;
 }
 

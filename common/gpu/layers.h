@@ -17,6 +17,14 @@
 
 MCPT_NAMESPACE_BEGIN
 
+// The sheen's albedo table: a constant array in C++ and OpenCL C; GLSL reads the copy the host
+// put after texels_word (lavapipe took minutes to compile the array as a GLSL constant).
+#if defined(MCPT_GLSL)
+#define SHEEN_ALBEDO_AT(i) uintBitsToFloat(SCENE_WORD(params.sheen_albedo_word + (i)))
+#else
+#define SHEEN_ALBEDO_AT(i) SHEEN_ALBEDO[i]
+#endif
+
 // ------------------------------------------------------------------------------- sheen
 
 // Charlie's distribution of a unit half vector: (2 + 1/alpha) sin^(1/alpha) / (2 pi).
@@ -60,8 +68,9 @@ MCPT_FN float sheen_albedo(float cos_t, float roughness) {
     uint x0 = min(U32(x), SHEEN_ALBEDO_COS - 2u), y0 = min(U32(y), SHEEN_ALBEDO_ROUGHNESS - 2u);
     float ax = x - F32(x0), ay = y - F32(y0);
     uint i = y0 * SHEEN_ALBEDO_COS + x0;
-    float top = mix(SHEEN_ALBEDO[i], SHEEN_ALBEDO[i + 1u], ax);
-    float bottom = mix(SHEEN_ALBEDO[i + SHEEN_ALBEDO_COS], SHEEN_ALBEDO[i + SHEEN_ALBEDO_COS + 1u], ax);
+    float top = mix(SHEEN_ALBEDO_AT(i), SHEEN_ALBEDO_AT(i + 1u), ax);
+    float bottom =
+        mix(SHEEN_ALBEDO_AT(i + SHEEN_ALBEDO_COS), SHEEN_ALBEDO_AT(i + SHEEN_ALBEDO_COS + 1u), ax);
     return mix(top, bottom, ay);
 }
 

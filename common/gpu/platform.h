@@ -59,7 +59,8 @@ inline float fmax3(float a, float b, float c) { return std::max(a, std::max(b, c
 #define MCPT_GLOBAL
 #define MCPT_CONST_BUF const
 #define MCPT_PRECISE  // the build compiles with -ffp-contract=off
-// A table of constants: MCPT_TABLE(float, NAME, n) v0, v1, ... MCPT_TABLE_END;
+// A table of constants (C++ and OpenCL C; not GLSL, where drivers may compile a large one
+// into a chain of selects): MCPT_TABLE(float, NAME, n) v0, v1, ... MCPT_TABLE_END;
 #define MCPT_TABLE(type, name, n) inline constexpr type name[n] = {
 #define MCPT_TABLE_END }
 
@@ -104,8 +105,6 @@ inline float fmax3(float a, float b, float c) { return std::max(a, std::max(b, c
 #define MCPT_GLOBAL
 #define MCPT_CONST_BUF
 #define MCPT_PRECISE precise  // SPIR-V NoContraction: no fused multiply-add
-#define MCPT_TABLE(type, name, n) const type name[n] = type[n](
-#define MCPT_TABLE_END )
 #endif
 
 #endif  // MCPT_GPU_PLATFORM_H

@@ -291,7 +291,10 @@ MCPT_STRUCT(GpuParams) {
     uint light_tree_word, light_trails_word;
     float light_tree_pmf, light_tree_eps2;
     uint num_tree_lights;
-    uint pad_params0, pad_params1, pad_params2, pad_params3;  // std140: a multiple of 16 bytes
+    // FEATURE_SHEEN: the sheen's albedo table (sheen_albedo_table.h), words after texels_word,
+    // where GLSL reads it (layers.h; a constant array there took lavapipe minutes to compile).
+    uint sheen_albedo_word;
+    uint pad_params1, pad_params2, pad_params3;  // std140: a multiple of 16 bytes
 };
 // GpuParams.scene_flags: the triangle buffer holds GpuTriangleAttributes after the triangles;
 // some material has an alpha mask (the traversal reads materials only then).

@@ -12,6 +12,8 @@
 
 MCPT_NAMESPACE_BEGIN
 
+// (GLSL reads the host's copy of the table: layers.h.)
+#if !defined(MCPT_GLSL)
 // clang-format off
 MCPT_TABLE(float, SHEEN_ALBEDO, 512)
     1.571994e+00f, 1.644514e+00f, 1.631709e+00f, 1.545070e+00f, 1.412590e+00f, 1.249227e+00f, 1.067606e+00f, 8.792384e-01f,
@@ -80,6 +82,7 @@ MCPT_TABLE(float, SHEEN_ALBEDO, 512)
     3.062984e-01f, 2.842325e-01f, 2.629923e-01f, 2.423489e-01f, 2.221471e-01f, 2.023030e-01f, 1.828118e-01f, 1.637644e-01f
 MCPT_TABLE_END;
 // clang-format on
+#endif
 
 MCPT_NAMESPACE_END
 

@@ -7,6 +7,7 @@
 #include <numeric>
 
 #include "common/error.h"
+#include "common/gpu/sheen_albedo_table.h"
 #include "common/render/light_tree.h"
 #include "common/render/scene_features.h"
 #include "common/scene/environment.h"
@@ -27,51 +28,6 @@ void align_texels16(GpuScene& g) {
     while ((g.params.texels_word + g.texels.size()) % 4 != 0) g.texels.push_back(0);
 }
 
-gpu::GpuMaterial pack_material(const Material& m) {
-    gpu::GpuMaterial g{};
-    g.r = m.color.x, g.g = m.color.y, g.b = m.color.z;
-    g.type = static_cast<uint32_t>(m.type);
-    if (m.two_sided && m.is_emissive()) g.type |= MAT_TWO_SIDED;
-    g.er = m.emission.x, g.eg = m.emission.y, g.eb = m.emission.z;
-    g.ior = m.ior;
-    g.metallic = m.metallic;
-    g.alpha = std::max(m.roughness * m.roughness, MIN_GGX_ALPHA);
-    g.specular = m.specular;
-    g.alpha_cutoff = m.alpha_cutoff;
-    // Absorbing glass: the largest channel, and each over it in steps of 1/1023, in the fields
-    // glass does not read (material_sigma in gpu/bsdf.h).
-    const float sigma_max = std::max({m.absorption.x, m.absorption.y, m.absorption.z});
-    if ((m.type == MaterialType::Glass || m.type == MaterialType::RoughGlass) && sigma_max > 0.f) {
-        g.type |= MAT_VOLUME;
-        g.metallic = sigma_max;
-        uint32_t bits = 0;
-        for (int c = 0; c < 3; ++c)
-            bits |= uint32_t(std::lround(std::clamp(m.absorption[c] / sigma_max, 0.f, 1.f) *
-                                         1023.f))
-                    << (10 * c);
-        std::memcpy(&g.specular, &bits, 4);
-    }
-    const auto tex = [](int i) { return i < 0 ? NO_TEXTURE : uint32_t(i); };
-    g.tex_base = tex(m.tex_base);
-    g.tex_metal_rough = tex(m.tex_metal_rough);
-    g.tex_normal = tex(m.tex_normal);
-    g.tex_emission = tex(m.tex_emission);
-    // Layers over metallic-roughness: a coat (GGX alpha as the base's) and a sheen.
-    const auto tex16 = [](int i) { return i < 0 ? NO_TEXTURE16 : uint32_t(i); };
-    g.tex_clearcoat = g.tex_sheen = NO_TEXTURE;
-    if (m.type == MaterialType::Pbr && m.has_clearcoat()) {
-        g.clearcoat = std::min(m.clearcoat, 1.f);
-        g.clearcoat_alpha =
-            std::max(m.clearcoat_roughness * m.clearcoat_roughness, MIN_GGX_ALPHA);
-        g.tex_clearcoat = tex16(m.tex_clearcoat) | (tex16(m.tex_clearcoat_roughness) << 16);
-    }
-    if (m.type == MaterialType::Pbr && m.has_sheen()) {
-        g.sheen_r = m.sheen_color.x, g.sheen_g = m.sheen_color.y, g.sheen_b = m.sheen_color.z;
-        g.sheen_roughness = std::clamp(m.sheen_roughness, MIN_SHEEN_ROUGHNESS, 1.f);
-        g.tex_sheen = tex16(m.tex_sheen_color) | (tex16(m.tex_sheen_roughness) << 16);
-    }
-    return g;
-}
 
 double mean_emission(const Material& m) {
     return (double(m.emission.x) + double(m.emission.y) + double(m.emission.z)) / 3.0;
@@ -308,6 +264,52 @@ void pack_light_tree(const Scene& scene, const std::vector<double>& weights,
 
 }  // namespace
 
+gpu::GpuMaterial pack_material(const Material& m) {
+    gpu::GpuMaterial g{};
+    g.r = m.color.x, g.g = m.color.y, g.b = m.color.z;
+    g.type = static_cast<uint32_t>(m.type);
+    if (m.two_sided && m.is_emissive()) g.type |= MAT_TWO_SIDED;
+    g.er = m.emission.x, g.eg = m.emission.y, g.eb = m.emission.z;
+    g.ior = m.ior;
+    g.metallic = m.metallic;
+    g.alpha = std::max(m.roughness * m.roughness, MIN_GGX_ALPHA);
+    g.specular = m.specular;
+    g.alpha_cutoff = m.alpha_cutoff;
+    // Absorbing glass: the largest channel, and each over it in steps of 1/1023, in the fields
+    // glass does not read (material_sigma in gpu/bsdf.h).
+    const float sigma_max = std::max({m.absorption.x, m.absorption.y, m.absorption.z});
+    if ((m.type == MaterialType::Glass || m.type == MaterialType::RoughGlass) && sigma_max > 0.f) {
+        g.type |= MAT_VOLUME;
+        g.metallic = sigma_max;
+        uint32_t bits = 0;
+        for (int c = 0; c < 3; ++c)
+            bits |= uint32_t(std::lround(std::clamp(m.absorption[c] / sigma_max, 0.f, 1.f) *
+                                         1023.f))
+                    << (10 * c);
+        std::memcpy(&g.specular, &bits, 4);
+    }
+    const auto tex = [](int i) { return i < 0 ? NO_TEXTURE : uint32_t(i); };
+    g.tex_base = tex(m.tex_base);
+    g.tex_metal_rough = tex(m.tex_metal_rough);
+    g.tex_normal = tex(m.tex_normal);
+    g.tex_emission = tex(m.tex_emission);
+    // Layers over metallic-roughness: a coat (GGX alpha as the base's) and a sheen.
+    const auto tex16 = [](int i) { return i < 0 ? NO_TEXTURE16 : uint32_t(i); };
+    g.tex_clearcoat = g.tex_sheen = NO_TEXTURE;
+    if (m.type == MaterialType::Pbr && m.has_clearcoat()) {
+        g.clearcoat = std::min(m.clearcoat, 1.f);
+        g.clearcoat_alpha =
+            std::max(m.clearcoat_roughness * m.clearcoat_roughness, MIN_GGX_ALPHA);
+        g.tex_clearcoat = tex16(m.tex_clearcoat) | (tex16(m.tex_clearcoat_roughness) << 16);
+    }
+    if (m.type == MaterialType::Pbr && m.has_sheen()) {
+        g.sheen_r = m.sheen_color.x, g.sheen_g = m.sheen_color.y, g.sheen_b = m.sheen_color.z;
+        g.sheen_roughness = std::clamp(m.sheen_roughness, MIN_SHEEN_ROUGHNESS, 1.f);
+        g.tex_sheen = tex16(m.tex_sheen_color) | (tex16(m.tex_sheen_roughness) << 16);
+    }
+    return g;
+}
+
 size_t GpuScene::device_bytes() const {
     return nodes.size() * sizeof(gpu::KdNode) + leaf_indices.size() * 4 +
            triangles.size() * sizeof(gpu::GpuTriangle) + spheres.size() * sizeof(gpu::GpuSphere) +
@@ -461,6 +463,13 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
     p.light_power_total = float(total);
     pack_punctual_and_environment(scene, env_weights, g);
     if (scene.light_tree) pack_light_tree(scene, weights, prims, g);
+    // The sheen's albedo table, where a material has a sheen (GLSL reads it there: layers.h).
+    for (const gpu::GpuMaterial& m : g.materials) {
+        if (std::max({m.sheen_r, m.sheen_g, m.sheen_b}) <= 0.f) continue;
+        p.sheen_albedo_word = uint32_t(g.texels.size());
+        for (float e : gpu::SHEEN_ALBEDO) g.texels.push_back(float_word(e));
+        break;
+    }
     static_assert(Scene::kLampChoiceMax == LIGHT_CONTRIBUTION_MAX, "one limit, two names");
     if (scene.light_by_contribution) {
         if (scene.light_tree || !scene.lamp_choice_possible())

@@ -49,6 +49,8 @@ std::vector<uint32_t> triangle_buffer(const GpuScene& scene);
 
 // A unit vector in octahedral snorm16x2 form (gpu::normal_from_oct decodes it).
 uint32_t oct_encode(glm::vec3 n);
+// A scene material as the devices read it.
+gpu::GpuMaterial pack_material(const Material& m);
 
 // The accumulation buffer of an image of npix pixels on a device whose largest buffer is
 // max_buffer_bytes (MemoryLimits::max_buffer_bytes; 0 = unknown): the sums of every pixel and
