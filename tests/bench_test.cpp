@@ -76,7 +76,7 @@ TEST(BenchCli, SpecializeTableHasEveryScene) {
     ASSERT_EQ(r.status, 0) << r.output;
     const std::string kMaterialBits =
         "microfacet, shading normals, textures, alpha mask, punctual lights, environment, "
-        "light tree, wide BVH, lights by contribution, volume";
+        "light tree, wide BVH, lights by contribution, volume, clearcoat, sheen";
     const std::string expected[][2] = {
         {"walls only (diffuse mesh)", "spheres, mirror, glass, sphere lights, " + kMaterialBits},
         {"cornell", "sphere lights, " + kMaterialBits},

@@ -27,7 +27,7 @@ inline vec3 outgoing(float cos_o) {
 // The integral of g over the upper hemisphere: a midpoint rule in (theta, phi), fine enough
 // for lobes down to alpha = 0.04.
 inline double hemisphere_integral(const std::function<double(vec3)>& g, int n_theta = 600,
-                           int n_phi = 600) {
+                                  int n_phi = 600) {
     const double dt = 0.5 * kPi / n_theta, dp = 2 * kPi / n_phi;
     double sum = 0;
     for (int i = 0; i < n_theta; ++i) {
@@ -46,7 +46,7 @@ inline double hemisphere_integral(const std::function<double(vec3)>& g, int n_th
 using SampleFn = std::function<vec3(vec3 u)>;
 using PdfFn = std::function<float(vec3 wi)>;
 inline double direction_p_value(const SampleFn& sample, const PdfFn& pdf, int bands, float cos_lo,
-                         unsigned seed, int n = 400000) {
+                                unsigned seed, int n = 400000) {
     const int nc = bands, np = 48;
     const float span = 1.f - cos_lo;
     std::vector<double> observed(nc * np + 1, 0.0), expected(nc * np + 1, 0.0);

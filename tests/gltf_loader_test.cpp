@@ -275,9 +275,9 @@ TEST(GltfLoader, UnsupportedFeaturesWarnOnce) {
     g.doc["animations"] = {{{"channels", json::array()}, {"samplers", json::array()}}};
     Scene s = load_gltf(g.write("warnings.gltf"));
     EXPECT_EQ(s.triangles.size(), 2u);
-    for (const char* w :
-         {"KHR_materials_iridescence", "KHR_materials_anisotropy", "occlusion textures are not used",
-          "alphaMode BLEND", "LINES", "morph targets", "skins", "animations"})
+    for (const char* w : {"KHR_materials_iridescence", "KHR_materials_anisotropy",
+                          "occlusion textures are not used", "alphaMode BLEND", "LINES",
+                          "morph targets", "skins", "animations"})
         EXPECT_TRUE(has_warning(s, w)) << w << " in " << ::testing::PrintToString(s.warnings);
     EXPECT_EQ(s.warnings.size(), 8u) << ::testing::PrintToString(s.warnings);
 }
@@ -677,7 +677,8 @@ TEST(GltfLoader, ClearcoatAndSheen) {
     Gltf g = quad_gltf();
     json& m = g.doc["materials"][0];
     m["pbrMetallicRoughness"] = {{"metallicFactor", 1}, {"roughnessFactor", 0}};
-    g.doc["images"] = {{{"uri", "data:image/png;base64," + base64(encode_png8(2, 1, {255, 0, 0, 0, 0, 255}))}}};
+    g.doc["images"] = {
+        {{"uri", "data:image/png;base64," + base64(encode_png8(2, 1, {255, 0, 0, 0, 0, 255}))}}};
     g.doc["textures"] = {{{"source", 0}}};
     m["extensions"]["KHR_materials_clearcoat"] = {{"clearcoatFactor", 0.5},
                                                   {"clearcoatRoughnessFactor", 0.25},
@@ -709,13 +710,11 @@ TEST(GltfLoader, ClearcoatAndSheen) {
     m["extensions"]["KHR_materials_clearcoat"] = {{"clearcoatFactor", 1},
                                                   {"clearcoatTexture", {{"texCoord", 0}}}};
     e = load_error(g.write("bad_coat_texture.gltf"));
-    EXPECT_NE(e.find("'clearcoatTexture' must be an object with an index"), std::string::npos)
-        << e;
+    EXPECT_NE(e.find("'clearcoatTexture' must be an object with an index"), std::string::npos) << e;
     m["extensions"].erase("KHR_materials_clearcoat");
     m["extensions"]["KHR_materials_sheen"] = {{"sheenColorFactor", {1, -0.5, 0}}};
     e = load_error(g.write("bad_sheen.gltf"));
-    EXPECT_NE(e.find("'sheenColorFactor' must be three numbers in [0, 1]"), std::string::npos)
-        << e;
+    EXPECT_NE(e.find("'sheenColorFactor' must be three numbers in [0, 1]"), std::string::npos) << e;
 }
 
 // Hand-checked files shipped with the tests.

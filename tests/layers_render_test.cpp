@@ -77,16 +77,18 @@ TEST_P(LayersRender, PlaneUnderAUniformSkyIsItsAlbedoAndTenPercentMoreIsRejected
         const double e = exact(l, c);
         // (0.2 % for the quadrature and the view's 0.01 rad spread)
         EXPECT_LT(std::abs(m.mean - e), 4.5 * m.std_error + 2e-3 * e)
-            << api << " " << l.name << " channel " << c << ": " << m.mean << " +- "
-            << m.std_error << " against " << e;
-        std::printf("%s %s channel %d: %.5f +- %.5f, exact %.5f\n", api.c_str(), l.name, c,
-                    m.mean, m.std_error, e);
+            << api << " " << l.name << " channel " << c << ": " << m.mean << " +- " << m.std_error
+            << " against " << e;
+        std::printf("%s %s channel %d: %.5f +- %.5f, exact %.5f\n", api.c_str(), l.name, c, m.mean,
+                    m.std_error, e);
     }
     // Control: the layer 10 % stronger on the device only.
     how.plant = [&](GpuScene& g) {
         for (gpu::GpuMaterial& m : g.materials) {
-            if (l.sheen.x > 0) m.sheen_r *= 1.1f, m.sheen_g *= 1.1f, m.sheen_b *= 1.1f;
-            else m.clearcoat *= 1.1f;
+            if (l.sheen.x > 0)
+                m.sheen_r *= 1.1f, m.sheen_g *= 1.1f, m.sheen_b *= 1.1f;
+            else
+                m.clearcoat *= 1.1f;
         }
     };
     const RenderResult bad = test::render_case(api, plane(l), 16, how);

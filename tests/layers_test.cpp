@@ -47,8 +47,8 @@ double worst_table_error(const std::function<float(float cos, float roughness)>&
                     return double(sheen_lobe(wo, wi, normalize(wo + wi), roughness)) * wi.z;
                 },
                 400, 400);
-            const double error = std::fabs(lookup(cos_o, roughness) - exact) /
-                                 std::max(0.01, 0.03 * exact);
+            const double error =
+                std::fabs(lookup(cos_o, roughness) - exact) / std::max(0.01, 0.03 * exact);
             worst = std::max(worst, error);
         }
     }
@@ -70,8 +70,8 @@ struct Case {
 };
 
 const Case kCases[] = {
-    {"clearcoat over red plastic", layered(V3(0.8f, 0.1f, 0.1f), 0.f, 0.6f, 1.f, 0.1f, V3S(0.f), 0.f),
-     0.7f},
+    {"clearcoat over red plastic",
+     layered(V3(0.8f, 0.1f, 0.1f), 0.f, 0.6f, 1.f, 0.1f, V3S(0.f), 0.f), 0.7f},
     {"clearcoat 0.5, rough, over metal, grazing",
      layered(V3(0.9f, 0.7f, 0.3f), 1.f, 0.3f, 0.5f, 0.5f, V3S(0.f), 0.f), 0.2f},
     {"sheen over dark cloth", layered(V3S(0.1f), 0.f, 0.8f, 0.f, 0.f, V3(0.9f, 0.6f, 0.4f), 0.4f),
@@ -119,10 +119,12 @@ struct Albedo {
     double sampled = 0, sampled_error = 0, integrated = 0;
 };
 using PdfOf = std::function<float(const GpuMaterial&, vec3 wo, vec3 wi)>;
-float mixture_pdf(const GpuMaterial& m, vec3 wo, vec3 wi) { return coated_eval(m, wo, wi).pdf; }
+float mixture_pdf(const GpuMaterial& m, vec3 wo, vec3 wi) {
+    return coated_eval(m, wo, wi).pdf;
+}
 
-Albedo albedo(const GpuMaterial& m, float cos_o, const PdfOf& pdf_of = mixture_pdf,
-              int n = 200000, bool integrate = true) {
+Albedo albedo(const GpuMaterial& m, float cos_o, const PdfOf& pdf_of = mixture_pdf, int n = 200000,
+              bool integrate = true) {
     const vec3 wo = outgoing(cos_o);
     std::mt19937 rng(91);
     std::uniform_real_distribution<float> uni(0.f, 1.f);
@@ -195,7 +197,8 @@ TEST(Layers, WhiteFurnaceReflectsNoMoreThanItReceives) {
     const double added = hemisphere_integral(
         [&](vec3 wi) {
             const vec3 h = normalize(wo + wi);
-            const double coat = m.clearcoat * coat_fresnel(wo.z) * ggx_dv(wo, wi, h, m.clearcoat_alpha);
+            const double coat =
+                m.clearcoat * coat_fresnel(wo.z) * ggx_dv(wo, wi, h, m.clearcoat_alpha);
             return (mean_component(pbr_eval(bare, wo, wi).f) + coat) * wi.z;
         },
         900, 400);
@@ -224,7 +227,8 @@ TEST(Layers, ExactWithoutLayersAndOverBlack) {
         const double exact = 0.75 * coat_fresnel(cos_o);
         EXPECT_NEAR(a.sampled, exact, 2e-3 * exact) << "cos " << cos_o;
         // Control: the coat's Fresnel at the ior of water (F0 = 0.02) is not it.
-        EXPECT_GT(std::fabs(0.75 * (0.02 + 0.98 * std::pow(1 - cos_o, 5)) - a.sampled), 0.1 * exact);
+        EXPECT_GT(std::fabs(0.75 * (0.02 + 0.98 * std::pow(1 - cos_o, 5)) - a.sampled),
+                  0.1 * exact);
     }
 }
 

@@ -82,6 +82,27 @@ TEST(SceneFeatures, EachFeatureFoundAndNothingElse) {
     }
 }
 
+// Clearcoat and sheen on metallic-roughness: each its own bit (and textures where a layer has
+// one); on glass they are not read, so no bit.
+TEST(SceneFeatures, LayersFoundEachOnItsOwn) {
+    const auto with_layers = [](MaterialType type, float clearcoat, float sheen, int texture) {
+        Scene s = minimal_scene(false, false, type);
+        Material& m = s.materials[2];
+        m.clearcoat = clearcoat;
+        m.sheen_color = glm::vec3(sheen);
+        m.tex_sheen_roughness = texture;
+        if (texture >= 0) s.textures.push_back({"t", 1, 1, std::vector<uint16_t>(4, 0)});
+        return features_of(s, TreeKind::None);
+    };
+    const uint32_t layers = FEATURE_CLEARCOAT | FEATURE_SHEEN;
+    EXPECT_EQ(with_layers(MaterialType::Pbr, 1.f, 0.f, -1) & layers, FEATURE_CLEARCOAT);
+    EXPECT_EQ(with_layers(MaterialType::Pbr, 0.f, 0.5f, -1) & layers, FEATURE_SHEEN);
+    EXPECT_EQ(with_layers(MaterialType::Pbr, 0.f, 0.5f, 0) & (layers | FEATURE_TEXTURES),
+              FEATURE_SHEEN | FEATURE_TEXTURES);
+    EXPECT_EQ(with_layers(MaterialType::Glass, 1.f, 0.5f, 0) & (layers | FEATURE_TEXTURES), 0u);
+    EXPECT_EQ(with_layers(MaterialType::Pbr, 0.f, 0.f, -1) & layers, 0u);
+}
+
 TEST(SceneFeatures, UnusedMaterialsAreLeftOut) {
     Scene s = make_builtin_scene("cornell");
     s.spheres.clear();  // glass and mirror materials stay defined, but nothing uses them

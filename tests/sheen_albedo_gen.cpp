@@ -45,8 +45,10 @@ int main() {
         "// in its square root, row by row.\n"
         "// Written by tests/sheen_albedo_gen.cpp; do not edit.\n"
         "#ifndef MCPT_GPU_SHEEN_ALBEDO_TABLE_H\n#define MCPT_GPU_SHEEN_ALBEDO_TABLE_H\n\n"
-        "#include \"platform.h\"\n\n#define SHEEN_ALBEDO_COS %du\n#define SHEEN_ALBEDO_ROUGHNESS %du\n\n"
-        "MCPT_NAMESPACE_BEGIN\n\n// (GLSL reads the host's copy of the table: layers.h.)\n#if !defined(MCPT_GLSL)\n"
+        "#include \"platform.h\"\n\n#define SHEEN_ALBEDO_COS %du\n#define SHEEN_ALBEDO_ROUGHNESS "
+        "%du\n\n"
+        "MCPT_NAMESPACE_BEGIN\n\n// (GLSL reads the host's copy of the table: layers.h.)\n#if "
+        "!defined(MCPT_GLSL)\n"
         "// clang-format off\nMCPT_TABLE(float, SHEEN_ALBEDO, %d)\n",
         kCos, kRoughness, kCos, kRoughness, kCos * kRoughness);
     for (int r = 0; r < kRoughness; ++r) {
@@ -62,7 +64,8 @@ int main() {
                         last ? "\n" : (c % 8 == 7 ? ",\n" : ", "));
         }
     }
-    std::printf("MCPT_TABLE_END;\n// clang-format on\n#endif\n\nMCPT_NAMESPACE_END\n\n"
-                "#endif  // MCPT_GPU_SHEEN_ALBEDO_TABLE_H\n");
+    std::printf(
+        "MCPT_TABLE_END;\n// clang-format on\n#endif\n\nMCPT_NAMESPACE_END\n\n"
+        "#endif  // MCPT_GPU_SHEEN_ALBEDO_TABLE_H\n");
     return 0;
 }

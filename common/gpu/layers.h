@@ -43,9 +43,9 @@ MCPT_FN float sheen_lambda_fit(float x, float alpha) {
     return DIVF(a, 1.0f + b * pow(x, c)) + d * x + e;
 }
 MCPT_FN float sheen_lambda(float cos_t, float alpha) {
-    return cos_t < 0.5f ? exp(sheen_lambda_fit(cos_t, alpha))
-                        : exp(2.0f * sheen_lambda_fit(0.5f, alpha) -
-                              sheen_lambda_fit(1.0f - cos_t, alpha));
+    return cos_t < 0.5f
+               ? exp(sheen_lambda_fit(cos_t, alpha))
+               : exp(2.0f * sheen_lambda_fit(0.5f, alpha) - sheen_lambda_fit(1.0f - cos_t, alpha));
 }
 
 // The sheen lobe without its color: D V, V = 1 / ((1 + Lambda_o + Lambda_i) 4 cos_o cos_i)
@@ -62,9 +62,9 @@ MCPT_FN float sheen_lobe(vec3 wo, vec3 wi, vec3 h, float roughness) {
 // grazing angles and low roughness).
 MCPT_FN float sheen_albedo(float cos_t, float roughness) {
     float x = sqrt(clamp(cos_t, 0.0f, 1.0f)) * F32(SHEEN_ALBEDO_COS - 1u);
-    float y = sqrt(clamp(DIVF(roughness - MIN_SHEEN_ROUGHNESS, 1.0f - MIN_SHEEN_ROUGHNESS),
-                         0.0f, 1.0f)) *
-              F32(SHEEN_ALBEDO_ROUGHNESS - 1u);
+    float y =
+        sqrt(clamp(DIVF(roughness - MIN_SHEEN_ROUGHNESS, 1.0f - MIN_SHEEN_ROUGHNESS), 0.0f, 1.0f)) *
+        F32(SHEEN_ALBEDO_ROUGHNESS - 1u);
     uint x0 = min(U32(x), SHEEN_ALBEDO_COS - 2u), y0 = min(U32(y), SHEEN_ALBEDO_ROUGHNESS - 2u);
     float ax = x - F32(x0), ay = y - F32(y0);
     uint i = y0 * SHEEN_ALBEDO_COS + x0;
@@ -77,11 +77,15 @@ MCPT_FN float sheen_albedo(float cos_t, float roughness) {
 // ------------------------------------------------------------------------------- coat
 
 // The coat's Fresnel reflectance at cos_o (Schlick, ior 1.5: F0 = 0.04).
-MCPT_FN float coat_fresnel(float cos_o) { return 0.04f + 0.96f * pow5(1.0f - cos_o); }
+MCPT_FN float coat_fresnel(float cos_o) {
+    return 0.04f + 0.96f * pow5(1.0f - cos_o);
+}
 
 // ------------------------------------------------------------------------------- layers
 
-MCPT_FN vec3 sheen_color(GpuMaterial m) { return V3(m.sheen_r, m.sheen_g, m.sheen_b); }
+MCPT_FN vec3 sheen_color(GpuMaterial m) {
+    return V3(m.sheen_r, m.sheen_g, m.sheen_b);
+}
 MCPT_FN bool has_clearcoat(GpuMaterial m) {
     return HAS_FEATURE(FEATURE_CLEARCOAT) && m.clearcoat > 0.0f;
 }
@@ -123,8 +127,8 @@ MCPT_FN BsdfEval coated_eval(GpuMaterial m, vec3 wo, vec3 wi) {
     e.pdf *= c.base;
     if (sheen) {
         vec3 sc = sheen_color(m);
-        float e_max = MAXF(sheen_albedo(wo.z, m.sheen_roughness),
-                           sheen_albedo(wi.z, m.sheen_roughness));
+        float e_max =
+            MAXF(sheen_albedo(wo.z, m.sheen_roughness), sheen_albedo(wi.z, m.sheen_roughness));
         e.f = e.f * MAXF(0.0f, 1.0f - fmax3(sc.x, sc.y, sc.z) * e_max) +
               sc * sheen_lobe(wo, wi, h, m.sheen_roughness);
         e.pdf += c.sheen * wi.z * MCPT_INV_PI;

@@ -73,8 +73,7 @@ GpuMaterial load_material(uint i) {
                        uintBitsToFloat(b.w), uintBitsToFloat(c.x), uintBitsToFloat(c.y),
                        uintBitsToFloat(c.z), uintBitsToFloat(c.w), d.x, d.y, d.z, d.w,
                        uintBitsToFloat(e.x), uintBitsToFloat(e.y), uintBitsToFloat(e.z),
-                       uintBitsToFloat(e.w), uintBitsToFloat(f.x), uintBitsToFloat(f.y), f.z,
-                       f.w);
+                       uintBitsToFloat(e.w), uintBitsToFloat(f.x), uintBitsToFloat(f.y), f.z, f.w);
 }
 GpuLight load_light(uint i) {
     uint w = SHADING_LIGHTS_WORD(params.num_spheres, params.num_materials);
@@ -102,7 +101,8 @@ uvec2 triangle_word(uint w) {
 #define LEAF_INDEX(i) tree_words[2u * params.num_nodes + (i)]
 #define TRIANGLE_WORD(w) triangle_words[w]
 #define SPHERE(i) spheres[i]
-#define MATERIAL(i) shading_materials[SHADING_MATERIALS_WORD(params.num_spheres) / MATERIAL_WORDS + (i)]
+#define MATERIAL(i) \
+    shading_materials[SHADING_MATERIALS_WORD(params.num_spheres) / MATERIAL_WORDS + (i)]
 #define LIGHT(i) shading_lights[SHADING_LIGHTS_WORD(params.num_spheres, params.num_materials) / 4u + (i)]
 #endif
 // Traversal stack entries, from the tree depth, and the scene's features (specialization

@@ -60,7 +60,7 @@ MCPT_NAMESPACE_BEGIN
 #define FEATURE_ALL (16383u | 4128768u)  // bits 0-13 and 16-21: all but the two below
 #define FEATURE_TEST_NAN 16384u     // tests only: poison samples of pixels 0 and 1 (never in ALL)
 #define FEATURE_INDEPENDENT_SAMPLER 32768u  // independent uniforms, not Sobol (A/B, never in ALL)
-#define FEATURE_BITS 4194303u       // every bit above
+#define FEATURE_BITS 4194303u               // every bit above
 #define FEATURE_COUNT 22
 
 // The smallest GGX alpha a MAT_PBR material keeps (roughness 0.01): below it the lobe's peak
@@ -331,9 +331,9 @@ MCPT_STRUCT(GpuParams) {
 MCPT_NAMESPACE_END
 
 #if defined(MCPT_CPP)
-static_assert(FEATURE_ALL == ((FEATURE_ENVIRONMENT * 2u - 1u) | FEATURE_LIGHT_TREE | FEATURE_BVH |
-                              FEATURE_LIGHT_CONTRIBUTION | FEATURE_VOLUME | FEATURE_CLEARCOAT |
-                              FEATURE_SHEEN),
+static_assert(FEATURE_ALL ==
+                  ((FEATURE_ENVIRONMENT * 2u - 1u) | FEATURE_LIGHT_TREE | FEATURE_BVH |
+                   FEATURE_LIGHT_CONTRIBUTION | FEATURE_VOLUME | FEATURE_CLEARCOAT | FEATURE_SHEEN),
               "FEATURE_ALL: every feature but the two for tests and A/B runs");
 static_assert(sizeof(mcpt::gpu::KdNode) == 8, "KdNode must be 8 bytes");
 static_assert(sizeof(mcpt::gpu::BvhNode) == BVH_NODE_UNITS * 8, "BvhNode must be 224 bytes");

@@ -28,7 +28,6 @@ void align_texels16(GpuScene& g) {
     while ((g.params.texels_word + g.texels.size()) % 4 != 0) g.texels.push_back(0);
 }
 
-
 double mean_emission(const Material& m) {
     return (double(m.emission.x) + double(m.emission.y) + double(m.emission.z)) / 3.0;
 }
@@ -283,9 +282,9 @@ gpu::GpuMaterial pack_material(const Material& m) {
         g.metallic = sigma_max;
         uint32_t bits = 0;
         for (int c = 0; c < 3; ++c)
-            bits |= uint32_t(std::lround(std::clamp(m.absorption[c] / sigma_max, 0.f, 1.f) *
-                                         1023.f))
-                    << (10 * c);
+            bits |=
+                uint32_t(std::lround(std::clamp(m.absorption[c] / sigma_max, 0.f, 1.f) * 1023.f))
+                << (10 * c);
         std::memcpy(&g.specular, &bits, 4);
     }
     const auto tex = [](int i) { return i < 0 ? NO_TEXTURE : uint32_t(i); };
@@ -298,8 +297,7 @@ gpu::GpuMaterial pack_material(const Material& m) {
     g.tex_clearcoat = g.tex_sheen = NO_TEXTURE;
     if (m.type == MaterialType::Pbr && m.has_clearcoat()) {
         g.clearcoat = std::min(m.clearcoat, 1.f);
-        g.clearcoat_alpha =
-            std::max(m.clearcoat_roughness * m.clearcoat_roughness, MIN_GGX_ALPHA);
+        g.clearcoat_alpha = std::max(m.clearcoat_roughness * m.clearcoat_roughness, MIN_GGX_ALPHA);
         g.tex_clearcoat = tex16(m.tex_clearcoat) | (tex16(m.tex_clearcoat_roughness) << 16);
     }
     if (m.type == MaterialType::Pbr && m.has_sheen()) {

@@ -11,11 +11,28 @@ namespace mcpt {
 
 namespace {
 
-const char* const kFeatureNames[FEATURE_COUNT] = {
-    "triangles",     "spheres",  "diffuse",           "mirror", "glass", "triangle lights",
-    "sphere lights", "k-d tree", "microfacet", "shading normals", "textures", "alpha mask",
-    "punctual lights", "environment", "test NaN injection", "independent sampler",
-    "light tree", "wide BVH", "lights by contribution", "volume", "clearcoat", "sheen"};
+const char* const kFeatureNames[FEATURE_COUNT] = {"triangles",
+                                                  "spheres",
+                                                  "diffuse",
+                                                  "mirror",
+                                                  "glass",
+                                                  "triangle lights",
+                                                  "sphere lights",
+                                                  "k-d tree",
+                                                  "microfacet",
+                                                  "shading normals",
+                                                  "textures",
+                                                  "alpha mask",
+                                                  "punctual lights",
+                                                  "environment",
+                                                  "test NaN injection",
+                                                  "independent sampler",
+                                                  "light tree",
+                                                  "wide BVH",
+                                                  "lights by contribution",
+                                                  "volume",
+                                                  "clearcoat",
+                                                  "sheen"};
 
 // The features of a material: its kind, then its textures and alpha mask.
 uint32_t material_features(const gpu::GpuMaterial& m) {
@@ -27,7 +44,8 @@ uint32_t material_features(const gpu::GpuMaterial& m) {
     if (m.alpha_cutoff > 0.f) f |= FEATURE_ALPHA_MASK;
     if (m.type & MAT_VOLUME) f |= FEATURE_VOLUME;
     if ((m.type & MAT_KIND_MASK) == MAT_PBR && m.clearcoat > 0.f) f |= FEATURE_CLEARCOAT;
-    if ((m.type & MAT_KIND_MASK) == MAT_PBR && (m.sheen_r > 0.f || m.sheen_g > 0.f || m.sheen_b > 0.f))
+    if ((m.type & MAT_KIND_MASK) == MAT_PBR &&
+        (m.sheen_r > 0.f || m.sheen_g > 0.f || m.sheen_b > 0.f))
         f |= FEATURE_SHEEN;
     if ((m.tex_clearcoat & m.tex_sheen) != NO_TEXTURE) f |= FEATURE_TEXTURES;  // (all 1s: none)
     switch (m.type & MAT_KIND_MASK) {

@@ -96,8 +96,8 @@ const char* const kDraco = "KHR_draco_mesh_compression";
 bool supported_extension(const std::string& name) {
     return name == kEmissiveStrength || name == kTransmission || name == kIor ||
            name == kSpecular || name == kVolume || name == kClearcoat || name == kSheen ||
-           name == kLightsPunctual || name == kQuantization ||
-           name == kTextureTransform || (name == kTextureWebp && has_webp_decoder()) ||
+           name == kLightsPunctual || name == kQuantization || name == kTextureTransform ||
+           (name == kTextureWebp && has_webp_decoder()) ||
            (name == kMeshopt && GltfCompression::has_meshopt()) ||
            (name == kDraco && GltfCompression::has_draco());
 }
@@ -810,8 +810,10 @@ void GltfLoader::material_layers(const tg::ExtensionMap& ext, Material& m, Mater
                 m.tex_clearcoat = texture(x, "clearcoatTexture", false, label);
                 m.tex_clearcoat_roughness = texture(x, "clearcoatRoughnessTexture", false, label);
                 if (x.Has("clearcoatNormalTexture"))
-                    warn_once("coat normal", "clearcoatNormalTexture is not used (the coat "
-                                             "takes the base's normal), e.g. " + what);
+                    warn_once("coat normal",
+                              "clearcoatNormalTexture is not used (the coat "
+                              "takes the base's normal), e.g. " +
+                                  what);
             }
         }
         if (const auto it = ext.find(kSheen); it != ext.end() && it->second.IsObject()) {

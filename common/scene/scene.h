@@ -42,7 +42,9 @@ struct Material {
     int tex_clearcoat = -1, tex_clearcoat_roughness = -1, tex_sheen_color = -1,
         tex_sheen_roughness = -1;
     bool has_clearcoat() const { return clearcoat > 0.f; }
-    bool has_sheen() const { return sheen_color.x > 0.f || sheen_color.y > 0.f || sheen_color.z > 0.f; }
+    bool has_sheen() const {
+        return sheen_color.x > 0.f || sheen_color.y > 0.f || sheen_color.z > 0.f;
+    }
     bool is_emissive() const { return emission.x > 0.f || emission.y > 0.f || emission.z > 0.f; }
 };
 
