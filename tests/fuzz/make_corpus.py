@@ -108,6 +108,13 @@ def gltf_files():
     write("corpus", "gltf", "quad.glb", glb(scene_json(None, len(b)), b))
     write("corpus", "gltf", "quad_sparse.gltf", json.dumps(scene_json(data_uri(b), len(b), sparse=True)))
     write("corpus", "gltf", "quad_hierarchy.glb", glb(scene_json(None, len(b), hierarchy=True), b))
+    # The floor with glTF's material layers (clearcoat and sheen).
+    layers = scene_json(None, len(b))
+    layers["extensionsUsed"] += ["KHR_materials_clearcoat", "KHR_materials_sheen"]
+    layers["materials"][1]["extensions"] = {
+        "KHR_materials_clearcoat": {"clearcoatFactor": 1, "clearcoatRoughnessFactor": 0.2},
+        "KHR_materials_sheen": {"sheenColorFactor": [0.5, 0.5, 1], "sheenRoughnessFactor": 0.5}}
+    write("corpus", "gltf", "quad_layers.glb", glb(layers, b))
     # The box also as gltfpack -cc (meshopt, quantized) and gltf-transform draco wrote it.
     for name in ("cube_box.glb", "emissive_triangle.gltf", "cube_box_meshopt.glb",
                  "cube_box_draco.glb"):
