@@ -1,6 +1,6 @@
 // Checks of BSDFs written in the device dialect, run as C++ (microfacet_test.cpp,
-// layers_test.cpp): directions, a hemisphere's quadrature, and the chi-square of sampled
-// directions against their density.
+// layers_test.cpp): directions, a hemisphere's quadrature, the chi-square of sampled
+// directions against their density, and directional albedo by sampling and by quadrature.
 #ifndef MCPT_TESTS_BSDF_CHECKS_H
 #define MCPT_TESTS_BSDF_CHECKS_H
 
@@ -84,6 +84,41 @@ inline double direction_p_value(const SampleFn& sample, const PdfFn& pdf, int ba
     }
     expected[nc * np] = std::max(0.0, 1.0 - total) * n;
     return stats::chi_square_test(observed, expected);
+}
+
+// Directional albedo E(wo) of a BSDF in the upper hemisphere, two ways: the mean sampling
+// weight f cos / pdf (what the path tracer multiplies by; `pdf` the density it divides by)
+// over n draws of `sample`, and quadrature of f cos (when `integrate`).
+struct Albedo {
+    double sampled = 0, sampled_error = 0, integrated = 0;
+};
+struct BsdfDraws {
+    std::function<vec3(vec3 wo, vec3 u)> sample;
+    std::function<float(vec3 wo, vec3 wi)> pdf;
+    std::function<vec3(vec3 wo, vec3 wi)> f;
+};
+inline Albedo directional_albedo(const BsdfDraws& b, float cos_o, int n, bool integrate,
+                                 unsigned seed) {
+    const vec3 wo = outgoing(cos_o);
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> uni(0.f, 1.f);
+    double sum = 0, sum2 = 0;
+    for (int i = 0; i < n; ++i) {
+        const vec3 wi = b.sample(wo, V3(uni(rng), uni(rng), uni(rng)));
+        double w = 0;
+        if (wi.z > 0.f) {
+            const float pdf = b.pdf(wo, wi);
+            if (pdf > 0.f) w = mean_component(b.f(wo, wi)) * wi.z / pdf;
+        }
+        sum += w, sum2 += w * w;
+    }
+    Albedo a;
+    a.sampled = sum / n;
+    a.sampled_error = std::sqrt(std::max(0.0, sum2 / n - a.sampled * a.sampled) / n);
+    if (integrate)
+        a.integrated = hemisphere_integral(
+            [&](vec3 wi) { return mean_component(b.f(wo, wi)) * wi.z; }, 900, 400);
+    return a;
 }
 
 }  // namespace mcpt::gpu

@@ -113,38 +113,17 @@ TEST(Layers, SampledDirectionsFollowTheirDensity) {
 
 // ------------------------------------------------------------ weights and the furnace
 
-// Directional albedo E(wo): the mean sampling weight f cos / pdf (what the path tracer
-// multiplies by; `pdf` the density it divides by) and quadrature of f cos.
-struct Albedo {
-    double sampled = 0, sampled_error = 0, integrated = 0;
-};
+// Directional albedo of a layered material; `pdf_of` the density the weights divide by.
 using PdfOf = std::function<float(const GpuMaterial&, vec3 wo, vec3 wi)>;
 float mixture_pdf(const GpuMaterial& m, vec3 wo, vec3 wi) {
     return coated_eval(m, wo, wi).pdf;
 }
-
-Albedo albedo(const GpuMaterial& m, float cos_o, const PdfOf& pdf_of = mixture_pdf, int n = 200000,
+Albedo albedo(const GpuMaterial& m, float cos_o, const PdfOf& pdf_of = mixture_pdf, int n = 100000,
               bool integrate = true) {
-    const vec3 wo = outgoing(cos_o);
-    std::mt19937 rng(91);
-    std::uniform_real_distribution<float> uni(0.f, 1.f);
-    double sum = 0, sum2 = 0;
-    for (int i = 0; i < n; ++i) {
-        const vec3 wi = coated_sample_direction(m, wo, V3(uni(rng), uni(rng), uni(rng)));
-        double w = 0;
-        if (wi.z > 0.f) {
-            const float pdf = pdf_of(m, wo, wi);
-            if (pdf > 0.f) w = mean_component(coated_eval(m, wo, wi).f) * wi.z / pdf;
-        }
-        sum += w, sum2 += w * w;
-    }
-    Albedo a;
-    a.sampled = sum / n;
-    a.sampled_error = std::sqrt(std::max(0.0, sum2 / n - a.sampled * a.sampled) / n);
-    if (integrate)
-        a.integrated = hemisphere_integral(
-            [&](vec3 wi) { return mean_component(coated_eval(m, wo, wi).f) * wi.z; }, 900, 400);
-    return a;
+    const BsdfDraws b = {[&](vec3 wo, vec3 u) { return coated_sample_direction(m, wo, u); },
+                         [&](vec3 wo, vec3 wi) { return pdf_of(m, wo, wi); },
+                         [&](vec3 wo, vec3 wi) { return coated_eval(m, wo, wi).f; }};
+    return directional_albedo(b, cos_o, n, integrate, 91);
 }
 
 TEST(Layers, SamplingWeightsIntegrateTheBsdf) {

@@ -115,34 +115,15 @@ TEST(Microfacet, SampledDirectionsFollowTheirDensity) {
 
 // ------------------------------------------------------------- weights and the furnace
 
-// Directional albedo E(wo) = integral of f cos over wi, two ways: the mean of the sampling
-// weights f cos / pdf (what the path tracer multiplies by), and quadrature of pbr_eval.
-struct Albedo {
-    double sampled = 0, sampled_error = 0, integrated = 0;
-};
+// Directional albedo of a metallic-roughness lobe whose f is `eval` (sampled and weighted by
+// pbr_sample_direction and pbr_eval's pdf).
 using Eval = std::function<vec3(const GpuMaterial&, vec3 wo, vec3 wi)>;
 Albedo albedo(const GpuMaterial& m, float cos_o, const Eval& eval, int n = 200000,
               bool integrate = true) {
-    const vec3 wo = outgoing(cos_o);
-    std::mt19937 rng(77);
-    std::uniform_real_distribution<float> uni(0.f, 1.f);
-    double sum = 0, sum2 = 0;
-    for (int i = 0; i < n; ++i) {
-        const vec3 wi = pbr_sample_direction(m, wo, V3(uni(rng), uni(rng), uni(rng)));
-        double w = 0;
-        if (wi.z > 0.f) {
-            const float pdf = pbr_eval(m, wo, wi).pdf;
-            if (pdf > 0.f) w = mean_component(eval(m, wo, wi)) * wi.z / pdf;
-        }
-        sum += w, sum2 += w * w;
-    }
-    Albedo a;
-    a.sampled = sum / n;
-    a.sampled_error = std::sqrt(std::max(0.0, sum2 / n - a.sampled * a.sampled) / n);
-    if (integrate)
-        a.integrated = hemisphere_integral(
-            [&](vec3 wi) { return mean_component(eval(m, wo, wi)) * wi.z; }, 900, 400);
-    return a;
+    const BsdfDraws b = {[&](vec3 wo, vec3 u) { return pbr_sample_direction(m, wo, u); },
+                         [&](vec3 wo, vec3 wi) { return pbr_eval(m, wo, wi).pdf; },
+                         [&](vec3 wo, vec3 wi) { return eval(m, wo, wi); }};
+    return directional_albedo(b, cos_o, n, integrate, 77);
 }
 
 vec3 device_eval(const GpuMaterial& m, vec3 wo, vec3 wi) {

@@ -94,9 +94,10 @@ MCPT_FN bool has_sheen(GpuMaterial m) {
 }
 
 // Which lobe to sample at wo: the coat's, the sheen's and the base's share of the albedo
-// (they sum to 1).
+// (they sum to 1); and what eval reuses: the coat's weight c F(cos_o), the sheen's E(cos_o).
 MCPT_STRUCT(LayerChoice) {
     float coat, sheen, base;
+    float coat_weight, sheen_albedo_o;
 };
 MCPT_FN LayerChoice layer_choice(GpuMaterial m, float cos_o) {
     float fc = has_clearcoat(m) ? m.clearcoat * coat_fresnel(cos_o) : 0.0f;
@@ -104,6 +105,7 @@ MCPT_FN LayerChoice layer_choice(GpuMaterial m, float cos_o) {
     vec3 sc = sheen_color(m);
     vec2 lobes = pbr_lobe_albedos(m, V3(m.r, m.g, m.b), cos_o);
     LayerChoice c;
+    c.coat_weight = fc, c.sheen_albedo_o = es;
     c.coat = fc;
     c.sheen = (1.0f - fc) * mean_component(sc) * es;
     c.base = (1.0f - fc) * MAXF(0.0f, 1.0f - fmax3(sc.x, sc.y, sc.z) * es) * (lobes.x + lobes.y);
@@ -127,14 +129,13 @@ MCPT_FN BsdfEval coated_eval(GpuMaterial m, vec3 wo, vec3 wi) {
     e.pdf *= c.base;
     if (sheen) {
         vec3 sc = sheen_color(m);
-        float e_max =
-            MAXF(sheen_albedo(wo.z, m.sheen_roughness), sheen_albedo(wi.z, m.sheen_roughness));
+        float e_max = MAXF(c.sheen_albedo_o, sheen_albedo(wi.z, m.sheen_roughness));
         e.f = e.f * MAXF(0.0f, 1.0f - fmax3(sc.x, sc.y, sc.z) * e_max) +
               sc * sheen_lobe(wo, wi, h, m.sheen_roughness);
         e.pdf += c.sheen * wi.z * MCPT_INV_PI;
     }
     if (coat) {
-        float fc = m.clearcoat * coat_fresnel(wo.z);
+        float fc = c.coat_weight;
         e.f = e.f * (1.0f - fc) + V3S(fc * ggx_dv(wo, wi, h, m.clearcoat_alpha));
         e.pdf += c.coat * ggx_reflection_pdf(wo, h, m.clearcoat_alpha);
     }

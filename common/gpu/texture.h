@@ -114,6 +114,12 @@ MCPT_STRUCT(TexturedMaterial) {
     vec4 normal_texel;
 };
 
+// A GGX alpha whose perceptual roughness (sqrt alpha) a texel scales, as glTF scales roughness.
+MCPT_FN float alpha_scaled(float alpha, float factor) {
+    float roughness = sqrt(alpha) * factor;
+    return MAXF(roughness * roughness, MIN_GGX_ALPHA);
+}
+
 // One fetch in a loop kept rolled over the four maps (eight with the layers' halves), not one
 // inlined copy of sample_texture() a map (code size: NVIDIA's Vulkan inlines every call).
 MCPT_FN TexturedMaterial textured_material(SCENE_PARAMS_ GpuMaterial m, vec2 uv) {
@@ -138,8 +144,7 @@ MCPT_FN TexturedMaterial textured_material(SCENE_PARAMS_ GpuMaterial m, vec2 uv)
             m.b *= t.z;
         } else if (k == 1u) {
             m.metallic *= t.z;
-            float roughness = sqrt(m.alpha) * t.y;
-            m.alpha = MAXF(roughness * roughness, MIN_GGX_ALPHA);
+            m.alpha = alpha_scaled(m.alpha, t.y);
         } else if (k == 2u) {
             m.er *= t.x;
             m.eg *= t.y;
@@ -149,8 +154,7 @@ MCPT_FN TexturedMaterial textured_material(SCENE_PARAMS_ GpuMaterial m, vec2 uv)
         } else if (k == 4u) {
             m.clearcoat *= t.x;
         } else if (k == 5u) {
-            float roughness = sqrt(m.clearcoat_alpha) * t.y;
-            m.clearcoat_alpha = MAXF(roughness * roughness, MIN_GGX_ALPHA);
+            m.clearcoat_alpha = alpha_scaled(m.clearcoat_alpha, t.y);
         } else if (k == 6u) {
             m.sheen_r *= t.x;
             m.sheen_g *= t.y;
