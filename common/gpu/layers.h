@@ -3,7 +3,7 @@
 //     and their fitted masking, as the glTF Sample Viewer writes them), over the base scaled
 //     by 1 - max(sheen color) * E (E: the lobe's directional albedo, sheen_albedo_table.h),
 //     at the larger of the two directions' E, and at least 0 (the lobe reflects more than it
-//     receives at grazing angles: E up to 2 below cos 0.1, docs/materials.md);
+//     receives at grazing angles: E above 1 below cos 0.04, up to 1.64, docs/materials.md);
 //   KHR_materials_clearcoat: a clear GGX coat of ior 1.5 over both, the layers below weighted
 //     by 1 - clearcoat * F(cos_o) and the coat by clearcoat * F(cos_o) (glTF's fresnel_coat).
 // One lobe is sampled, chosen by its share of the albedo at wo; the pdf is the mixture's.

@@ -292,8 +292,15 @@ gpu::GpuMaterial pack_material(const Material& m) {
     g.tex_metal_rough = tex(m.tex_metal_rough);
     g.tex_normal = tex(m.tex_normal);
     g.tex_emission = tex(m.tex_emission);
-    // Layers over metallic-roughness: a coat (GGX alpha as the base's) and a sheen.
-    const auto tex16 = [](int i) { return i < 0 ? NO_TEXTURE16 : uint32_t(i); };
+    // Layers over metallic-roughness: a coat (alpha = roughness^2, as the base's) and a sheen;
+    // their textures as 16-bit indices.
+    const auto tex16 = [&](int i) {
+        if (i >= int(NO_TEXTURE16))
+            throw Error("material '" + m.name + "': a clearcoat or sheen texture index of " +
+                        std::to_string(i) + " (at most " + std::to_string(NO_TEXTURE16 - 1) +
+                        " textures can carry the layers)");
+        return i < 0 ? NO_TEXTURE16 : uint32_t(i);
+    };
     g.tex_clearcoat = g.tex_sheen = NO_TEXTURE;
     if (m.type == MaterialType::Pbr && m.has_clearcoat()) {
         g.clearcoat = std::min(m.clearcoat, 1.f);

@@ -11,28 +11,13 @@ namespace mcpt {
 
 namespace {
 
-const char* const kFeatureNames[FEATURE_COUNT] = {"triangles",
-                                                  "spheres",
-                                                  "diffuse",
-                                                  "mirror",
-                                                  "glass",
-                                                  "triangle lights",
-                                                  "sphere lights",
-                                                  "k-d tree",
-                                                  "microfacet",
-                                                  "shading normals",
-                                                  "textures",
-                                                  "alpha mask",
-                                                  "punctual lights",
-                                                  "environment",
-                                                  "test NaN injection",
-                                                  "independent sampler",
-                                                  "light tree",
-                                                  "wide BVH",
-                                                  "lights by contribution",
-                                                  "volume",
-                                                  "clearcoat",
-                                                  "sheen"};
+// clang-format off
+const char* const kFeatureNames[FEATURE_COUNT] = {
+    "triangles",     "spheres",  "diffuse",           "mirror", "glass", "triangle lights",
+    "sphere lights", "k-d tree", "microfacet", "shading normals", "textures", "alpha mask",
+    "punctual lights", "environment", "test NaN injection", "independent sampler",
+    "light tree", "wide BVH", "lights by contribution", "volume", "clearcoat", "sheen"};
+// clang-format on
 
 // The features of a material: its kind, then its textures and alpha mask.
 uint32_t material_features(const gpu::GpuMaterial& m) {
