@@ -24,6 +24,7 @@
 # Relative RMSE is mcpt converge's: sqrt(mean over pixels and channels of (image - ref)^2,
 # less the reference noise) / mean reference radiance.
 import argparse
+import json
 import math
 import os
 import re
@@ -33,6 +34,33 @@ import time
 
 import bpy
 import numpy as np
+
+
+def material_masks(args, sc, path):
+    """The material each pixel's camera ray hits first (index into the returned names; -1 on
+    edges and background): a Cycles render with every material an emitter of its own grey
+    level, no lamps, no bounces. Changes the scene's materials: call after the last render."""
+    mats = [mat for mat in bpy.data.materials if mat.users]
+    for i, mat in enumerate(mats):
+        mat.use_nodes = True
+        nt = mat.node_tree
+        for node in list(nt.nodes):
+            nt.nodes.remove(node)
+        e = nt.nodes.new("ShaderNodeEmission")
+        level = (i + 1) / len(mats)
+        e.inputs["Color"].default_value = (level, level, level, 1)
+        out = nt.nodes.new("ShaderNodeOutputMaterial")
+        nt.links.new(e.outputs["Emission"], out.inputs["Surface"])
+    for o in sc.objects:
+        if o.type == "LIGHT":
+            o.hide_render = True
+    add_world(sc, None)
+    sc.cycles.max_bounces = 0
+    render_cycles(sc, 16, 1, path)
+    level = read_exr(path, args.size).mean(axis=2) * len(mats) - 1
+    index = np.rint(level)
+    return np.where((np.abs(level - index) < 0.01) & (index >= 0), index, -1).astype(int), \
+        [mat.name for mat in mats]
 
 
 def parse_args():
@@ -55,6 +83,10 @@ def parse_args():
     p.add_argument("--as-is", action="store_true",
                    help="a file scene as imported, not like for like (Blender's Principled v1 "
                    "on non-metals, the importer's 0.25 m lamp radius and 0.5 degree sun)")
+    p.add_argument("--mcpt-scene", dest="mcpt_scene_file",
+                   help="with --scene FILE: mcpt renders this file instead of Blender's re-export "
+                   "of FILE (the same scene where Blender cannot read or keep it: Draco, "
+                   "KHR_materials_sheen and _volume); materials then stay as imported in Cycles")
     p.add_argument("--env", help="--scene hdri: the equirectangular map (.exr or .hdr)")
     p.add_argument("--variant", action="append", default=[],
                    help="another mcpt row: NAME=OPTIONS, e.g. 'luminance=--env-sampling "
@@ -289,6 +321,42 @@ def one_sided_emission(mat):
         nt.links.new(scaled.outputs["Value"], strength)
 
 
+def gltf_json(path):
+    """The JSON of a .glb or .gltf file."""
+    data = open(path, "rb").read()
+    if data[:4] == b"glTF":
+        length = int.from_bytes(data[12:16], "little")
+        return json.loads(data[20:20 + length])
+    return json.loads(data)
+
+
+def add_volume_absorption(mat, volume):
+    """KHR_materials_volume (which Blender 3.4's importer drops) as a Volume Absorption node:
+    glTF's sigma_a = -ln(attenuationColor) / attenuationDistance per channel; Cycles' is
+    density x (1 - color), so density = max sigma_a and color = 1 - sigma_a / density."""
+    distance = volume.get("attenuationDistance", float("inf"))
+    colour = volume.get("attenuationColor", [1.0, 1.0, 1.0])
+    if volume.get("thicknessFactor", 0.0) <= 0 or not math.isfinite(distance):
+        return
+    sigma = [-math.log(max(c, 1e-9)) / distance for c in colour]
+    density = max(sigma)
+    if density <= 0:
+        return
+    nt = mat.node_tree
+    node = nt.nodes.new("ShaderNodeVolumeAbsorption")
+    node.inputs["Color"].default_value = (*[1.0 - s / density for s in sigma], 1.0)
+    node.inputs["Density"].default_value = density
+    out = [m for m in nt.nodes if m.type == "OUTPUT_MATERIAL"][0]
+    nt.links.new(node.outputs["Volume"], out.inputs["Volume"])
+
+
+def coated(n):
+    """Whether a Principled node has a clearcoat (then kept as Principled: the coat is what
+    is compared; Cycles' v1 coat is GTR1 at a quarter of the weight, on top of the base)."""
+    c = n.inputs["Clearcoat"]
+    return c.is_linked or c.default_value > 0
+
+
 def build_file_scene(args, for_gltf):
     """A .glb/.gltf as Blender imports it. Like for like (unless --as-is): lamps punctual
     (radius 0, sun angle 0) and spots hard-edged for both; emission one-sided in Cycles where
@@ -301,6 +369,11 @@ def build_file_scene(args, for_gltf):
     if not hasattr(np, "bool"):
         np.bool = bool
     bpy.ops.import_scene.gltf(filepath=os.path.abspath(args.scene))
+    if not for_gltf:
+        for m in gltf_json(args.scene).get("materials", []):
+            volume = m.get("extensions", {}).get("KHR_materials_volume")
+            if volume and m.get("name") in bpy.data.materials:
+                add_volume_absorption(bpy.data.materials[m["name"]], volume)
     cams = [o for o in sc.objects if o.type == "CAMERA"]
     if not cams:
         sys.exit("%s has no camera" % args.scene)
@@ -321,7 +394,7 @@ def build_file_scene(args, for_gltf):
             if not for_gltf and mat.use_backface_culling:
                 one_sided_emission(mat)
             n = non_metal_principled(mat)
-            if n is None:
+            if n is None or coated(n) or args.mcpt_scene_file:
                 continue
             if for_gltf:
                 n.inputs["Specular"].default_value = 0.0
@@ -583,11 +656,14 @@ def main():
         if args.scene == "hdri" and not args.env:
             sys.exit("--scene hdri needs --env FILE")
         # mcpt renders what Blender's own glTF exporter writes.
-        build_scene(args, for_gltf=True)
-        stem = os.path.splitext(os.path.basename(args.scene))[0]
-        args.mcpt_scene = os.path.abspath(os.path.join(args.out, stem + "-mcpt.glb"))
-        bpy.ops.export_scene.gltf(filepath=args.mcpt_scene, export_format="GLB",
-                                  export_cameras=True, export_lights=True, export_apply=True)
+        if args.mcpt_scene_file:
+            args.mcpt_scene = os.path.abspath(args.mcpt_scene_file)
+        else:
+            build_scene(args, for_gltf=True)
+            stem = os.path.splitext(os.path.basename(args.scene))[0]
+            args.mcpt_scene = os.path.abspath(os.path.join(args.out, stem + "-mcpt.glb"))
+            bpy.ops.export_scene.gltf(filepath=args.mcpt_scene, export_format="GLB",
+                                      export_cameras=True, export_lights=True, export_apply=True)
         if args.env:
             args.mcpt_extra = ["--env", os.path.abspath(args.env)]
     sc = build_scene(args)
@@ -720,6 +796,18 @@ def main():
     img.filepath_raw = os.path.join(args.out, "variance-ratio.png")
     img.file_format = "PNG"
     img.save()
+
+    if is_file_scene(args):
+        # Mean radiance per material seen by the camera (pixels wholly on it).
+        index, names = material_masks(args, sc, exr("materials"))
+        print("\nmean radiance per material seen by the camera, mcpt / Cycles:")
+        for i, name in enumerate(names):
+            sel = index == i
+            if sel.sum() == 0:
+                continue
+            mm, mc = float(np.mean(m.mean[sel])), float(np.mean(c.mean[sel]))
+            print("  %-24s %6d px  %.4f / %.4f = %.3f"
+                  % (name, int(sel.sum()), mm, mc, mm / mc if mc > 0 else float("nan")))
 
     with open(os.path.join(args.out, "side-by-side.csv"), "w") as f:
         f.write("\n".join(rows) + "\n")
