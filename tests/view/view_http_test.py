@@ -126,6 +126,38 @@ try:
     check(status == 200, "the cookie is a token (%d)" % status)
     status, _, _ = request(port, "/api/state?token=" + "0" * 32, token=False)
     check(status == 403, "a wrong token is refused (%d)" % status)
+    # Every route with every way of not having the token: 403 (a check that took any
+    # non-empty header or cookie, an empty token or a prefix would let one through). POSTs
+    # come from the page's own Origin, so only the token is missing.
+    origin = {"Origin": "http://127.0.0.1:%d" % port}
+    routes = [("GET", "/"), ("GET", "/api/state"), ("GET", "/api/frame?side=0"),
+              ("GET", "/api/maps?side=0"), ("GET", "/api/pixel?x=1&y=1"),
+              ("GET", "/api/save?side=0&format=png"), ("POST", "/api/pause"),
+              ("POST", "/api/resume"), ("POST", "/api/reset")]
+    wrong = "0" * 32
+    ways = [("none", {}, ""), ("a wrong header", {"X-MCPT-Token": wrong}, ""),
+            ("a wrong cookie", {"Cookie": "mcpt_view=" + wrong}, ""),
+            ("an empty header", {"X-MCPT-Token": ""}, ""),
+            ("an empty cookie", {"Cookie": "mcpt_view="}, ""),
+            ("an empty query", {}, "token="),
+            ("the header's 31-character prefix", {"X-MCPT-Token": TOKEN[:31]}, ""),
+            ("the cookie's prefix", {"Cookie": "mcpt_view=" + TOKEN[:31]}, ""),
+            ("the query's prefix", {}, "token=" + TOKEN[:31]),
+            ("the token with a character more", {"X-MCPT-Token": TOKEN + "0"}, "")]
+    let_through = []
+    for method, path in routes:
+        for name, headers, query in ways:
+            full = path + (("&" if "?" in path else "?") + query if query else "")
+            hdrs = dict(headers, **(origin if method == "POST" else {}))
+            status, _, _ = request(port, full, method, hdrs, token=False,
+                                   body=b"" if method == "POST" else None)
+            if status != 403:
+                let_through.append("%s %s with %s: %d" % (method, full, name, status))
+    check(not let_through, "every route x every way without the token: 403 (%d requests)%s"
+          % (len(routes) * len(ways), "; ".join([""] + let_through)))
+    status, body = get(port, "/api/state")
+    check(status == 200 and json.loads(body)["paused"] is False,
+          "and none of the refused POSTs paused the render")
     status, _, _ = request(port, "/api/resume", "POST", {"Cookie": "mcpt_view=" + TOKEN},
                            token=False, body=b"")
     check(status == 403, "a POST with the cookie alone (no Origin) is refused (%d)" % status)
@@ -192,11 +224,14 @@ try:
                         str(port)], capture_output=True, text=True, timeout=120)
     check(r.returncode == 1 and "cannot listen" in r.stderr,
           "a second viewer on the same port fails (exit %d)" % r.returncode)
-    # Clients that hang up mid-frame (a reset, not a clean close), twenty times.
+    # Clients that hang up mid-frame (a reset, not a clean close), twenty times: each with
+    # this viewer's Host and the token, so a 200 has begun (a 4 MiB frame) when it hangs up.
+    started = 0
     for _ in range(20):
         s = socket.create_connection(("127.0.0.1", port), timeout=30)
-        s.sendall(b"GET /api/frame?side=0 HTTP/1.1\r\nHost: x\r\n\r\n")
-        s.recv(1000)
+        s.sendall(b"GET /api/frame?side=0 HTTP/1.1\r\nHost: 127.0.0.1:%d\r\n"
+                  b"X-MCPT-Token: %s\r\n\r\n" % (port, TOKEN.encode()))
+        started += s.recv(1000).startswith(b"HTTP/1.1 200")
         s.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
         s.close()
         # And one that disconnects before sending its request in full.
@@ -204,6 +239,8 @@ try:
         s.sendall(b"GET /api/fr")
         s.close()
     time.sleep(0.5)
+    check(started == 20, "each of the 20 frames had begun (200) when its client hung up (%d)"
+          % started)
     check(proc.poll() is None, "the server survives clients that hang up mid-frame")
     status, _ = get(port, "/api/state")
     check(status == 200, "and still answers")
