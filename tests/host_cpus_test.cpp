@@ -44,6 +44,23 @@ TEST(HostCpus, FollowTheAffinityMask) {
     if (granted >= 2) with_cpus(2, [] { EXPECT_EQ(usable_cpus(), 2u); });
 }
 
+// cgroup v2's cpu.max as a container runtime writes it (Kubernetes' CPU limit: 1.5 CPUs is
+// "150000 100000"): rounded up, at least one, nothing for "max" or anything else.
+TEST(HostCpus, CpuMaxIsParsedAsTheKernelWritesIt) {
+    EXPECT_EQ(cpus_of_cpu_max("150000 100000"), 2u);
+    EXPECT_EQ(cpus_of_cpu_max("150000 100000\n"), 2u);
+    EXPECT_EQ(cpus_of_cpu_max("200000 100000"), 2u);
+    EXPECT_EQ(cpus_of_cpu_max("50000 100000"), 1u);
+    EXPECT_EQ(cpus_of_cpu_max("1000 100000"), 1u);
+    EXPECT_EQ(cpus_of_cpu_max("800000 50000"), 16u);
+    EXPECT_EQ(cpus_of_cpu_max("max 100000"), 0u);
+    for (const char* garbage : {"", "max", "150000", "abc 100000", "150000 abc", "150000x 100000",
+                                "-150000 100000", "150000 0", "150000 -1", "0 100000",
+                                "nan 100000", "inf 100000", "1e999 100000", "150000 100000 7"})
+        EXPECT_EQ(cpus_of_cpu_max(garbage), 0u) << '"' << garbage << '"';
+    EXPECT_EQ(cpus_of_cpu_max("1e300 1"), 65536u);  // no overflow into a small count
+}
+
 // The k-d build on one granted CPU takes one thread (it took one per core of the machine).
 TEST(HostCpus, TreeBuildTakesTheGrantedCpus) {
     TreeOptions o;

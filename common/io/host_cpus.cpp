@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <thread>
 
@@ -39,22 +40,30 @@ unsigned quota_cpus() {
     }
     for (const std::string& dir : {"/sys/fs/cgroup" + group, std::string("/sys/fs/cgroup")}) {
         std::ifstream f(dir + "/cpu.max");
-        std::string quota;
-        double period = 0;
-        if (!(f >> quota >> period)) continue;
-        if (quota == "max" || !(period > 0)) return 0;
-        try {
-            const double q = std::stod(quota);
-            return q > 0 ? unsigned(std::max(1.0, std::ceil(q / period))) : 0;
-        } catch (const std::exception&) {
-            return 0;
-        }
+        std::string text;
+        if (std::getline(f, text)) return cpus_of_cpu_max(text);
     }
     return 0;
 }
 #endif
 
 }  // namespace
+
+unsigned cpus_of_cpu_max(const std::string& text) {
+    std::istringstream in(text);
+    std::string quota, period_text, rest;
+    if (!(in >> quota >> period_text) || (in >> rest) || quota == "max") return 0;
+    try {
+        size_t used_q = 0, used_p = 0;
+        const double q = std::stod(quota, &used_q), period = std::stod(period_text, &used_p);
+        if (used_q != quota.size() || used_p != period_text.size()) return 0;
+        if (!(q > 0) || !(period > 0) || !std::isfinite(q / period)) return 0;
+        const double cpus = std::ceil(q / period);
+        return cpus >= 65536.0 ? 65536u : unsigned(std::max(1.0, cpus));
+    } catch (const std::exception&) {  // out of range
+        return 0;
+    }
+}
 
 unsigned usable_cpus() {
     unsigned n = std::thread::hardware_concurrency();

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstring>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -13,6 +14,10 @@ namespace mcpt {
 // quota allows (cpu.max, rounded up; Kubernetes CPU limits); at least 1. Without either,
 // std::thread::hardware_concurrency().
 unsigned usable_cpus();
+
+// The CPUs a cgroup v2 `cpu.max` ("QUOTA PERIOD", microseconds) grants, rounded up, at
+// least 1; 0 when it grants no limit ("max") or the text is not that ("150000 100000" -> 2).
+unsigned cpus_of_cpu_max(const std::string& text);
 
 // Runs fn(begin, end) over [0, n) in ranges of at least `grain` items, on threads of their
 // own (at most usable_cpus()), the calling thread taking the first: an image's sums (a
