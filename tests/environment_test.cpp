@@ -174,14 +174,18 @@ TEST(Environment, DwabCompressedExr) {
 #if MCPT_WITH_OPENEXR
 // A grey (Y only) EXR lights as the same grey in R, G and B (a frame buffer maps a channel
 // name to one slice: Y inserted three times filled B alone); luminance-chroma files (Y, RY,
-// BY) come back as their colour.
+// BY) come back as their colour. Both are ramps with every pixel its own value (a step of 1
+// between rows, 0.05 between columns), so a flipped, repeated or shifted row or column fails.
 TEST(Environment, GreyAndLuminanceChromaExr) {
     const int w = 16, h = 8;
+    const auto ramp = [](int x, int y) { return 0.1f + 0.05f * float(x) + float(y); };
     const std::string grey = temp("grey.exr").string();
     {
         Imf::Header header(w, h);
         header.channels().insert("Y", Imf::Channel(Imf::FLOAT));
-        std::vector<float> y(size_t(w) * h, 0.5f);
+        std::vector<float> y(size_t(w) * h);
+        for (int j = 0; j < h; ++j)
+            for (int i = 0; i < w; ++i) y[size_t(j * w + i)] = ramp(i, j);
         Imf::FrameBuffer fb;
         fb.insert("Y", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(y.data()), sizeof(float),
                                   sizeof(float) * w));
@@ -189,28 +193,35 @@ TEST(Environment, GreyAndLuminanceChromaExr) {
         file.setFrameBuffer(fb);
         file.writePixels(h);
     }
-    const std::string rgb = temp("grey_rgb.exr").string();
-    write_image(rgb, w, h, std::vector<float>(size_t(w) * h * 3, 0.5f));
-    const Environment from_y = load_environment(grey), from_rgb = load_environment(rgb);
-    EXPECT_EQ(from_y.rgb, from_rgb.rgb);
-    const double mean =
-        std::accumulate(from_y.rgb.begin(), from_y.rgb.end(), 0.0) / double(from_y.rgb.size());
-    EXPECT_DOUBLE_EQ(mean, 0.5);
-    // Luminance-chroma: a constant colour, through OpenEXR's RGBA interface.
+    const Environment from_y = load_environment(grey);
+    ASSERT_EQ(from_y.rgb.size(), size_t(w) * h * 3);
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i)
+            for (int c = 0; c < 3; ++c)
+                EXPECT_EQ(from_y.rgb[size_t((j * w + i) * 3 + c)], ramp(i, j)) << i << "," << j;
+    // Luminance-chroma through OpenEXR's RGBA interface: one colour at every brightness, so
+    // the 2x2-subsampled chroma is exact and only half floats' rounding is left.
     const std::string yc = temp("yc.exr").string();
     {
-        std::vector<Imf::Rgba> px(size_t(w) * h, Imf::Rgba(0.6f, 0.3f, 0.15f, 1.f));
+        std::vector<Imf::Rgba> px(size_t(w) * h);
+        for (int j = 0; j < h; ++j)
+            for (int i = 0; i < w; ++i) {
+                const float v = ramp(i, j);
+                px[size_t(j * w + i)] = Imf::Rgba(0.6f * v, 0.3f * v, 0.15f * v, 1.f);
+            }
         Imf::RgbaOutputFile file(yc.c_str(), w, h, Imf::WRITE_YC);
         file.setFrameBuffer(px.data(), 1, size_t(w));
         file.writePixels(h);
     }
     const Environment from_yc = load_environment(yc);
     ASSERT_EQ(from_yc.rgb.size(), size_t(w) * h * 3);
-    for (size_t i = 0; i < from_yc.rgb.size(); i += 3) {
-        EXPECT_NEAR(from_yc.rgb[i], 0.6, 0.01) << i;
-        EXPECT_NEAR(from_yc.rgb[i + 1], 0.3, 0.01) << i;
-        EXPECT_NEAR(from_yc.rgb[i + 2], 0.15, 0.01) << i;
-    }
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i) {
+            const float v = ramp(i, j), *p = &from_yc.rgb[size_t((j * w + i) * 3)];
+            EXPECT_NEAR(p[0], 0.6 * v, 0.01 * v) << i << "," << j;
+            EXPECT_NEAR(p[1], 0.3 * v, 0.01 * v) << i << "," << j;
+            EXPECT_NEAR(p[2], 0.15 * v, 0.01 * v) << i << "," << j;
+        }
 }
 #endif
 
