@@ -247,7 +247,7 @@ class RankWorker : public Worker {
 // when handed its first chunk after N rounds (each collected, and checkpointed, by rank 0),
 // dies (MCPT_MPI_FAULT=kill, the default: SIGKILL), stops (stop: SIGSTOP, a hung rank) or
 // answers the next round with sums of another image size (bad-size; compare: its batches
-// after N with means of another size).
+// after N with means of another size) or without its children's in the tree (drop-children).
 struct Fault {
     int after_rounds = -1;
     std::string kind;
@@ -446,7 +446,7 @@ void mpi_serve_batches(Session& session) {
 void mpi_serve(Session& session, bool flat_reduction) {
     if (!send_hello(session, flat_reduction)) return;
     const Fault fault = injected_fault();
-    bool bad_size = false;
+    bool bad_size = false, drop_children = false;
     // A round's sums, and its children's: their arrays kept from round to round.
     RenderResult mine;
     const std::vector<int> children = tree_children(g_job.rank, g_job.size, flat_reduction);
@@ -469,9 +469,10 @@ void mpi_serve(Session& session, bool flat_reduction) {
                                   session.settings().reproducible};
             for (size_t c = 0; c < children.size(); ++c) {
                 RenderResult& part = received[c];
-                receive_sums(children[c], shape, UINT64_MAX, Clock::time_point::max(),
+                receive_sums(children[c], shape, kAnySpp, Clock::time_point::max(),
                              rank_name(children[c]), part);
-                if (part.spp > 0) accumulate_sums(mine, part);
+                // (Fault drop-children: a subtree that loses its children's sums.)
+                if (part.spp > 0 && !drop_children) accumulate_sums(mine, part);
             }
             send_sums(mine, tree_parent(g_job.rank, flat_reduction), bad_size);
             continue;
@@ -484,6 +485,8 @@ void mpi_serve(Session& session, bool flat_reduction) {
                 std::raise(SIGSTOP);
             else if (fault.kind == "bad-size")
                 bad_size = true;
+            else if (fault.kind == "drop-children")
+                drop_children = true;
             else
                 std::raise(SIGKILL);
         }

@@ -150,14 +150,15 @@ void send_sums(const RenderResult& r, int to, bool bad_size) {
     send_bytes(r.nonfinite.data(), r.nonfinite.size() * sizeof(double), to);
 }
 
-bool receive_sums(int from, const SumsShape& shape, uint64_t max_spp, Clock::time_point deadline,
+bool receive_sums(int from, const SumsShape& shape, uint64_t spp, Clock::time_point deadline,
                   const std::string& who, RenderResult& out) {
     const auto unexpected = unexpected_message(who, "the round's sums");
     const auto bad = [&](const std::string& what) {
         return Error(who + " sent sums that do not fit the job: " + what);
     };
-    // The header: exactly its size, this job's image and kind of sums, no more samples than
-    // were handed out to the ranks it speaks for.
+    // The header: exactly its size, this job's image and kind of sums, and exactly the
+    // samples handed out to the ranks it speaks for (a subtree that lost a rank's sums, or
+    // added one twice, is named here).
     ResultHeader h{};
     const auto hold = receive_header(from, kResult, &h, sizeof h, deadline, unexpected);
     if (!hold.owns_lock()) return false;
@@ -168,8 +169,8 @@ bool receive_sums(int from, const SumsShape& shape, uint64_t max_spp, Clock::tim
         throw bad(std::to_string(h.width) + "x" + std::to_string(h.height) +
                   " pixels, the image is " + std::to_string(shape.width) + "x" +
                   std::to_string(shape.height));
-    if (h.spp > max_spp)
-        throw bad(std::to_string(h.spp) + " samples per pixel, " + std::to_string(max_spp) +
+    if (spp != kAnySpp && h.spp != spp)
+        throw bad(std::to_string(h.spp) + " samples per pixel, " + std::to_string(spp) +
                   " were handed out");
     if (h.spp > 0 && h.exact != (shape.exact ? 1u : 0u))
         throw bad(h.exact ? "exact sums in a job without them"
@@ -237,25 +238,6 @@ bool receive_batch_mean(int from, int width, int height, uint64_t spp,
     for (double m : out.mean)
         if (!std::isfinite(m)) throw bad("a mean that is not finite");
     return true;
-}
-
-int tree_parent(int rank, bool flat) {
-    return flat ? 0 : rank - (rank & -rank);
-}
-
-std::vector<int> tree_children(int rank, int size, bool flat) {
-    std::vector<int> children;
-    if (flat) {
-        for (int r = 1; rank == 0 && r < size; ++r) children.push_back(r);
-        return children;
-    }
-    for (int bit = 1; rank + bit < size && (rank == 0 || bit < (rank & -rank)); bit <<= 1)
-        children.push_back(rank + bit);
-    return children;
-}
-
-int tree_end(int child, int size, bool flat) {
-    return flat ? child + 1 : std::min(size, child + (child & -child));
 }
 
 }  // namespace mcpt::wire

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "app/reduction_tree.h"
 #include "common/analysis/compare.h"
 #include "common/render/render_loop.h"
 
@@ -59,11 +60,15 @@ struct SumsShape {
 
 // Sends sums (spp 0: the header alone) to `to` as kResult.
 void send_sums(const RenderResult& r, int to, bool bad_size = false);
-// Receives sums from `from` into `out` (its arrays reused), each message's tag and size checked, the header against `shape`
-// and `max_spp`, up to `deadline` (false: none came in time, or not whole). A kError from
-// `from` is thrown as its exception; anything else that does not fit throws mcpt::Error
-// beginning with `who`.
-bool receive_sums(int from, const SumsShape& shape, uint64_t max_spp, Clock::time_point deadline,
+// Any count of samples per pixel (receive_sums' `spp` on ranks that do not know what their
+// children were handed).
+constexpr uint64_t kAnySpp = UINT64_MAX;
+// Receives sums from `from` into `out` (its arrays reused), each message's tag and size
+// checked, the header against `shape` and `spp` (exactly the samples handed out to the ranks
+// they speak for, unless kAnySpp), up to `deadline` (false: none came in time, or not whole).
+// A kError from `from` is thrown as its exception; anything else that does not fit throws
+// mcpt::Error beginning with `who`.
+bool receive_sums(int from, const SumsShape& shape, uint64_t spp, Clock::time_point deadline,
                   const std::string& who, RenderResult& out);
 
 // A batch of `compare` (compare.h) to rank 0 (`bad_size`: a header of another width, for
@@ -76,14 +81,6 @@ void send_batch_mean(const BatchMean& batch, bool bad_size = false);
 bool receive_batch_mean(int from, int width, int height, uint64_t spp,
                         Clock::time_point deadline, const std::string& who, BatchMean& out);
 
-// The binomial tree over ranks 0..size-1, rooted at 0: a rank above 0 receives from
-// rank + 1, rank + 2, rank + 4, ... (the powers of two below its lowest set bit) and then
-// sends to rank - its lowest set bit; rank 0 receives from 1, 2, 4, ... `flat` (render
-// --reduction flat, to measure against): every rank sends to rank 0, which adds them in turn.
-int tree_parent(int rank, bool flat);
-std::vector<int> tree_children(int rank, int size, bool flat);
-// The ranks whose sums `child`'s message holds: [child, tree_end(child, size, flat)).
-int tree_end(int child, int size, bool flat);
 
 }  // namespace mcpt::wire
 #endif

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "app/commands.h"
+#include "app/reduction_tree.h"
 #include "common/error.h"
 #include "test_util.h"
 
@@ -235,6 +236,50 @@ test::CliRun mpirun(int ranks, const std::string& args, const std::string& extra
 }
 #endif
 
+// The reduction's tree for 1 to 64 ranks, binomial and flat: every rank but 0 has one parent
+// below it, which lists it as a child; each child's message speaks for [child, tree_end),
+// exactly the ranks below it in the tree; rank 0's children's ranges cover 1..size-1 once;
+// the binomial tree is no deeper than log2(size) rounded up.
+TEST(ScaleOut, ReductionTreePartitionsTheRanks) {
+    using wire::tree_children, wire::tree_end, wire::tree_parent;
+    for (const bool flat : {false, true})
+        for (int size = 1; size <= 64; ++size) {
+            SCOPED_TRACE((flat ? "flat, " : "binomial, ") + std::to_string(size) + " ranks");
+            std::vector<int> parents(size_t(size), -1);
+            for (int r = 0; r < size; ++r)
+                for (const int c : tree_children(r, size, flat)) {
+                    ASSERT_TRUE(c > r && c < size) << r << " -> " << c;
+                    EXPECT_EQ(parents[size_t(c)], -1) << c << " has two parents";
+                    parents[size_t(c)] = r;
+                    EXPECT_EQ(tree_parent(c, flat), r) << c;
+                }
+            int depth_limit = 0;
+            while ((1 << depth_limit) < size) ++depth_limit;
+            for (int r = 1; r < size; ++r) {
+                ASSERT_NE(parents[size_t(r)], -1) << r << " is in no one's children";
+                int depth = 0;
+                for (int a = r; a != 0; a = parents[size_t(a)]) ++depth;
+                EXPECT_LE(depth, flat ? 1 : depth_limit) << r;
+                // The ranks below r (r itself included) are [r, tree_end(r)).
+                std::vector<int> below;
+                for (int q = 1; q < size; ++q) {
+                    int a = q;
+                    while (a != 0 && a != r) a = parents[size_t(a)];
+                    if (a == r) below.push_back(q);
+                }
+                const int end = tree_end(r, size, flat);
+                ASSERT_EQ(int(below.size()), end - r) << r;
+                for (size_t i = 0; i < below.size(); ++i) EXPECT_EQ(below[i], r + int(i)) << r;
+            }
+            int next = 1;
+            for (const int c : tree_children(0, size, flat)) {
+                EXPECT_EQ(c, next);
+                next = tree_end(c, size, flat);
+            }
+            EXPECT_EQ(next, size);
+        }
+}
+
 TEST(ScaleOut, MpiRanksWriteOneRanksFile) {
 #if !MCPT_WITH_MPI
     GTEST_SKIP() << "built without MPI (libopenmpi-dev)";
@@ -255,6 +300,37 @@ TEST(ScaleOut, MpiRanksWriteOneRanksFile) {
         }
         EXPECT_TRUE(test::same_bytes(out.string(), one)) << ranks << " ranks\n" << r.output;
     }
+    // The flat reduction (every rank to rank 0): the same file.
+    const fs::path flat = temp("mpi_flat.exr");
+    fs::remove(flat);
+    const test::CliRun r =
+        mpirun(3, job() + " --reproducible --reduction flat -o " + flat.string());
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_TRUE(test::same_bytes(flat.string(), one)) << "flat\n" << r.output;
+#endif
+}
+
+// Faults below an intermediate rank (4 ranks: 3 sends to 2, 2 and 1 to 0): rank 2 passing up
+// its own sums without rank 3's is named by rank 0 (the samples handed out to ranks 2-3 are
+// counted; a check of "no more than" passed it, and the image lacked rank 3's samples), and
+// rank 3 killed is named.
+TEST(ScaleOut, MpiFaultBelowAnIntermediateRankIsNamed) {
+#if !MCPT_WITH_MPI
+    GTEST_SKIP() << "built without MPI (libopenmpi-dev)";
+#else
+    const fs::path out = temp("mpi_subtree.exr");
+    const std::string args = job(4096) + " -o " + out.string();
+    const test::CliRun dropped = mpirun(
+        4, args, "-x MCPT_MPI_FAULT_RANK=2 -x MCPT_MPI_FAULT_AFTER_ROUNDS=1 "
+                 "-x MCPT_MPI_FAULT=drop-children");
+    EXPECT_NE(dropped.status, 0) << dropped.output;
+    EXPECT_NE(dropped.output.find("ranks 2-3 (added up by rank 2)"), std::string::npos)
+        << dropped.output;
+    EXPECT_NE(dropped.output.find("were handed out"), std::string::npos) << dropped.output;
+    const test::CliRun killed =
+        mpirun(4, args, "-x MCPT_MPI_FAULT_RANK=3 -x MCPT_MPI_FAULT_AFTER_ROUNDS=1");
+    EXPECT_NE(killed.status, 0) << killed.output;
+    EXPECT_NE(killed.output.find("rank 3"), std::string::npos) << killed.output;
 #endif
 }
 
