@@ -1,4 +1,6 @@
-// The BVH on devices (PoCL and lavapipe in CI), beside the k-d tree: a same-seed render is the
+// The BVH on devices (PoCL and lavapipe in CI; on Vulkan through both ways of reading the
+// scene: texel buffers, lavapipe's default, and storage buffers, what GPUs and phones take),
+// beside the k-d tree: a same-seed render is the
 // same image bit for bit through either tree on each API (a box with glass and mirrors, a
 // mesh, a textured Blender scene with cut-outs) (the traversals find the same hits,
 // ties included), and the BVH's images agree statistically across the APIs. Negative
@@ -59,13 +61,34 @@ RenderOptions same_seed_options() {
     return o;
 }
 
+// The devices the BVH runs on: each API, and Vulkan once more reading the scene through
+// storage buffers (BVH_QUAD and LEAF_INDEX from tree_words) instead of texels.
+struct TestDevice {
+    std::string name;
+    std::unique_ptr<Backend> backend;
+};
+std::vector<TestDevice> test_devices() {
+    std::vector<TestDevice> d;
+    for (const std::string& api : test::test_apis()) {
+        d.push_back({api, test::test_backend(api)});
+        if (api != "vulkan") continue;
+        BackendOptions storage;
+        storage.scene_reads = "storage";
+        d.push_back({"vulkan (storage buffers)", test::test_backend(api, storage)});
+        EXPECT_EQ(d.back().backend->layout().find("texel buffers"), std::string::npos)
+            << d.back().backend->layout();
+    }
+    return d;
+}
+
 bool same_sums(const RenderResult& a, const RenderResult& b) {
     return a.sum == b.sum && a.sum_sq == b.sum_sq && a.nonfinite == b.nonfinite;
 }
 
 TEST(WideBvhDevices, SameSeedImageIsTheKdTreesOnEachApi) {
-    for (const std::string& api : test::test_apis()) {
-        auto device = test::test_backend(api);
+    for (const TestDevice& t : test_devices()) {
+        const std::string& api = t.name;
+        Backend* device = t.backend.get();
         for (const Scenes& c : scenes()) {
             const RenderOptions o = same_seed_options();
             const GpuScene kd = pack_scene(c.scene, build_kdtree(c.scene.triangles, tree(TreeKind::Sah)));
@@ -106,16 +129,25 @@ TEST(WideBvhDevices, AgreesAcrossApisAndTrees) {
         bo.seed_base = seed;
         return render_batches(d, g, scene.camera, o, bo);
     };
+    BackendOptions storage;
+    storage.scene_reads = "storage";
+    auto vk_storage = test::test_backend("vulkan", storage);
     const BatchSet cl_bvh = batches(*cl, bvh, 100), vk_bvh = batches(*vk, bvh, 5000);
     const BatchSet cl_kd = batches(*cl, kd, 9000), vk_kd = batches(*vk, kd, 13000);
-    for (const auto& [what, a, b] : {std::tuple{"OpenCL BVH / Vulkan BVH", &cl_bvh, &vk_bvh},
-                                     std::tuple{"OpenCL BVH / Vulkan k-d", &cl_bvh, &vk_kd},
-                                     std::tuple{"OpenCL k-d / Vulkan BVH", &cl_kd, &vk_bvh}}) {
+    const BatchSet vks_bvh = batches(*vk_storage, bvh, 21000);
+    for (const auto& [what, a, b] :
+         {std::tuple{"OpenCL BVH / Vulkan BVH", &cl_bvh, &vk_bvh},
+          std::tuple{"OpenCL BVH / Vulkan k-d", &cl_bvh, &vk_kd},
+          std::tuple{"OpenCL k-d / Vulkan BVH", &cl_kd, &vk_bvh},
+          std::tuple{"OpenCL k-d / Vulkan BVH from storage buffers", &cl_kd, &vks_bvh}}) {
         const Agreement g = test_agreement(*a, *b, 0.01);
         EXPECT_TRUE(g.agree) << what << ": " << g.verdict();
     }
     const Agreement bad = test_agreement(cl_kd, batches(*vk, broken, 17000), 0.01);
     EXPECT_FALSE(bad.agree) << "a BVH missing half its leaves' triangles passed: " << bad.verdict();
+    const Agreement bad_storage = test_agreement(cl_kd, batches(*vk_storage, broken, 25000), 0.01);
+    EXPECT_FALSE(bad_storage.agree) << "storage buffers: a BVH missing half its leaves' "
+                                       "triangles passed: " << bad_storage.verdict();
 }
 
 }  // namespace
