@@ -145,6 +145,67 @@ TEST_P(SeveralLights, MapSunAndDirectionalLight) {
         [](GpuScene& g) { test::scale_pick_pmf(g, 0u | LIGHT_PUNCTUAL_BIT, 1.1f); });
 }
 
+// An emissive sphere, two emissive quads and a point lamp, all picked through the light tree:
+// exact per pixel (a sphere of radiance L wholly above the horizon gives pi L (R/d)^2 cos).
+// Control, on both APIs: the sphere's trail in the tree swapped with a quad triangle's, so
+// the tree's pmf is wrong where emitter_hit_pdf alone reads it (the MIS weight of BSDF
+// samples that hit a light; next-event estimation walks the tree without trails).
+TEST_P(SeveralLights, SphereQuadsAndLampThroughTheTree) {
+    Scene scene = test::plane_scene(kAlbedo, 1.f, 1.f);
+    scene.punctual_lights.push_back(lamp(0.5f));
+    Material m;
+    m.color = glm::vec3(0.f);
+    m.emission = glm::vec3(3.f);
+    const uint32_t quad_mat = uint32_t(scene.add_material(m));
+    const auto add_quad = [&](glm::vec3 a, glm::vec3 b, glm::vec3 c, glm::vec3 d) {
+        scene.triangles.push_back({a, b, c, quad_mat});
+        scene.triangles.push_back({a, c, d, quad_mat});
+        return std::vector<glm::dvec3>{a, b, c, d};
+    };
+    const auto quad1 = add_quad({1.2f, 1.2f, -0.5f}, {2.2f, 1.2f, -0.5f}, {2.2f, 1.2f, 0.5f},
+                                {1.2f, 1.2f, 0.5f});
+    const auto quad2 = add_quad({-0.5f, 1.1f, 1.2f}, {0.5f, 1.1f, 1.2f}, {0.5f, 1.1f, 2.2f},
+                                {-0.5f, 1.1f, 2.2f});
+    m.emission = glm::vec3(4.f);
+    const glm::dvec3 centre(-1.5, 1.3, 0.3);
+    const double radius = 0.25;
+    scene.spheres.push_back({glm::vec3(centre), float(radius), uint32_t(scene.add_material(m))});
+    scene.light_tree = true;
+    const auto irradiance = [&](glm::dvec3 p) {
+        const glm::dvec3 to_c = centre - p;
+        const double d = glm::length(to_c);
+        return lamp_irradiance(p, 0.5) + polygon_irradiance(p, quad1, 3.0) +
+               polygon_irradiance(p, quad2, 3.0) +
+               kPi * 4.0 * (radius * radius) / (d * d) * (to_c.y / d);
+    };
+    const std::vector<double> exact = test::expected_image(
+        scene, kSize, [&](glm::dvec3 p) { return kAlbedo / kPi * irradiance(p); });
+    const std::string api = GetParam();
+    test::CaseRender how;
+    const RenderResult r = test::render_case(api, scene, kSize, how);
+    how.plant = [](GpuScene& g) {
+        // (prim, trail) pairs sorted by prim: the sphere's (the last) and triangle 2's.
+        const uint32_t at = g.params.light_trails_word, n = g.params.num_tree_lights;
+        uint32_t sphere = n, triangle = n;
+        for (uint32_t i = 0; i < n; ++i) {
+            if (g.texels.at(at + 2 * i) == (0u | LIGHT_SPHERE_BIT)) sphere = i;
+            if (g.texels.at(at + 2 * i) == 2u) triangle = i;
+        }
+        if (sphere == n || triangle == n) throw std::runtime_error("no trail to swap");
+        std::swap(g.texels.at(at + 2 * sphere + 1), g.texels.at(at + 2 * triangle + 1));
+    };
+    const RenderResult planted = test::render_case(api, scene, kSize, how);
+    const int off = test::pixels_off(r, exact);
+    const double z = test::image_z(r, exact), planted_z = test::image_z(planted, exact);
+    std::printf("%s, sphere, quads and lamp through the tree: %d of %d pixels off, image z %.2f; "
+                "a sphere's trail swapped: z %.1f, %d pixels off\n",
+                api.c_str(), off, kSize * kSize, z, planted_z, test::pixels_off(planted, exact));
+    EXPECT_EQ(r.nonfinite_total, 0u);
+    EXPECT_EQ(off, 0) << api;
+    EXPECT_LT(std::abs(z), 4.5) << api;
+    EXPECT_GT(std::abs(planted_z), 4.5) << api << ": a wrong pmf in the MIS weight passed";
+}
+
 // Mean per-pixel variance of the samples (channel 0).
 double mean_pixel_variance(const RenderResult& r) {
     double sum = 0;
