@@ -128,63 +128,75 @@ TEST_P(EnvironmentOrientationRender, BrightSideWhereBlenderPutsIt) {
 
 // The map seen directly (camera rays): bilinear between texel centres, exact per pixel against
 // the test's own bilinear formula over each pixel's directions; per texel (nearest) rejected.
+// Three views: an oblique one, one toward -X (u wraps from 1 to 0 across the image: texel
+// columns 7 and 0 are blended) and one toward the zenith (v clamps at the pole). The texels
+// repeat every 11 columns, so no two columns are alike (a period of 7 made columns 7 and 0
+// equal, and u clamped at the seam passed).
 TEST_P(EnvironmentOrientationRender, MapSeenDirectlyIsBilinear) {
     constexpr int kW = 8, kH = 4, kSize = 24;
     const std::vector<unsigned char> file = radiance_file(kW, kH, [](int x, int y) {
-        return glm::vec3(float(1 + ((x * 5 + y * 3) % 7)), 1, 1);
+        return glm::vec3(float(1 + ((x * 5 + y * 3) % 11)), 1, 1);
     });
     Scene scene;
     Material m;
     scene.add_material(m);
     scene.spheres.push_back({glm::vec3(0, -100, 0), 0.01f, 0});  // out of view: not a light
     scene.camera.position = glm::vec3(0.f);
-    scene.camera.forward = glm::normalize(glm::vec3(1, 0.3f, 0.5f));
-    const glm::vec3 right = glm::normalize(glm::cross(scene.camera.forward, glm::vec3(0, 1, 0)));
-    scene.camera.up = glm::cross(right, scene.camera.forward);
     scene.camera.yfov = 1.2f;
     scene.has_camera = true;
     scene.environment = load_environment_memory(file.data(), file.size(), "hand-written.hdr");
-    test::CaseRender how;
-    how.spp = 64;
-    const RenderResult r = test::render_case(GetParam(), scene, kSize, how);
-    // Expected per pixel: the pixel's directions (16 x 16), each to (u, v) by Blender's
-    // mapping (the orientation test above), bilinear by the test's own formula.
-    const Camera& c = scene.camera;
-    const glm::dvec3 w = glm::normalize(glm::dvec3(c.forward));
-    const glm::dvec3 u_axis = glm::normalize(glm::cross(w, glm::dvec3(c.up)));
-    const glm::dvec3 v_axis = glm::cross(u_axis, w);
-    const double t = std::tan(0.5 * double(c.yfov));
-    const auto expected = [&](bool nearest) {
-        std::vector<double> out(kSize * kSize);
-        for (int py = 0; py < kSize; ++py)
-            for (int px = 0; px < kSize; ++px) {
-                double sum = 0;
-                for (int j = 0; j < 16; ++j)
-                    for (int i = 0; i < 16; ++i) {
-                        const double fx = (px + (i + 0.5) / 16) / kSize * 2 - 1;
-                        const double fy = 1 - (py + (j + 0.5) / 16) / kSize * 2;
-                        const glm::dvec3 d = glm::normalize(w + u_axis * (t * fx) + v_axis * (t * fy));
-                        const glm::dvec3 b(d.x, -d.z, d.y);  // Blender's axes
-                        double u = 0.5 - std::atan2(b.y, b.x) / (2 * kPi);
-                        u -= std::floor(u);
-                        const double v = std::acos(std::clamp(b.z, -1.0, 1.0)) / kPi;
-                        if (nearest) {
-                            const int x = std::min(kW - 1, int(u * kW)), y = std::min(kH - 1, int(v * kH));
-                            sum += 1 + ((x * 5 + y * 3) % 7);
-                        } else {
-                            sum += test::bilinear_radiance(scene.environment, u, v);
+    for (const auto& [view, forward] :
+         {std::pair{"oblique", glm::vec3(1, 0.3f, 0.5f)}, std::pair{"toward -X", glm::vec3(-1, 0.1f, 0.2f)},
+          std::pair{"toward the zenith", glm::vec3(0.05f, 1, 0.1f)}}) {
+        scene.camera.forward = glm::normalize(forward);
+        const glm::vec3 helper = std::abs(scene.camera.forward.y) > 0.9f ? glm::vec3(0, 0, 1)
+                                                                         : glm::vec3(0, 1, 0);
+        const glm::vec3 right = glm::normalize(glm::cross(scene.camera.forward, helper));
+        scene.camera.up = glm::cross(right, scene.camera.forward);
+        test::CaseRender how;
+        how.spp = 64;
+        const RenderResult r = test::render_case(GetParam(), scene, kSize, how);
+        // Expected per pixel: the pixel's directions (16 x 16), each to (u, v) by Blender's
+        // mapping (the orientation test above), bilinear by the test's own formula.
+        const Camera& c = scene.camera;
+        const glm::dvec3 w = glm::normalize(glm::dvec3(c.forward));
+        const glm::dvec3 u_axis = glm::normalize(glm::cross(w, glm::dvec3(c.up)));
+        const glm::dvec3 v_axis = glm::cross(u_axis, w);
+        const double t = std::tan(0.5 * double(c.yfov));
+        const auto expected = [&](bool nearest) {
+            std::vector<double> out(kSize * kSize);
+            for (int py = 0; py < kSize; ++py)
+                for (int px = 0; px < kSize; ++px) {
+                    double sum = 0;
+                    for (int j = 0; j < 16; ++j)
+                        for (int i = 0; i < 16; ++i) {
+                            const double fx = (px + (i + 0.5) / 16) / kSize * 2 - 1;
+                            const double fy = 1 - (py + (j + 0.5) / 16) / kSize * 2;
+                            const glm::dvec3 d =
+                                glm::normalize(w + u_axis * (t * fx) + v_axis * (t * fy));
+                            const glm::dvec3 b(d.x, -d.z, d.y);  // Blender's axes
+                            double u = 0.5 - std::atan2(b.y, b.x) / (2 * kPi);
+                            u -= std::floor(u);
+                            const double v = std::acos(std::clamp(b.z, -1.0, 1.0)) / kPi;
+                            if (nearest) {
+                                const int x = std::min(kW - 1, int(u * kW)),
+                                          y = std::min(kH - 1, int(v * kH));
+                                sum += 1 + ((x * 5 + y * 3) % 11);
+                            } else {
+                                sum += test::bilinear_radiance(scene.environment, u, v);
+                            }
                         }
-                    }
-                out[size_t(py * kSize + px)] = sum / 256;
-            }
-        return out;
-    };
-    const int off = test::pixels_off(r, expected(false));
-    const int off_nearest = test::pixels_off(r, expected(true));
-    std::printf("%s: the map seen: %d of %d pixels off bilinear, %d off nearest\n",
-                GetParam().c_str(), off, kSize * kSize, off_nearest);
-    EXPECT_EQ(off, 0);
-    EXPECT_GT(off_nearest, kSize * kSize / 4) << "the control (per texel) passed";
+                    out[size_t(py * kSize + px)] = sum / 256;
+                }
+            return out;
+        };
+        const int off = test::pixels_off(r, expected(false));
+        const int off_nearest = test::pixels_off(r, expected(true));
+        std::printf("%s, %s: the map seen: %d of %d pixels off bilinear, %d off nearest\n",
+                    GetParam().c_str(), view, off, kSize * kSize, off_nearest);
+        EXPECT_EQ(off, 0) << view;
+        EXPECT_GT(off_nearest, kSize * kSize / 4) << view << ": the control (per texel) passed";
+    }
 }
 
 INSTANTIATE_TEST_SUITE_P(Api, EnvironmentOrientationRender,
