@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <cstdlib>
 #include <numeric>
 #include <random>
@@ -181,6 +182,61 @@ TEST_P(ExactLights, PlaneUnderExtremeEnvironments) {
         EXPECT_GT(std::abs(test::pooled_mean(bright).z(exact)), 4.5)
             << api << ": " << c.what << ": a 2% brighter environment passed";
     }
+}
+
+// A sky that brightens across azimuth (0.25 to 1.75: half of it below the map's mean) with a
+// sun of 30, grey.
+Environment gradient_sky_and_sun() {
+    Environment env = map_with_sun(64, 32, 1.f, 20, 8, 30.f);
+    for (int y = 0; y < 32; ++y)
+        for (int x = 0; x < 64; ++x)
+            if (x != 20 || y != 8)
+                for (int c = 0; c < 3; ++c)
+                    env.rgb[size_t((y * 64 + x) * 3 + c)] = 0.25f + 1.5f * float(x) / 63.f;
+    return env;
+}
+
+// The Lambertian plane under that sky, exact per pixel compensated (next-event estimation
+// samples only what is above the mean; the half of the sky below it is BSDF sampling's alone)
+// and not. Control: compensated sampling weighted by MIS with the plain pdf (texels below the
+// mean, never sampled, weighted as if they were) is rejected. The exact maps before could
+// not see it: a uniform map keeps the plain weights, one lit texel leaves nothing lit below
+// the mean, and a sun 10^6 x the sky leaves 0.07% of the light there.
+TEST_P(ExactLights, PlaneUnderGradientSkyCompensatedOrNot) {
+    const std::string api = GetParam();
+    constexpr int kSize = 16;
+    constexpr float kAlbedo = 0.5f;
+    Scene scene = plane_scene(kAlbedo, 1.f, 1.f);
+    scene.environment = gradient_sky_and_sun();
+    const double exact = kAlbedo / kPi * upward_irradiance(scene.environment);
+    const std::vector<double> image(kSize * kSize, exact);
+    for (const bool compensated : {true, false}) {
+        scene.environment.compensated = compensated;
+        const RenderResult r = render_scene(api, scene, kSize, 256);
+        const test::MeanEstimate e = test::pooled_mean(r);
+        const int off = pixels_off(r, image);
+        std::printf("%s, gradient sky and sun, %s: mean %.6g, exact %.6g, z %.2f, %d pixels off\n",
+                    api.c_str(), compensated ? "compensated" : "plain", e.mean, exact,
+                    e.z(exact), off);
+        EXPECT_EQ(r.nonfinite_total, 0u);
+        EXPECT_LT(std::abs(e.z(exact)), 4.5) << api << ", compensated " << compensated;
+        EXPECT_EQ(off, 0) << api << ", compensated " << compensated;
+    }
+    scene.environment.compensated = true;
+    Scene plain = scene;
+    plain.environment.compensated = false;
+    test::CaseRender how;
+    how.plant = [&](GpuScene& g) {
+        const GpuScene p = pack_scene(plain, build_kdtree(plain.triangles, TreeOptions{}));
+        for (uint32_t i = 0; i < 64 * 32; ++i) {  // the texels' pdf words (RGB, then the pdf)
+            uint32_t& pdf = g.texels.at(g.params.env_word + 4 * i + 3);
+            if (pdf == 0) pdf = p.texels.at(p.params.env_word + 4 * i + 3);
+        }
+    };
+    const test::MeanEstimate planted = test::pooled_mean(test::render_case(api, scene, kSize, how));
+    std::printf("%s, compensated sampling with the plain pdf in MIS: z %.1f\n", api.c_str(),
+                planted.z(exact));
+    EXPECT_GT(std::abs(planted.z(exact)), 4.5) << api << ": the plain pdf in MIS passed";
 }
 
 // A convex Lambertian sphere of albedo rho under a uniform environment L reflects rho L
@@ -387,6 +443,46 @@ TEST(EnvironmentSampling, ChiSquareAgainstPdf) {
                 p_value, p_control);
     EXPECT_GT(p_value, 1e-3);
     EXPECT_LT(p_control, 1e-6);
+}
+
+// Compensation (Karlik et al. 2019) as packed: a texel whose luminance is below the map's
+// mean (solid-angle weighted) has next-event probability 0 and every other texel its excess
+// over the mean times sin(theta), up to the CDF's float steps; the plain table gives every
+// lit texel its luminance. (Switching compensation off fails the first check.)
+TEST(EnvironmentSampling, CompensationLeavesTexelsBelowTheMeanToBsdfSampling) {
+    Scene scene = plane_scene(0.5f, 1.f, 1.f);
+    scene.environment = gradient_sky_and_sun();
+    const Environment& env = scene.environment;
+    double lum = 0, sr = 0;
+    for (int y = 0; y < 32; ++y) {
+        const double s = std::sin(kPi * (y + 0.5) / 32);
+        for (int x = 0; x < 64; ++x) {
+            const float* c = &env.rgb[size_t((y * 64 + x) * 3)];
+            lum += env_luminance(c[0], c[1], c[2]) * s, sr += s;
+        }
+    }
+    const double mean = lum / sr;
+    for (const bool compensated : {true, false}) {
+        scene.environment.compensated = compensated;
+        const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, TreeOptions{}));
+        int zero = 0, below = 0;
+        for (int y = 0; y < 32; ++y)
+            for (int x = 0; x < 64; ++x) {
+                const float* c = &env.rgb[size_t((y * 64 + x) * 3)];
+                const double l = env_luminance(c[0], c[1], c[2]);
+                float pdf;
+                std::memcpy(&pdf, &g.texels.at(g.params.env_word + 4 * uint32_t(y * 64 + x) + 3), 4);
+                below += l < mean, zero += pdf == 0.f;
+                if (compensated && l < mean) {
+                    ASSERT_EQ(pdf, 0.f) << "texel " << x << ", " << y << " below the mean";
+                } else if (!compensated || l > mean * 1.01) {
+                    ASSERT_GT(pdf, 0.f) << "texel " << x << ", " << y;
+                }
+            }
+        std::printf("%s: %d of %d texels below the mean, %d with pdf 0\n",
+                    compensated ? "compensated" : "plain", below, 64 * 32, zero);
+        if (compensated) EXPECT_GT(below, 64 * 32 / 3);
+    }
 }
 
 // Lamps by contribution pick from a stream of weights with one uniform (stream_pick): each
