@@ -481,7 +481,9 @@ TEST(EnvironmentSampling, CompensationLeavesTexelsBelowTheMeanToBsdfSampling) {
             }
         std::printf("%s: %d of %d texels below the mean, %d with pdf 0\n",
                     compensated ? "compensated" : "plain", below, 64 * 32, zero);
-        if (compensated) EXPECT_GT(below, 64 * 32 / 3);
+        if (compensated) {
+            EXPECT_GT(below, 64 * 32 / 3);
+        }
     }
 }
 
