@@ -84,6 +84,24 @@ TEST(Environment, RadianceHdr) {
         }
 }
 
+// A run-length encoded .hdr that another program wrote (tests/data/blender_ramp.hdr: Blender
+// 3.4's writer, 40 x 6, red a ramp across, green constant, blue by row from the top; its
+// header has a comment and EXPOSURE=, its rows runs and dumps): accepted by check_radiance,
+// every texel in place to RGBE's 8-bit mantissa of the brightest channel.
+TEST(Environment, RadianceHdrWrittenByBlender) {
+    const Environment env = load_environment(std::string(MCPT_TEST_DATA_DIR) + "/blender_ramp.hdr");
+    ASSERT_EQ(env.width, 40);
+    ASSERT_EQ(env.height, 6);
+    for (int y = 0; y < 6; ++y)
+        for (int x = 0; x < 40; ++x) {
+            const float want[3] = {0.1f + 0.1f * float(x), 0.5f, 0.25f * float(y + 1)};
+            const float top = std::max({want[0], want[1], want[2]});
+            for (int c = 0; c < 3; ++c)
+                EXPECT_NEAR(env.rgb[size_t((y * 40 + x) * 3 + c)], want[c], top / 128)
+                    << "texel " << x << ", " << y << ", channel " << c;
+        }
+}
+
 // Radiance .hdr files that stb_image 2.27 would loop on forever (a dump of length 0,
 // CVE-2021-42715) or fill with zeros (cut short): refused as corrupt, at once.
 TEST(Environment, CorruptRadianceHdrIsRefusedNotLoopedOn) {
