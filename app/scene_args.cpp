@@ -34,6 +34,12 @@ void add_lighting_options(CLI::App* sub, LightingArgs& a) {
                     "the tree from 2 local lights with a lamp or from 32, else power)")
         ->check(CLI::IsMember({"auto", "power", "tree", "contribution"}))
         ->capture_default_str();
+    sub->add_option("--triangle-light-sampling", a.triangle_light_sampling,
+                    "How next-event estimation samples an emissive triangle: solid-angle "
+                    "(uniform over the solid angle it subtends, where that is stable; else by "
+                    "area) or area (uniform over its area, to measure against)")
+        ->check(CLI::IsMember({"solid-angle", "area"}))
+        ->capture_default_str();
     sub->add_option("--background", a.background,
                     "Constant background radiance R,G,B lighting the scene (default: black)")
         ->delimiter(',')
@@ -110,6 +116,7 @@ void print_device_shares(const Session& session) {
 }
 
 void apply_light_sampling(Scene& scene, const LightingArgs& lighting) {
+    scene.triangle_lights_by_area = lighting.triangle_light_sampling == "area";
     const std::string& how = lighting.light_sampling;
     if (how == "contribution" && !scene.lamp_choice_possible())
         throw Error(

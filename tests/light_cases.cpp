@@ -97,6 +97,25 @@ int pixels_off(const RenderResult& r, const std::vector<double>& expected) {
     return off;
 }
 
+int pixels_apart(const RenderResult& a, const RenderResult& b) {
+    const size_t n = a.nonfinite.size();
+    const double limit = stats::normal_quantile(1 - stats::sidak_level(1e-4, n) / 2);
+    std::vector<double> mean_a(n), var_a(n), mean_b(n), var_b(n);
+    const auto moments = [&](const RenderResult& r, std::vector<double>& m, std::vector<double>& v) {
+        for (size_t i = 0; i < n; ++i) {
+            const double k = double(r.spp) - r.nonfinite[i];
+            m[i] = r.sum[3 * i] / k;
+            v[i] = std::max(0.0, r.sum_sq[3 * i] / k - m[i] * m[i]) / (k - 1);
+        }
+    };
+    moments(a, mean_a, var_a), moments(b, mean_b, var_b);
+    const double floor = 1e-4 * *std::max_element(mean_b.begin(), mean_b.end());
+    int apart = 0;
+    for (size_t i = 0; i < n; ++i)
+        apart += std::abs(mean_a[i] - mean_b[i]) > limit * std::sqrt(var_a[i] + var_b[i] + floor * floor);
+    return apart;
+}
+
 double image_z(const RenderResult& r, const std::vector<double>& expected) {
     double diff = 0, var = 0;
     for (size_t i = 0; i < expected.size(); ++i) {
@@ -115,6 +134,17 @@ RenderResult with_pixel_scaled(RenderResult r, size_t i, double factor) {
         r.sum_sq[3 * i + c] *= factor * factor;
     }
     return r;
+}
+
+double polygon_irradiance(glm::dvec3 p, const std::vector<glm::dvec3>& poly, double radiance) {
+    double sum = 0;
+    for (size_t i = 0; i < poly.size(); ++i) {
+        const glm::dvec3 a = glm::normalize(poly[i] - p);
+        const glm::dvec3 b = glm::normalize(poly[(i + 1) % poly.size()] - p);
+        const double angle = std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0));
+        sum += angle * glm::normalize(glm::cross(a, b)).y;
+    }
+    return 0.5 * radiance * std::abs(sum);
 }
 
 Environment map_with_sun(int w, int h, float sky, int x, int y, float sun) {

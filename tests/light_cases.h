@@ -46,6 +46,11 @@ RenderResult render_case(const std::string& api, const Scene& scene, int size,
 // counting the sample error and 0.05% for the expected value's own integration.
 int pixels_off(const RenderResult& r, const std::vector<double>& expected);
 
+// Pixels (channel 0) where two renders' means differ beyond Sidak's z at 1e-4 over the image
+// (as pixels_off), each with its own standard error, and 1e-4 of the brightest pixel for
+// float rounding where light fades to zero.
+int pixels_apart(const RenderResult& a, const RenderResult& b);
+
 // The image's mean difference from `expected` over its standard error (sample error, and
 // 0.05% for the expected value's integration): what a light 2% too bright cannot pass.
 double image_z(const RenderResult& r, const std::vector<double>& expected);
@@ -53,6 +58,11 @@ double image_z(const RenderResult& r, const std::vector<double>& expected);
 // The render with pixel i's samples scaled by `factor` (sum by f, sum of squares by f^2), as
 // a defect confined to one pixel would leave it.
 RenderResult with_pixel_scaled(RenderResult r, size_t i, double factor);
+
+// Irradiance at p (normal +Y) from a one-sided polygon of uniform radiance L facing it
+// (Lambert's formula: L / 2 times the sum over edges of the angle they subtend times the
+// cosine of their plane's normal with the surface normal).
+double polygon_irradiance(glm::dvec3 p, const std::vector<glm::dvec3>& poly, double radiance);
 
 // A map of w x h texels of radiance `sky`, with `sun` at texel (x, y).
 Environment map_with_sun(int w, int h, float sky, int x, int y, float sun);

@@ -80,7 +80,10 @@ JobLimits limits(uint64_t end, double seconds, uint32_t granule, double chunk_se
 TEST(Coordinator, ChunksCoverTheJobOnceSharedBySpeed) {
     FakeWorker fast("fast", 4000), slow("slow", 1000);
     RenderResult total;
-    Coordinator job(total, limits(2000, 0, 16, 0.02), {&fast, &slow});
+    // Chunks of 0.05 s: each one's time holds a thread's wake-up after its sleep, which a loaded
+    // machine stretches; at 0.02 s the fast device's chunks shrink toward one granule (4 ms of
+    // samples) and a mean wake-up of ~12 ms can take its share below 0.6 (at 0.05 s: ~30 ms).
+    Coordinator job(total, limits(2000, 0, 16, 0.05), {&fast, &slow});
     job.run();
     // Every sample once, in one prefix; each value counted once.
     EXPECT_EQ(total.first, 0u);
@@ -112,16 +115,17 @@ TEST(Coordinator, ChunksCoverTheJobOnceSharedBySpeed) {
 TEST(Coordinator, EqualDevicesShareARoundInOneChunkEach) {
     FakeWorker a("a", 2000), b("b", 2000), c("c", 2000), d("d", 2000);
     RenderResult total;
-    // Parts of 0.1 s: a thread that starts up to ~60 ms after the others leaves them slivers
-    // shorter than min_share_seconds, which they sit out.
-    JobLimits lim = limits(800, 0, 1, 0.5);
-    lim.min_share_seconds = 0.05;
+    // Parts of 1 s: a thread that starts up to ~0.6 s after the others (the threads' start as
+    // a loaded machine schedules it; parts of 0.1 s allowed ~60 ms) leaves them slivers shorter
+    // than min_share_seconds, which they sit out.
+    JobLimits lim = limits(8000, 0, 1, 2.0);
+    lim.min_share_seconds = 0.5;
     Coordinator job(total, lim, {&a, &b, &c, &d}, {2000, 2000, 2000, 2000});
     job.run();
-    EXPECT_EQ(total.spp, 800u);
+    EXPECT_EQ(total.spp, 8000u);
     for (const WorkerStats& s : job.stats()) {
         EXPECT_EQ(s.chunks, 1u) << s.name;
-        EXPECT_NEAR(double(s.samples), 200.0, 4.0) << s.name;
+        EXPECT_NEAR(double(s.samples), 2000.0, 4.0) << s.name;
     }
 }
 

@@ -22,20 +22,6 @@ using test::kPi;
 constexpr int kSize = 24;
 constexpr float kAlbedo = 0.5f;
 
-// Irradiance at p (normal +Y) from a one-sided polygon of uniform radiance L facing it
-// (Lambert's formula: L / 2 times the sum over edges of the angle they subtend times the
-// cosine of their plane's normal with the surface normal).
-double polygon_irradiance(glm::dvec3 p, const std::vector<glm::dvec3>& poly, double radiance) {
-    double sum = 0;
-    for (size_t i = 0; i < poly.size(); ++i) {
-        const glm::dvec3 a = glm::normalize(poly[i] - p);
-        const glm::dvec3 b = glm::normalize(poly[(i + 1) % poly.size()] - p);
-        const double angle = std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0));
-        sum += angle * glm::normalize(glm::cross(a, b)).y;
-    }
-    return 0.5 * radiance * std::abs(sum);
-}
-
 // Irradiance from a point light of intensity I at (0, 1, 0).
 double lamp_irradiance(glm::dvec3 p, double intensity) {
     const double r = glm::length(glm::dvec3(0, 1, 0) - p);
@@ -116,7 +102,7 @@ TEST_P(SeveralLights, LampAndEmissiveQuad) {
     const std::vector<glm::dvec3> quad = {a, b, c, d};
     expect_exact_with_control(
         GetParam(), "point lamp and emissive quad", scene,
-        [&](glm::dvec3 p) { return lamp_irradiance(p, 2.0) + polygon_irradiance(p, quad, 3.0); },
+        [&](glm::dvec3 p) { return lamp_irradiance(p, 2.0) + test::polygon_irradiance(p, quad, 3.0); },
         [](GpuScene& g) { test::scale_pick_pmf(g, 0u | LIGHT_PUNCTUAL_BIT, 1.1f); });
 }
 
@@ -175,8 +161,8 @@ TEST_P(SeveralLights, SphereQuadsAndLampThroughTheTree) {
     const auto irradiance = [&](glm::dvec3 p) {
         const glm::dvec3 to_c = centre - p;
         const double d = glm::length(to_c);
-        return lamp_irradiance(p, 0.5) + polygon_irradiance(p, quad1, 3.0) +
-               polygon_irradiance(p, quad2, 3.0) +
+        return lamp_irradiance(p, 0.5) + test::polygon_irradiance(p, quad1, 3.0) +
+               test::polygon_irradiance(p, quad2, 3.0) +
                kPi * 4.0 * (radius * radius) / (d * d) * (to_c.y / d);
     };
     const std::vector<double> exact = test::expected_image(
@@ -272,28 +258,6 @@ TEST_P(SeveralLights, LampsByContribution) {
     EXPECT_GT(std::abs(planted_z), 4.5) << "the planted pmf passed";
 }
 
-// Pixels (channel 0) whose means differ beyond Sidak's z at 1e-4 over the image (as
-// test::pixels_off), each with its own standard error, and 1e-4 of the brightest pixel for
-// float rounding where light fades to zero.
-int pixels_apart(const RenderResult& a, const RenderResult& b) {
-    const size_t n = a.nonfinite.size();
-    const double limit = stats::normal_quantile(1 - stats::sidak_level(1e-4, n) / 2);
-    std::vector<double> mean_a(n), var_a(n), mean_b(n), var_b(n);
-    const auto moments = [&](const RenderResult& r, std::vector<double>& m, std::vector<double>& v) {
-        for (size_t i = 0; i < n; ++i) {
-            const double k = double(r.spp) - r.nonfinite[i];
-            m[i] = r.sum[3 * i] / k;
-            v[i] = std::max(0.0, r.sum_sq[3 * i] / k - m[i] * m[i]) / (k - 1);
-        }
-    };
-    moments(a, mean_a, var_a), moments(b, mean_b, var_b);
-    const double floor = 1e-4 * *std::max_element(mean_b.begin(), mean_b.end());
-    int apart = 0;
-    for (size_t i = 0; i < n; ++i)
-        apart += std::abs(mean_a[i] - mean_b[i]) > limit * std::sqrt(var_a[i] + var_b[i] + floor * floor);
-    return apart;
-}
-
 // Lamps by contribution where the BSDF and visibility matter: two spot lamps (one cone edge
 // across the view) and a point lamp over a glossy plane (roughness 0.3), a ball casting their
 // shadows. No exact image: by contribution against by power, which has no weights to get
@@ -334,7 +298,7 @@ TEST_P(SeveralLights, LampsByContributionOnAGlossyShadowedPlane) {
     const RenderResult contribution = test::render_case(api, by_contribution, kSize, how);
     const test::MeanEstimate p = test::pooled_mean(power), c = test::pooled_mean(contribution);
     const double z = (c.mean - p.mean) / std::hypot(p.std_error, c.std_error);
-    const int apart = pixels_apart(contribution, power);
+    const int apart = test::pixels_apart(contribution, power);
     std::printf("%s, spots, lamp, glossy plane, ball: contribution %.5f +- %.5f, power %.5f +- "
                 "%.5f, z %.2f, %d pixels apart\n",
                 api.c_str(), c.mean, c.std_error, p.mean, p.std_error, z, apart);

@@ -423,7 +423,9 @@ TEST(TevStream, WarnsOnceAndRetriesOnceASecondWhileUnreachable) {
         warnings.push_back(w);
     });
     stream.post(300, 200, synthetic());
-    std::this_thread::sleep_for(std::chrono::milliseconds(2100));  // attempts at 0, 1, 2 s
+    // Attempts at 0, 1, 2 s, spaced by the stream's own 1 s steady-clock timer (kRetryInterval):
+    // fewer than 2 needs its thread >1.1 s late, more than 3 this one to oversleep by 0.9 s.
+    std::this_thread::sleep_for(std::chrono::milliseconds(2100));
     const uint64_t attempts = stream.stats().attempts;
     EXPECT_GE(attempts, 2u);
     EXPECT_LE(attempts, 3u);

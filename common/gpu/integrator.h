@@ -10,6 +10,7 @@
 #include "lights.h"
 #include "sampler.h"
 #include "traverse.h"
+#include "triangle_light.h"
 
 MCPT_NAMESPACE_BEGIN
 
@@ -120,11 +121,10 @@ MCPT_FN float triangle_area(GpuTriangle tri) {
     return 0.5f * length(cross(tri_v1(tri) - tri_v0(tri), tri_v2(tri) - tri_v0(tri)));
 }
 
-// Probability per unit area that next-event estimation at x picks a point of emitter
-// `light_prim` (a triangle index, or a sphere index | LIGHT_SPHERE_BIT) of material m:
-// by power, mean(Le) / total (area * mean(Le) / total for the pick, twice that for a
-// two-sided emitter, uniform area sampling), or by the tree, its pick's probability over the
-// area.
+// Probability that next-event estimation at x picks emitter `light_prim` (a triangle index,
+// or a sphere index | LIGHT_SPHERE_BIT) of material m, over its area: by power, mean(Le) /
+// total (the pick is area * mean(Le) / total, twice that for a two-sided emitter), or by the
+// tree, its pick's probability over the area.
 MCPT_FN float emitter_area_pdf(SCENE_PARAMS_ uint light_prim, vec3 x, vec3 rn, GpuMaterial m,
                                float area) {
     if (LIGHT_TREE_ON)
@@ -133,6 +133,13 @@ MCPT_FN float emitter_area_pdf(SCENE_PARAMS_ uint light_prim, vec3 x, vec3 rn, G
                     area);
     float faces = emits_from_back(m) ? 2.0f : 1.0f;
     return DIVF(faces * mean_component(material_emission(m)), PARAM(light_power_total));
+}
+
+// Probability that next-event estimation at x picks emitter triangle `prim` (of material m
+// and area `area`): by the tree, or by power.
+MCPT_FN float triangle_pick_pmf(SCENE_PARAMS_ uint prim, vec3 x, vec3 rn, GpuMaterial m,
+                                float area) {
+    return emitter_area_pdf(SCENE_ARGS_ prim, x, rn, m, area) * area;
 }
 
 // Solid-angle pdf that next-event estimation samples a sphere light from x (cone sampling),
@@ -217,10 +224,12 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 rn, vec3 u) {
                          : sphere_light_pdf(SCENE_ARGS_ prim & ~LIGHT_SPHERE_BIT, x, rn);
         ls.valid = ls.pdf > 0.0f;
     } else if (HAS_FEATURE(FEATURE_TRIANGLE_LIGHTS) && (prim & ~LIGHT_INDEX_MASK) == 0u) {
-        // Triangle: uniform point; emission from the front, or both faces.
+        // Triangle: a point by solid angle (else by area); emission from the front, or both
+        // faces.
         GpuTriangle tri = TRIANGLE(prim);
         vec3 v0 = tri_v0(tri), v1 = tri_v1(tri), v2 = tri_v2(tri);
-        vec2 b = sample_triangle_barycentrics(u.y, u.z);
+        float omega = triangle_solid_angle(SCENE_ARGS_ v0, v1, v2, x);
+        vec2 b = sample_triangle_light(v0, v1, v2, x, omega, V2(u.y, u.z));
         float b0 = 1.0f - b.x - b.y;
         vec3 p0 = v0 * b0, p1 = v1 * b.x, p2 = v2 * b.y;
         ls.p = p0 + p1 + p2;
@@ -244,9 +253,8 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 rn, vec3 u) {
             vec4 t = sample_texture(SCENE_ARGS_ m.tex_emission, uv);
             ls.le = ls.le * V3(t.x, t.y, t.z);
         }
-        float area_pdf = by_tree ? DIVF(pmf, triangle_area(tri))
-                                 : emitter_area_pdf(SCENE_ARGS_ prim, x, rn, m, 1.0f);
-        ls.pdf = DIVF(area_pdf * dist2, cos_l);
+        // (pmf: the pick's probability; a BSDF-sampled hit recomputes it, triangle_pick_pmf.)
+        ls.pdf = triangle_light_pdf(pmf, omega, triangle_area(tri), dist2, cos_l);
         ls.valid = true;
     }
     return ls;
@@ -260,10 +268,11 @@ MCPT_FN float emitter_hit_pdf(SCENE_PARAMS_ vec3 x, vec3 rn, Ray ray, Hit hit, S
     }
     float cos_l = ABSF(dot(s.ng, ray.d));  // the front, or a two-sided emitter's back
     vec3 to_l = s.p - x;
-    float area = LIGHT_TREE_ON ? triangle_area(TRIANGLE(hit.prim)) : 1.0f;
-    return DIVF(emitter_area_pdf(SCENE_ARGS_ hit.prim, x, rn, MATERIAL(s.material), area) *
-                    dot(to_l, to_l),
-                cos_l);
+    GpuTriangle tri = TRIANGLE(hit.prim);
+    float omega = triangle_solid_angle(SCENE_ARGS_ tri_v0(tri), tri_v1(tri), tri_v2(tri), x);
+    float area = triangle_area(tri);
+    float pick = triangle_pick_pmf(SCENE_ARGS_ hit.prim, x, rn, MATERIAL(s.material), area);
+    return triangle_light_pdf(pick, omega, area, dot(to_l, to_l), cos_l);
 }
 
 MCPT_FN PathResult path_result(vec3 radiance, uint rays) {

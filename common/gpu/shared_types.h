@@ -305,6 +305,9 @@ MCPT_STRUCT(GpuParams) {
 // Next-event estimation picks among the scene's lights, all punctual and at most
 // LIGHT_CONTRIBUTION_MAX of them, by each one's unshadowed contribution (integrator.h).
 #define SCENE_LIGHT_CONTRIBUTION 16u
+// Emissive triangles sampled by area, not by solid angle (triangle_light.h; render
+// --triangle-light-sampling area, to measure against).
+#define SCENE_TRIANGLE_LIGHTS_BY_AREA 32u
 #define LIGHT_CONTRIBUTION_MAX 8u
 
 // Accumulation buffer: two vec4 per pixel (every pixel, or the window's state_slots pixels

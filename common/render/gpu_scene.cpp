@@ -484,6 +484,7 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
                 std::to_string(LIGHT_CONTRIBUTION_MAX) + " of them, without the tree");
         p.scene_flags |= SCENE_LIGHT_CONTRIBUTION;
     }
+    if (scene.triangle_lights_by_area) p.scene_flags |= SCENE_TRIANGLE_LIGHTS_BY_AREA;
     p.scene_min_x = tree.bounds.min.x, p.scene_min_y = tree.bounds.min.y;
     p.scene_min_z = tree.bounds.min.z;
     p.scene_max_x = tree.bounds.max.x, p.scene_max_y = tree.bounds.max.y;

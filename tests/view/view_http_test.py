@@ -180,7 +180,10 @@ try:
     check(b" 501 " in raw(port, chunked), "a chunked body: 501")
     check(b" 413 " in raw(port, b"POST /api/pause HTTP/1.1\r\n" + host + b"Content-Length: 100000\r\n\r\n"),
           "a 100 KB body: 413")
-    # A head sent a byte every 0.5 s: cut at 10 s, while others are still answered.
+    # A head sent a byte every 0.5 s: cut at 10 s, while others are still answered. Both bounds
+    # are the server's own 10 s head timer (steady clock, started once a worker takes the
+    # connection, after the connect): load only delays that pickup and the 408's delivery, and
+    # the 2 s below and 4 s above are for those (the slow head itself would take 75 s).
     slow = socket.create_connection(("127.0.0.1", port), timeout=30)
     started = time.time()
     answer = b""
@@ -202,7 +205,10 @@ try:
     check(b" 408 " in answer and 8 < took < 14, "a head sent a byte at a time is cut at 10 s "
           "(%.1f s: %r)" % (took, answer[:30]))
     # More connections than threads and queue: the rest are answered 503 at once; afterwards
-    # the server serves again.
+    # the server serves again. A count, not a time: each of the 8 threads holds an idle one
+    # for the 10 s head timeout, so at most 24 are not refused, and the accepting thread writes
+    # the 503 before it accepts the next; a refused one is read after at least 16 queued ones
+    # timed out (0.2 s each), >= 3.7 s after the last connect, not 0.5 s.
     idle = [socket.create_connection(("127.0.0.1", port), timeout=30) for _ in range(40)]
     time.sleep(0.5)
     refused = 0
@@ -450,6 +456,11 @@ def slow_b_run(extra, until_b_spp, limit_s):
     return seen, sides, rates
 
 
+# Not a race with the machine's speed: B publishes a step only after its sleep (49 times the
+# step), and its first step ends at the first milestone (4 spp), which A, not slowed, passed
+# long before and keeps (its oldest stays): the maps exist when B's first samples show, so
+# `at` is this poll's latency (at most one more B step if that first step fell short of 4).
+# The defect (A's oldest milestone dropped) gives no map at all in the run.
 MAPS_WITHIN_S = 10
 seen, sides, rates = slow_b_run([], 256, 120)
 spps = [m["spp"] for m in seen]

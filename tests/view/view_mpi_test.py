@@ -111,7 +111,11 @@ def main():
             time.sleep(0.05)
         step = max(b - a for a, b in zip(changes, changes[1:])) if len(changes) == 3 else 10.0
         # Paused: once the step under way has ended (nothing moves for two steps' time), no
-        # device takes a chunk and none renders for another step and a half.
+        # device takes a chunk and none renders for another step and a half. Load cannot fake a
+        # change: spp and chunks move only when a step ends, and a step is the session's own 2 s
+        # round (round_seconds) plus chunks of <= 0.5 s at the speed just measured, so the step
+        # under way outlasts 2 steps + 0.5 s (>= 4.5 s) only if its last chunks run several
+        # times slower than seconds before; while paused no round runs: no rank gets a chunk.
         request(port, token, "/api/pause", "POST")
         last, still_since = None, time.time()
         deadline = time.time() + 120
