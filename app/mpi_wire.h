@@ -81,6 +81,5 @@ void send_batch_mean(const BatchMean& batch, bool bad_size = false);
 bool receive_batch_mean(int from, int width, int height, uint64_t spp,
                         Clock::time_point deadline, const std::string& who, BatchMean& out);
 
-
 }  // namespace mcpt::wire
 #endif

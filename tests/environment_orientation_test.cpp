@@ -134,9 +134,8 @@ TEST_P(EnvironmentOrientationRender, BrightSideWhereBlenderPutsIt) {
 // equal, and u clamped at the seam passed).
 TEST_P(EnvironmentOrientationRender, MapSeenDirectlyIsBilinear) {
     constexpr int kW = 8, kH = 4, kSize = 24;
-    const std::vector<unsigned char> file = radiance_file(kW, kH, [](int x, int y) {
-        return glm::vec3(float(1 + ((x * 5 + y * 3) % 11)), 1, 1);
-    });
+    const std::vector<unsigned char> file = radiance_file(
+        kW, kH, [](int x, int y) { return glm::vec3(float(1 + ((x * 5 + y * 3) % 11)), 1, 1); });
     Scene scene;
     Material m;
     scene.add_material(m);
@@ -146,11 +145,12 @@ TEST_P(EnvironmentOrientationRender, MapSeenDirectlyIsBilinear) {
     scene.has_camera = true;
     scene.environment = load_environment_memory(file.data(), file.size(), "hand-written.hdr");
     for (const auto& [view, forward] :
-         {std::pair{"oblique", glm::vec3(1, 0.3f, 0.5f)}, std::pair{"toward -X", glm::vec3(-1, 0.1f, 0.2f)},
+         {std::pair{"oblique", glm::vec3(1, 0.3f, 0.5f)},
+          std::pair{"toward -X", glm::vec3(-1, 0.1f, 0.2f)},
           std::pair{"toward the zenith", glm::vec3(0.05f, 1, 0.1f)}}) {
         scene.camera.forward = glm::normalize(forward);
-        const glm::vec3 helper = std::abs(scene.camera.forward.y) > 0.9f ? glm::vec3(0, 0, 1)
-                                                                         : glm::vec3(0, 1, 0);
+        const glm::vec3 helper =
+            std::abs(scene.camera.forward.y) > 0.9f ? glm::vec3(0, 0, 1) : glm::vec3(0, 1, 0);
         const glm::vec3 right = glm::normalize(glm::cross(scene.camera.forward, helper));
         scene.camera.up = glm::cross(right, scene.camera.forward);
         test::CaseRender how;

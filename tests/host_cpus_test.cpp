@@ -55,8 +55,8 @@ TEST(HostCpus, CpuMaxIsParsedAsTheKernelWritesIt) {
     EXPECT_EQ(cpus_of_cpu_max("800000 50000"), 16u);
     EXPECT_EQ(cpus_of_cpu_max("max 100000"), 0u);
     for (const char* garbage : {"", "max", "150000", "abc 100000", "150000 abc", "150000x 100000",
-                                "-150000 100000", "150000 0", "150000 -1", "0 100000",
-                                "nan 100000", "inf 100000", "1e999 100000", "150000 100000 7"})
+                                "-150000 100000", "150000 0", "150000 -1", "0 100000", "nan 100000",
+                                "inf 100000", "1e999 100000", "150000 100000 7"})
         EXPECT_EQ(cpus_of_cpu_max(garbage), 0u) << '"' << garbage << '"';
     EXPECT_EQ(cpus_of_cpu_max("1e300 1"), 65536u);  // no overflow into a small count
 }

@@ -101,7 +101,8 @@ int pixels_apart(const RenderResult& a, const RenderResult& b) {
     const size_t n = a.nonfinite.size();
     const double limit = stats::normal_quantile(1 - stats::sidak_level(1e-4, n) / 2);
     std::vector<double> mean_a(n), var_a(n), mean_b(n), var_b(n);
-    const auto moments = [&](const RenderResult& r, std::vector<double>& m, std::vector<double>& v) {
+    const auto moments = [&](const RenderResult& r, std::vector<double>& m,
+                             std::vector<double>& v) {
         for (size_t i = 0; i < n; ++i) {
             const double k = double(r.spp) - r.nonfinite[i];
             m[i] = r.sum[3 * i] / k;
@@ -112,8 +113,20 @@ int pixels_apart(const RenderResult& a, const RenderResult& b) {
     const double floor = 1e-4 * *std::max_element(mean_b.begin(), mean_b.end());
     int apart = 0;
     for (size_t i = 0; i < n; ++i)
-        apart += std::abs(mean_a[i] - mean_b[i]) > limit * std::sqrt(var_a[i] + var_b[i] + floor * floor);
+        apart += std::abs(mean_a[i] - mean_b[i]) >
+                 limit * std::sqrt(var_a[i] + var_b[i] + floor * floor);
     return apart;
+}
+
+double mean_sample_variance(const RenderResult& r) {
+    double v = 0;
+    const size_t n = r.nonfinite.size();
+    for (size_t i = 0; i < n; ++i) {
+        const double k = double(r.spp) - double(r.nonfinite[i]);
+        const double mean = r.sum[3 * i] / k;
+        v += std::max(0.0, r.sum_sq[3 * i] / k - mean * mean) * k / (k - 1);
+    }
+    return v / double(n);
 }
 
 double image_z(const RenderResult& r, const std::vector<double>& expected) {

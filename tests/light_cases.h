@@ -51,6 +51,9 @@ int pixels_off(const RenderResult& r, const std::vector<double>& expected);
 // float rounding where light fades to zero.
 int pixels_apart(const RenderResult& a, const RenderResult& b);
 
+// The mean over pixels of one sample's variance (channel 0).
+double mean_sample_variance(const RenderResult& r);
+
 // The image's mean difference from `expected` over its standard error (sample error, and
 // 0.05% for the expected value's integration): what a light 2% too bright cannot pass.
 double image_z(const RenderResult& r, const std::vector<double>& expected);

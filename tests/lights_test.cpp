@@ -11,8 +11,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <cstdlib>
+#include <cstring>
 #include <numeric>
 #include <random>
 
@@ -216,8 +216,8 @@ TEST_P(ExactLights, PlaneUnderGradientSkyCompensatedOrNot) {
         const test::MeanEstimate e = test::pooled_mean(r);
         const int off = pixels_off(r, image);
         std::printf("%s, gradient sky and sun, %s: mean %.6g, exact %.6g, z %.2f, %d pixels off\n",
-                    api.c_str(), compensated ? "compensated" : "plain", e.mean, exact,
-                    e.z(exact), off);
+                    api.c_str(), compensated ? "compensated" : "plain", e.mean, exact, e.z(exact),
+                    off);
         EXPECT_EQ(r.nonfinite_total, 0u);
         EXPECT_LT(std::abs(e.z(exact)), 4.5) << api << ", compensated " << compensated;
         EXPECT_EQ(off, 0) << api << ", compensated " << compensated;
@@ -269,18 +269,6 @@ TEST_P(ExactLights, SphereUnderUniformEnvironment) {
 
 INSTANTIATE_TEST_SUITE_P(Api, ExactLights, ::testing::ValuesIn(test::test_apis()),
                          [](const auto& info) { return info.param; });
-
-// Mean per-pixel variance of one sample (channel 0).
-double mean_sample_variance(const RenderResult& r) {
-    double v = 0;
-    const size_t n = r.nonfinite.size();
-    for (size_t i = 0; i < n; ++i) {
-        const double k = double(r.spp) - double(r.nonfinite[i]);
-        const double mean = r.sum[3 * i] / k;
-        v += std::max(0.0, r.sum_sq[3 * i] / k - mean * mean) * k / (k - 1);
-    }
-    return v / double(n);
-}
 
 // Mean over pixels of the squared pixel mean (channel 0): Veach's bound on what MIS may add.
 double mean_squared_mean(const RenderResult& r) {
@@ -337,7 +325,7 @@ TEST_P(EnvironmentMis, VarianceBoundedWhereOneStrategyExplodes) {
             const RenderResult r =
                 render_scene(api, c.scene, 16, 256, 8, 1.f, uint32_t(k == 3 ? 4 : k));
             EXPECT_EQ(r.nonfinite_total, 0u) << c.what;
-            var[k] = mean_sample_variance(r);
+            var[k] = test::mean_sample_variance(r);
             if (k == 0) mu2 = mean_squared_mean(r);
             const test::MeanEstimate e = test::pooled_mean(r);
             mean[k] = e.mean, se[k] = e.std_error;
@@ -471,7 +459,8 @@ TEST(EnvironmentSampling, CompensationLeavesTexelsBelowTheMeanToBsdfSampling) {
                 const float* c = &env.rgb[size_t((y * 64 + x) * 3)];
                 const double l = env_luminance(c[0], c[1], c[2]);
                 float pdf;
-                std::memcpy(&pdf, &g.texels.at(g.params.env_word + 4 * uint32_t(y * 64 + x) + 3), 4);
+                std::memcpy(&pdf, &g.texels.at(g.params.env_word + 4 * uint32_t(y * 64 + x) + 3),
+                            4);
                 below += l < mean, zero += pdf == 0.f;
                 if (compensated && l < mean) {
                     ASSERT_EQ(pdf, 0.f) << "texel " << x << ", " << y << " below the mean";

@@ -38,8 +38,8 @@ TEST(NvidiaOpenClVariant, AgreesWithTheReferenceBuildOnPocl) {
     std::vector<Case> cases;
     cases.push_back({"materials, k-d tree", make_builtin_scene("materials"), TreeKind::Sah});
     cases.push_back({"bumpy sphere, BVH", make_bumpy_sphere_scene(60), TreeKind::Bvh});
-    cases.push_back({"textured, BVH",
-                     load_gltf(std::string(MCPT_TEST_DATA_DIR) + "/textured.glb"), TreeKind::Bvh});
+    cases.push_back({"textured, BVH", load_gltf(std::string(MCPT_TEST_DATA_DIR) + "/textured.glb"),
+                     TreeKind::Bvh});
     for (Case& c : cases) {
         validate_scene(c.scene);
         TreeOptions t;
@@ -49,11 +49,11 @@ TEST(NvidiaOpenClVariant, AgreesWithTheReferenceBuildOnPocl) {
         const Agreement same = test_agreement(reference, batches(kNvidia, c.scene, g, 9000), 0.01);
         EXPECT_TRUE(same.agree) << c.name << ": " << same.verdict();
         if (c.name.rfind("materials", 0) != 0) continue;
-        const Agreement off = test_agreement(
-            reference,
-            batches(std::string(kNvidia) + " -DMCPT_NEGATIVE_CONTROL_GGX_ALPHA=1.1f", c.scene, g,
-                    17000),
-            0.01);
+        const Agreement off =
+            test_agreement(reference,
+                           batches(std::string(kNvidia) + " -DMCPT_NEGATIVE_CONTROL_GGX_ALPHA=1.1f",
+                                   c.scene, g, 17000),
+                           0.01);
         EXPECT_FALSE(off.agree) << c.name << ": a GGX alpha 10% off passed: " << off.verdict();
     }
 }

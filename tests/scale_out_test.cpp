@@ -320,9 +320,9 @@ TEST(ScaleOut, MpiFaultBelowAnIntermediateRankIsNamed) {
 #else
     const fs::path out = temp("mpi_subtree.exr");
     const std::string args = job(4096) + " -o " + out.string();
-    const test::CliRun dropped = mpirun(
-        4, args, "-x MCPT_MPI_FAULT_RANK=2 -x MCPT_MPI_FAULT_AFTER_ROUNDS=1 "
-                 "-x MCPT_MPI_FAULT=drop-children");
+    const test::CliRun dropped = mpirun(4, args,
+                                        "-x MCPT_MPI_FAULT_RANK=2 -x MCPT_MPI_FAULT_AFTER_ROUNDS=1 "
+                                        "-x MCPT_MPI_FAULT=drop-children");
     EXPECT_NE(dropped.status, 0) << dropped.output;
     EXPECT_NE(dropped.output.find("ranks 2-3 (added up by rank 2)"), std::string::npos)
         << dropped.output;

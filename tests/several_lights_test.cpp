@@ -102,7 +102,9 @@ TEST_P(SeveralLights, LampAndEmissiveQuad) {
     const std::vector<glm::dvec3> quad = {a, b, c, d};
     expect_exact_with_control(
         GetParam(), "point lamp and emissive quad", scene,
-        [&](glm::dvec3 p) { return lamp_irradiance(p, 2.0) + test::polygon_irradiance(p, quad, 3.0); },
+        [&](glm::dvec3 p) {
+            return lamp_irradiance(p, 2.0) + test::polygon_irradiance(p, quad, 3.0);
+        },
         [](GpuScene& g) { test::scale_pick_pmf(g, 0u | LIGHT_PUNCTUAL_BIT, 1.1f); });
 }
 
@@ -149,10 +151,10 @@ TEST_P(SeveralLights, SphereQuadsAndLampThroughTheTree) {
         scene.triangles.push_back({a, c, d, quad_mat});
         return std::vector<glm::dvec3>{a, b, c, d};
     };
-    const auto quad1 = add_quad({1.2f, 1.2f, -0.5f}, {2.2f, 1.2f, -0.5f}, {2.2f, 1.2f, 0.5f},
-                                {1.2f, 1.2f, 0.5f});
-    const auto quad2 = add_quad({-0.5f, 1.1f, 1.2f}, {0.5f, 1.1f, 1.2f}, {0.5f, 1.1f, 2.2f},
-                                {-0.5f, 1.1f, 2.2f});
+    const auto quad1 =
+        add_quad({1.2f, 1.2f, -0.5f}, {2.2f, 1.2f, -0.5f}, {2.2f, 1.2f, 0.5f}, {1.2f, 1.2f, 0.5f});
+    const auto quad2 =
+        add_quad({-0.5f, 1.1f, 1.2f}, {0.5f, 1.1f, 1.2f}, {0.5f, 1.1f, 2.2f}, {-0.5f, 1.1f, 2.2f});
     m.emission = glm::vec3(4.f);
     const glm::dvec3 centre(-1.5, 1.3, 0.3);
     const double radius = 0.25;
@@ -184,25 +186,14 @@ TEST_P(SeveralLights, SphereQuadsAndLampThroughTheTree) {
     const RenderResult planted = test::render_case(api, scene, kSize, how);
     const int off = test::pixels_off(r, exact);
     const double z = test::image_z(r, exact), planted_z = test::image_z(planted, exact);
-    std::printf("%s, sphere, quads and lamp through the tree: %d of %d pixels off, image z %.2f; "
-                "a sphere's trail swapped: z %.1f, %d pixels off\n",
-                api.c_str(), off, kSize * kSize, z, planted_z, test::pixels_off(planted, exact));
+    std::printf(
+        "%s, sphere, quads and lamp through the tree: %d of %d pixels off, image z %.2f; "
+        "a sphere's trail swapped: z %.1f, %d pixels off\n",
+        api.c_str(), off, kSize * kSize, z, planted_z, test::pixels_off(planted, exact));
     EXPECT_EQ(r.nonfinite_total, 0u);
     EXPECT_EQ(off, 0) << api;
     EXPECT_LT(std::abs(z), 4.5) << api;
     EXPECT_GT(std::abs(planted_z), 4.5) << api << ": a wrong pmf in the MIS weight passed";
-}
-
-// Mean per-pixel variance of the samples (channel 0).
-double mean_pixel_variance(const RenderResult& r) {
-    double sum = 0;
-    const size_t n_pixels = r.sum.size() / 3;
-    for (size_t i = 0; i < n_pixels; ++i) {
-        const double n = double(r.spp) - double(r.nonfinite[i]);
-        const double mean = r.sum[3 * i] / n;
-        sum += std::max(0.0, r.sum_sq[3 * i] / n - mean * mean) * n / (n - 1);
-    }
-    return sum / double(n_pixels);
 }
 
 // Lamps only (two point lamps and a directional light): exact per pixel whether picked by
@@ -239,7 +230,7 @@ TEST_P(SeveralLights, LampsByContribution) {
         const RenderResult r = test::render_case(api, s, kSize);
         const int off = test::pixels_off(r, exact);
         const double z = test::image_z(r, exact);
-        variance[mode] = mean_pixel_variance(r);
+        variance[mode] = test::mean_sample_variance(r);
         std::printf("%s, lamps by %s: %d of %d pixels off, image z %.2f, mean variance %.3g\n",
                     api.c_str(), what, off, kSize * kSize, z, variance[mode]);
         EXPECT_EQ(r.nonfinite_total, 0u) << what;
@@ -271,7 +262,8 @@ TEST_P(SeveralLights, LampsByContributionOnAGlossyShadowedPlane) {
     plane.color = glm::vec3(kAlbedo);
     Material ball;
     ball.color = glm::vec3(0.6f);
-    scene.spheres.push_back({glm::vec3(0.25f, 0.35f, 0.1f), 0.2f, uint32_t(scene.add_material(ball))});
+    scene.spheres.push_back(
+        {glm::vec3(0.25f, 0.35f, 0.1f), 0.2f, uint32_t(scene.add_material(ball))});
     PunctualLight spot;
     spot.kind = PunctualKind::Spot;
     spot.position = glm::vec3(-0.9f, 1.2f, -0.4f);
@@ -299,9 +291,10 @@ TEST_P(SeveralLights, LampsByContributionOnAGlossyShadowedPlane) {
     const test::MeanEstimate p = test::pooled_mean(power), c = test::pooled_mean(contribution);
     const double z = (c.mean - p.mean) / std::hypot(p.std_error, c.std_error);
     const int apart = test::pixels_apart(contribution, power);
-    std::printf("%s, spots, lamp, glossy plane, ball: contribution %.5f +- %.5f, power %.5f +- "
-                "%.5f, z %.2f, %d pixels apart\n",
-                api.c_str(), c.mean, c.std_error, p.mean, p.std_error, z, apart);
+    std::printf(
+        "%s, spots, lamp, glossy plane, ball: contribution %.5f +- %.5f, power %.5f +- "
+        "%.5f, z %.2f, %d pixels apart\n",
+        api.c_str(), c.mean, c.std_error, p.mean, p.std_error, z, apart);
     EXPECT_EQ(contribution.nonfinite_total + power.nonfinite_total, 0u);
     EXPECT_LT(std::abs(z), 4.5) << api;
     EXPECT_EQ(apart, 0) << api;

@@ -59,7 +59,8 @@ TEST_P(TriangleLightRender, PlaneUnderATriangleAndAQuadIsExactAtEveryScale) {
         const PlaneUnderLights s = plane_under_lights(h);
         const std::vector<double> exact = test::expected_image(s.scene, kSize, [&](glm::dvec3 p) {
             return kAlbedo / kPi *
-                   (test::polygon_irradiance(p, s.quad, 2.0) + test::polygon_irradiance(p, s.triangle, 3.0));
+                   (test::polygon_irradiance(p, s.quad, 2.0) +
+                    test::polygon_irradiance(p, s.triangle, 3.0));
         });
         test::CaseRender how;
         how.spp = 512;
@@ -106,10 +107,11 @@ TEST_P(TriangleLightRender, GlossyPlaneAgreesWithAreaSampling) {
     const double z = (b.mean - a.mean) / std::hypot(a.std_error, b.std_error);
     const double planted_z = (c.mean - a.mean) / std::hypot(a.std_error, c.std_error);
     const int apart = test::pixels_apart(solid, area);
-    std::printf("%s, glossy plane: solid angle %.5f +- %.5f, area %.5f +- %.5f, z %.2f, %d pixels "
-                "apart; MIS pdf 1.5x: z %.1f, %d pixels apart\n",
-                api.c_str(), b.mean, b.std_error, a.mean, a.std_error, z, apart, planted_z,
-                test::pixels_apart(planted, area));
+    std::printf(
+        "%s, glossy plane: solid angle %.5f +- %.5f, area %.5f +- %.5f, z %.2f, %d pixels "
+        "apart; MIS pdf 1.5x: z %.1f, %d pixels apart\n",
+        api.c_str(), b.mean, b.std_error, a.mean, a.std_error, z, apart, planted_z,
+        test::pixels_apart(planted, area));
     EXPECT_EQ(solid.nonfinite_total + area.nonfinite_total, 0u);
     EXPECT_LT(std::abs(z), 4.5) << api;
     EXPECT_EQ(apart, 0) << api;
@@ -118,18 +120,6 @@ TEST_P(TriangleLightRender, GlossyPlaneAgreesWithAreaSampling) {
 
 INSTANTIATE_TEST_SUITE_P(Api, TriangleLightRender, ::testing::ValuesIn(test::test_apis()),
                          [](const auto& info) { return info.param; });
-
-// Mean over pixels of the per-sample variance (channel 0).
-double mean_sample_variance(const RenderResult& r) {
-    double sum = 0;
-    const size_t n_pixels = r.nonfinite.size();
-    for (size_t i = 0; i < n_pixels; ++i) {
-        const double n = double(r.spp) - double(r.nonfinite[i]);
-        const double mean = r.sum[3 * i] / n;
-        sum += std::max(0.0, r.sum_sq[3 * i] / n - mean * mean) * n / (n - 1);
-    }
-    return sum / double(n_pixels);
-}
 
 // The Cornell box with its light emitting from both faces, as Cycles renders it: the ceiling
 // 0.02 above the light sees its back at grazing angles.
@@ -160,7 +150,7 @@ TEST(TriangleLightVariance, NeverAboveAreaSampling) {
             test::CaseRender how;
             how.spp = 128;
             how.max_depth = 3;
-            variance[by_area] = mean_sample_variance(test::render_case("opencl", scene, 32, how));
+            variance[by_area] = test::mean_sample_variance(test::render_case("opencl", scene, 32, how));
         }
         std::printf("%s: variance per sample, solid angle / area: %.3f\n", c.what,
                     variance[0] / variance[1]);

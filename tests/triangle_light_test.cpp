@@ -60,7 +60,8 @@ double solid_angle_of(dvec3 x, double u1a, double u1b, double u2a, double u2b, i
     double sum = 0;
     for (int i = 0; i < n; ++i)
         for (int j = 0; j < n; ++j) {
-            const dvec3 p = point_at(u1a + (u1b - u1a) * (i + 0.5) / n, u2a + (u2b - u2a) * (j + 0.5) / n);
+            const dvec3 p =
+                point_at(u1a + (u1b - u1a) * (i + 0.5) / n, u2a + (u2b - u2a) * (j + 0.5) / n);
             const dvec3 d = p - x;
             const double d2 = glm::dot(d, d);
             sum += std::abs(glm::dot(normal, d)) / (d2 * std::sqrt(d2));
@@ -72,7 +73,8 @@ TEST(TriangleLight, SolidAngleIsTheIntegralOfCosOverDistanceSquared) {
     for (const Receiver& r : receivers()) {
         const float omega = gpu::triangle_solid_angle_at(kV0, kV1, kV2, r.x);
         const double quadrature = solid_angle_of(dvec3(r.x), 0, 1, 0, 1, 2000);
-        std::printf("%-30s solid angle %.6f sr, quadrature %.6f\n", r.name.c_str(), omega, quadrature);
+        std::printf("%-30s solid angle %.6f sr, quadrature %.6f\n", r.name.c_str(), omega,
+                    quadrature);
         ASSERT_GT(omega, 0.f) << r.name << ": sampled by area";
         EXPECT_NEAR(omega / quadrature, 1.0, 2e-4) << r.name;
     }
@@ -94,8 +96,9 @@ TEST(TriangleLight, SampledDirectionsFollowTheSolidAnglePdf) {
         for (int i = 0; i < kCells; ++i)
             for (int j = 0; j < kCells; ++j)
                 expected[size_t(i * kCells + j)] =
-                    kSamples * solid_angle_of(dvec3(r.x), double(i) / kCells, double(i + 1) / kCells,
-                                              double(j) / kCells, double(j + 1) / kCells, 24) /
+                    kSamples *
+                    solid_angle_of(dvec3(r.x), double(i) / kCells, double(i + 1) / kCells,
+                                   double(j) / kCells, double(j + 1) / kCells, 24) /
                     double(omega);
         std::mt19937 rng(11);
         std::uniform_real_distribution<float> uniform(0.f, 1.f);
@@ -103,18 +106,21 @@ TEST(TriangleLight, SampledDirectionsFollowTheSolidAnglePdf) {
             std::vector<double> observed(kCells * kCells, 0.0);
             for (int k = 0; k < kSamples; ++k) {
                 const vec2 u(uniform(rng), uniform(rng));
-                const vec2 b = gpu::sample_triangle_light(kV0, kV1, kV2, r.x, by_area ? 0.f : omega, u);
+                const vec2 b =
+                    gpu::sample_triangle_light(kV0, kV1, kV2, r.x, by_area ? 0.f : omega, u);
                 EXPECT_TRUE(std::isfinite(b.x) && std::isfinite(b.y) && b.x >= 0.f && b.y >= 0.f &&
                             b.x + b.y <= 1.f + 1e-6f);
                 const vec2 c = canonical(b);
-                const int i = std::min(kCells - 1, int(c.x * kCells)), j = std::min(kCells - 1, int(c.y * kCells));
+                const int i = std::min(kCells - 1, int(c.x * kCells)),
+                          j = std::min(kCells - 1, int(c.y * kCells));
                 observed[size_t(i * kCells + j)] += 1;
             }
             return observed;
         };
         const double p = stats::chi_square_test(histogram(false), expected);
         const double p_area = stats::chi_square_test(histogram(true), expected);
-        std::printf("%-30s chi-square p = %.3f; control (by area): p = %.3g\n", r.name.c_str(), p, p_area);
+        std::printf("%-30s chi-square p = %.3f; control (by area): p = %.3g\n", r.name.c_str(), p,
+                    p_area);
         EXPECT_GT(p, 1e-3) << r.name;
         EXPECT_LT(p_area, 1e-6) << r.name << ": area sampling passed the solid-angle pdf";
     }
@@ -129,10 +135,13 @@ TEST(TriangleLight, AreaSamplingTakesOverAtTheExtremes) {
         vec3 v0, v1, v2, x;
         bool by_area;
     } cases[] = {
-        {"a receiver 1e-6 from the light's plane", kV0, kV1, kV2, vec3(1.5f, 1.f - 1e-6f, 0.5f), true},
+        {"a receiver 1e-6 from the light's plane", kV0, kV1, kV2, vec3(1.5f, 1.f - 1e-6f, 0.5f),
+         true},
         {"a receiver in the light's plane", kV0, kV1, kV2, vec3(1.5f, 1.f, 0.5f), true},
-        {"a light of 1e-3 at 10", kV0 * 1e-3f, kV1 * 1e-3f, kV2 * 1e-3f, vec3(0.f, -10.f, 0.f), true},
-        {"a light of 1e4 at 1e-2", kV0 * 1e4f, kV1 * 1e4f, kV2 * 1e4f, vec3(20.f, 1e4f - 1e-2f, 20.f), true},
+        {"a light of 1e-3 at 10", kV0 * 1e-3f, kV1 * 1e-3f, kV2 * 1e-3f, vec3(0.f, -10.f, 0.f),
+         true},
+        {"a light of 1e4 at 1e-2", kV0 * 1e4f, kV1 * 1e4f, kV2 * 1e4f,
+         vec3(20.f, 1e4f - 1e-2f, 20.f), true},
         {"a receiver on a vertex", kV0, kV1, kV2, kV0, true},
         {"a light far for its size (area / d^2 0.018)", kV0, kV1, kV2, vec3(2.f, -4.f, 1.f), true},
         {"a light of 1 at 1", kV0, kV1, kV2, vec3(0.3f, 0.f, 0.3f), false},
@@ -151,10 +160,10 @@ TEST(TriangleLight, AreaSamplingTakesOverAtTheExtremes) {
     // The scene's flag turns solid-angle sampling off.
     gpu::GpuParams by_area{};
     by_area.scene_flags = SCENE_TRIANGLE_LIGHTS_BY_AREA;
-    EXPECT_EQ(gpu::triangle_solid_angle(&by_area, nullptr, nullptr, nullptr, nullptr, nullptr,
-                                        nullptr, nullptr, nullptr, nullptr, kV0, kV1, kV2,
-                                        vec3(0.3f, 0.f, 0.3f)),
-              0.f);
+    EXPECT_EQ(
+        gpu::triangle_solid_angle(&by_area, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr,
+                                  nullptr, nullptr, nullptr, kV0, kV1, kV2, vec3(0.3f, 0.f, 0.3f)),
+        0.f);
 }
 
 // The same light and receiver at scales 1e-3 to 1e4, and moved 1e3 away from the origin: the

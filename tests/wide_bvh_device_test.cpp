@@ -147,7 +147,8 @@ TEST(WideBvhDevices, AgreesAcrossApisAndTrees) {
     EXPECT_FALSE(bad.agree) << "a BVH missing half its leaves' triangles passed: " << bad.verdict();
     const Agreement bad_storage = test_agreement(cl_kd, batches(*vk_storage, broken, 25000), 0.01);
     EXPECT_FALSE(bad_storage.agree) << "storage buffers: a BVH missing half its leaves' "
-                                       "triangles passed: " << bad_storage.verdict();
+                                       "triangles passed: "
+                                    << bad_storage.verdict();
 }
 
 }  // namespace

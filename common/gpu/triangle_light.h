@@ -5,8 +5,9 @@
 // angle is too small for float arithmetic (a tiny or far light, a receiver in or near the
 // light's plane) or nearly a hemisphere (a huge light close by), the triangle is sampled by
 // area instead (pbrt-v4's bounds), and so it is where the light is far for its size, where
-// both sample alike and area sampling costs less. triangle_solid_angle() decides and triangle_light_pdf()
-// computes the pdf, for next-event estimation and for the MIS weight of BSDF-sampled hits alike.
+// both sample alike and area sampling costs less. triangle_solid_angle() decides and
+// triangle_light_pdf() computes the pdf, for next-event estimation and for the MIS weight of
+// BSDF-sampled hits alike.
 #ifndef MCPT_GPU_TRIANGLE_LIGHT_H
 #define MCPT_GPU_TRIANGLE_LIGHT_H
 
