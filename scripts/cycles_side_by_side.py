@@ -20,6 +20,9 @@
 # where glTF says so), non-metals Lambertian in both (Specular 0 in the
 # file mcpt renders, a Diffuse BSDF in Cycles: Principled v1 is 6-16% brighter than glTF's
 # BRDF). --variant NAME=OPTIONS adds an mcpt row with other options (an A/B in one run).
+# --mcpt-scene FILE: mcpt renders FILE (the same scene in another encoding: Draco, or with
+# extensions Blender 3.4 drops) instead of Blender's re-export; KHR_materials_volume is given
+# to Cycles as a Volume Absorption. File scenes end with the mean radiance per material.
 # --by-bounce 0,1,7: per-sample variance by bounce limit and region instead of the curves.
 # Relative RMSE is mcpt converge's: sqrt(mean over pixels and channels of (image - ref)^2,
 # less the reference noise) / mean reference radiance.
