@@ -252,13 +252,15 @@ void add_bench_command(CLI::App& app) {
     sub->add_option("--time", a->seconds, "--throughput: timed seconds per row (default 5)")
         ->check(CLI::PositiveNumber);
     sub->add_option("--tree", a->tree,
-                    "--throughput: auto (per device), sah, median, none or bvh; several "
-                    "separated by commas (rows for each)")
+                    std::string("--throughput: trace modes separated by commas (rows for "
+                                "each): ") +
+                        kTreeChoicesHelp)
         ->check([](const std::string& v) {
             std::stringstream list(v);
+            const std::vector<std::string> names = tree_kind_names();
             for (std::string t; std::getline(list, t, ',');)
-                if (t != "auto" && t != "sah" && t != "median" && t != "none" && t != "bvh")
-                    return "unknown tree '" + t + "' (auto, sah, median, none, bvh)";
+                if (std::find(names.begin(), names.end(), t) == names.end())
+                    return "unknown tree '" + t + "' (auto, sah, median, none, bvh, rayquery)";
             return std::string();
         })
         ->capture_default_str();

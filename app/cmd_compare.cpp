@@ -202,8 +202,10 @@ void run_compare(const CompareArgs& args) {
         one.settings().width = args.width, one.settings().height = args.height;
         one.settings().max_depth = int(ro.max_depth);
         one.settings().light_scale = s == 1 ? args.b_light_scale : 1.f;
-        // The tree: as asked, or (auto) the one this side's device cost model picks.
-        one.settings().tree = args.tree;
+        // The tree: the side's tree= option, else --tree; auto: the one this side's device
+        // cost model picks.
+        const std::string side_tree = parse_device_spec(device_list(specs[s])[0]).tree;
+        one.settings().tree = side_tree.empty() ? args.tree : side_tree;
     };
     // Ranks above 0 of an MPI job: A's batches, then B's, as rank 0 hands them out.
     if (mpi.rank > 0) {
@@ -437,9 +439,10 @@ void add_compare_command(CLI::App& app) {
     sub->add_option("--b-scene", a->b_scene,
                     "B renders this .gltf/.glb instead: the same scene in another encoding "
                     "(compressed, quantized); its camera and lights as the file has them");
-    sub->add_option("--a", a->a,
-                    "Backend A: opencl|vulkan[:device][,limits=phone]; several devices, "
-                    "comma-separated (opencl:0,opencl:1), render it together")
+    sub->add_option(
+           "--a", a->a,
+           "Backend A: opencl|vulkan[:device][,limits=phone][,tree=KIND]; several devices, "
+           "comma-separated (opencl:0,opencl:1), render it together")
         ->capture_default_str();
     sub->add_option("--b", a->b, "Backend B, as --a")->capture_default_str();
     sub->add_option("--width", a->width)->check(CLI::Range(1, 4096))->capture_default_str();
@@ -458,10 +461,10 @@ void add_compare_command(CLI::App& app) {
         ->check(CLI::Range(0.0, 1.0))
         ->capture_default_str();
     sub->add_option("--max-depth", a->max_depth, "Bounces (default 8, or the scene's)");
-    sub->add_option(
-           "--tree", a->tree,
-           "auto (each side: the tree its device's cost model picks), sah, median, none, bvh")
-        ->check(CLI::IsMember({"auto", "sah", "median", "none", "bvh"}))
+    sub->add_option("--tree", a->tree,
+                    std::string("Trace mode of both sides (a side's tree= option overrides): ") +
+                        kTreeChoicesHelp)
+        ->check(CLI::IsMember(tree_kind_names()))
         ->capture_default_str();
     sub->add_option("--alpha", a->alpha, "Family-wise false alarm rate")
         ->check(CLI::Range(1e-12, 0.5))

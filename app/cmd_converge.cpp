@@ -512,8 +512,8 @@ void add_converge_command(CLI::App& app) {
         ->capture_default_str();
     sub->add_option("--max-depth", a->max_depth, "Bounces (default 8, or the scene's)")
         ->check(CLI::Range(0, 1000000));
-    sub->add_option("--tree", a->tree, "auto (per device: SAH or none), sah, median, none or bvh")
-        ->check(CLI::IsMember({"auto", "sah", "median", "none", "bvh"}))
+    sub->add_option("--tree", a->tree, std::string("Trace mode: ") + kTreeChoicesHelp)
+        ->check(CLI::IsMember(tree_kind_names()))
         ->capture_default_str();
     sub->add_option(
            "--seed", a->seed,

@@ -334,10 +334,8 @@ void add_render_command(CLI::App& app) {
         ->capture_default_str();
     sub->add_option("-o,--output", args->output, "Output image (.exr linear, .png sRGB)")
         ->capture_default_str();
-    sub->add_option("--tree", args->tree,
-                    "tree: auto (SAH, or none where the cost model prefers), sah, median, none, "
-                    "bvh (the wide BVH)")
-        ->check(CLI::IsMember({"auto", "sah", "median", "none", "bvh"}))
+    sub->add_option("--tree", args->tree, std::string("Trace mode: ") + kTreeChoicesHelp)
+        ->check(CLI::IsMember(tree_kind_names()))
         ->capture_default_str();
     sub->add_option("--depth", args->depth, "Tree depth limit (median: default 3)");
     sub->add_option("--max-depth", args->max_depth, "Bounces per path (default 8, or the scene's)")

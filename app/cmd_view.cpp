@@ -51,7 +51,10 @@ std::unique_ptr<Session> open_view_session(const std::vector<std::string>& spec,
     session->set_scene(scene);
     SessionSettings& st = session->settings();
     st.width = args.width, st.height = args.height;
-    st.seed = args.seed, st.max_depth = args.max_depth, st.tree = args.tree;
+    // The side's tree= option (an A/B of trace modes), else --tree.
+    const std::string side_tree = parse_device_spec(spec.at(0)).tree;
+    st.seed = args.seed, st.max_depth = args.max_depth;
+    st.tree = side_tree.empty() ? args.tree : side_tree;
     if (side_b) st.light_scale = args.b_light_scale;
     session->commit();
     return session;
@@ -172,8 +175,9 @@ void add_view_command(CLI::App& app) {
     sub->add_option("--backend", a->backend, "opencl or vulkan")->capture_default_str();
     sub->add_option("--device", a->devices,
                     "Device index or name substring (mcpt devices); repeated: one image on all");
-    auto* opt_a = sub->add_option(
-        "--a", a->a, "A/B: side A, opencl|vulkan[:device]; several: opencl:0,opencl:1");
+    auto* opt_a = sub->add_option("--a", a->a,
+                                  "A/B: side A, opencl|vulkan[:device][,limits=phone][,tree=KIND]; "
+                                  "several: opencl:0,opencl:1");
     sub->add_option("--b", a->b, "A/B: side B, as --a")->needs(opt_a);
     sub->add_option("--b-light-scale", a->b_light_scale,
                     "Scale B's emitters (negative control: the z map must light up)")
@@ -187,8 +191,10 @@ void add_view_command(CLI::App& app) {
     sub->add_option("--seed", a->seed, "Random seed (A and B share it)")->capture_default_str();
     sub->add_option("--max-depth", a->max_depth, "Bounces (default 8, or the scene's)")
         ->check(CLI::Range(0, 1000000));
-    sub->add_option("--tree", a->tree, "auto, sah, median, none or bvh (the wide BVH)")
-        ->check(CLI::IsMember({"auto", "sah", "median", "none", "bvh"}))
+    sub->add_option(
+           "--tree", a->tree,
+           std::string("Trace mode (a side's tree= option overrides): ") + kTreeChoicesHelp)
+        ->check(CLI::IsMember(tree_kind_names()))
         ->capture_default_str();
     sub->add_option("--listen", a->listen,
                     "Address to serve on (127.0.0.1: this machine only; 0.0.0.0: every network, "

@@ -26,6 +26,12 @@ void add_bench_command(CLI::App& app);
 void add_merge_command(CLI::App& app);
 void add_view_command(CLI::App& app);
 
+// --tree's help, after what the option is for: the choices and what auto picks.
+inline constexpr const char* kTreeChoicesHelp =
+    "auto (per device: the wide BVH, or no tree where the cost model prefers; never ray "
+    "queries), sah, median, none, bvh (the wide BVH), rayquery (Vulkan devices with "
+    "VK_KHR_ray_query: the driver traces)";
+
 // The device specs of --backend and the --device values (an index, a name substring, or
 // api:device); none: the backend's best device.
 std::vector<std::string> device_specs(const std::string& backend,

@@ -5,6 +5,7 @@
 // shaders/pathtrace.comp, with the same function names).
 #include "../common/gpu/fold_sums.h"
 #include "../common/gpu/integrator.h"
+#include "../common/gpu/ray_cast.h"
 
 __kernel void pathtrace(__global const GpuParams* params, __global const uint* tree,
                         __global const GpuTriangle* triangles, __global const uint* shading,
@@ -36,6 +37,14 @@ __kernel void pathtrace(__global const GpuParams* params, __global const uint* t
         FoldStep f = fold_pixel(accum[sum], accum[sum + 1u], px, params->fold_sums);
         for (uint k = 0u; k < EXACT_VEC4_PER_PIXEL; ++k) exact[k] = f.px.w[k];
         if (!f.ok) *(__global uint*)(accum + at.pending) = 1u;  // out of range
+        return;
+    }
+    // Tests: one ray cast (ray_cast.h), its closest and any hit written, nothing else traced.
+    if (params->ray_cast != 0u) {
+        Ray ray = cast_ray(SCENE_ARGS_ pixel);
+        Hit h = trace_ray(SCENE_ARGS_ ray, false), a = trace_ray(SCENE_ARGS_ ray, true);
+        accum[sum] = (float4)(h.t, as_float(h.prim), h.b1, h.b2);
+        accum[sum + 1u] = (float4)(as_float(a.prim), as_float(h.status | (a.status << 8u)), a.t, 0.0f);
         return;
     }
     __global float4* state = accum + at.state;

@@ -118,6 +118,8 @@ class OpenClBackend final : public Backend {
     }
 
     void load(const GpuScene& scene, int width, int height, bool exact_sums) override {
+        if ((scene.params.scene_flags & SCENE_RAY_QUERY) != 0u)
+            throw Error(description() + ": ray queries (--tree rayquery) are Vulkan only");
         build(scene.stack_size, compile_features(options_, scene));
         // Check every buffer against the device limits before allocating.
         check_device_limits(scene, width, height, dev_.info, description());
@@ -302,6 +304,7 @@ class OpenClBackend final : public Backend {
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         built_options_ = opts;
         built_features_ = features & FEATURE_BITS;
+        log_compile("opencl", compile_seconds_, opts);
         // Work-group size within the kernel's and device's limits.
         const size_t kmax = kernel_.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(dev_.device);
         local_ = std::max<size_t>(1, std::min<size_t>(WORKGROUP_SIZE, kmax));

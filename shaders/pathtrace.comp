@@ -3,12 +3,16 @@
 // samples that ended to the pixel's sums in the accumulation buffer and keeps the path for the next dispatch.
 // Everything else is the shared device code in common/gpu/ (the OpenCL twin is
 // kernels/pathtrace.cl, with the same function names).
-#version 450
+#version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
+#if defined(MCPT_RAY_QUERY)
+#extension GL_EXT_ray_query : require  // the driver traces (traverse_rayquery.h)
+#endif
 #define MCPT_GLSL 1
 #include "../common/gpu/fold_sums.h"
 #include "../common/gpu/integrator.h"
+#include "../common/gpu/ray_cast.h"
 
 layout(local_size_x_id = 1) in;
 layout(std430, binding = BINDING_ACCUM) buffer AccumBlock { vec4 accum[]; };
@@ -32,6 +36,15 @@ void main() {
         FoldStep f = fold_pixel(accum[sum], accum[sum + 1u], px, params.fold_sums);
         for (uint k = 0u; k < EXACT_VEC4_PER_PIXEL; ++k) accum_exact[exact + k] = f.px.w[k];
         if (!f.ok) accum_words[pending] = 1u;  // out of range
+        return;
+    }
+    // Tests: one ray cast (ray_cast.h), its closest and any hit written, nothing else traced.
+    if (params.ray_cast != 0u) {
+        Ray ray = cast_ray(pixel);
+        Hit h = trace_ray(ray, false), a = trace_ray(ray, true);
+        accum[sum] = vec4(h.t, uint_as_float(h.prim), h.b1, h.b2);
+        accum[sum + 1u] = vec4(uint_as_float(a.prim), uint_as_float(h.status | (a.status << 8u)),
+                               a.t, 0.0f);
         return;
     }
     // Start the pixel's samples of this round, or continue its path.

@@ -9,8 +9,10 @@
 #include "common/io/host_cpus.h"
 #include "common/render/device_limits.h"
 #include "common/render/device_registry.h"
+#include "pathtrace_rayquery_comp_spv.h"
 #include "pathtrace_storage_comp_spv.h"
 #include "pathtrace_texels_comp_spv.h"
+#include "vulkan/vk_accel.h"
 #include "vulkan/vk_context.h"
 #include "vulkan/vk_device.h"
 #include "vulkan/vk_limits_profile.h"
@@ -37,6 +39,13 @@ struct VulkanBackend::Impl {
     VkPipelineLayout pipeline_layout = VK_NULL_HANDLE;
     VkDescriptorPool descriptor_pool = VK_NULL_HANDLE;
     VkDescriptorSet set = VK_NULL_HANDLE;
+    // Devices with ray queries: the module that traces through them, and its descriptor set
+    // (the eight bindings above and the top-level acceleration structure).
+    VkShaderModule rq_module = VK_NULL_HANDLE;
+    VkDescriptorSetLayout rq_set_layout = VK_NULL_HANDLE;
+    VkPipelineLayout rq_pipeline_layout = VK_NULL_HANDLE;
+    VkDescriptorPool rq_pool = VK_NULL_HANDLE;
+    VkDescriptorSet rq_set = VK_NULL_HANDLE;
     VkPipelineCache cache = VK_NULL_HANDLE;
     VkPipeline pipeline = VK_NULL_HANDLE;
     std::string cache_path;
@@ -47,6 +56,8 @@ struct VulkanBackend::Impl {
     VkBufferView tree_view = VK_NULL_HANDLE, tris_view = VK_NULL_HANDLE,
                  shading_view = VK_NULL_HANDLE;
     bool scene_texels = false;  // the pipeline reads the views, not the storage buffers
+    bool scene_rq = false;      // the pipeline traces through ray queries (SCENE_RAY_QUERY)
+    vk::SceneAccel accel;       // the scene's acceleration structures, where scene_rq
     uint32_t pixels = 0;
     uint64_t counter_offset = 0;  // bytes: the active-slot counter in the accumulation buffer
     AccumLayout accum_shape;      // what the accumulation buffer holds
@@ -55,7 +66,7 @@ struct VulkanBackend::Impl {
     uint32_t local = WORKGROUP_SIZE;
     uint32_t max_groups = 1;
     uint32_t built_stack = 0, built_features = 0;
-    bool built_texels = false;
+    bool built_texels = false, built_rq = false;
     std::string built_settings;  // the specialization constants, "NAME=value ..."
     BackendOptions options;
     uint32_t dispatches = 0;  // counted for options.lose_device_after
@@ -145,6 +156,8 @@ struct VulkanBackend::Impl {
         dsi.pSetLayouts = &set_layout;
         VK_CHECK(f.vkAllocateDescriptorSets, device, &dsi, &set);
 
+        if (pd.ray_query) init_ray_query();
+
         // Pipeline cache, seeded from disk when the file matches this device and driver.
         cache_path = vk::pipeline_cache_path(pd.props);
         cache_data = vk::read_pipeline_cache(cache_path, pd.props);
@@ -160,6 +173,52 @@ struct VulkanBackend::Impl {
             uint32_t(vk::env_limit("MCPT_VULKAN_MAX_GROUP_COUNT", l.maxComputeWorkGroupCount[0]));
     }
 
+    // The ray-query module and its descriptor set: the eight bindings of init() and the
+    // top-level acceleration structure at BINDING_TLAS.
+    void init_ray_query() {
+        const vk::DeviceFns& f = dev->fn();
+        const VkDevice device = dev->handle();
+        VkShaderModuleCreateInfo si{};
+        si.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
+        si.codeSize = sizeof(kPathtraceRayQuerySpirv);
+        si.pCode = kPathtraceRayQuerySpirv;
+        VK_CHECK(f.vkCreateShaderModule, device, &si, nullptr, &rq_module);
+        VkDescriptorSetLayoutBinding bindings[VK_RAY_QUERY_BINDING_COUNT]{};
+        for (uint32_t b = 0; b < VK_RAY_QUERY_BINDING_COUNT; ++b) {
+            bindings[b].binding = b;
+            bindings[b].descriptorType = descriptor_type(b);
+            bindings[b].descriptorCount = 1;
+            bindings[b].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
+        }
+        VkDescriptorSetLayoutCreateInfo li{};
+        li.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
+        li.bindingCount = VK_RAY_QUERY_BINDING_COUNT;
+        li.pBindings = bindings;
+        VK_CHECK(f.vkCreateDescriptorSetLayout, device, &li, nullptr, &rq_set_layout);
+        VkPipelineLayoutCreateInfo pli{};
+        pli.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+        pli.setLayoutCount = 1;
+        pli.pSetLayouts = &rq_set_layout;
+        VK_CHECK(f.vkCreatePipelineLayout, device, &pli, nullptr, &rq_pipeline_layout);
+        const VkDescriptorPoolSize sizes[] = {
+            {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
+            {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, STORAGE_BUFFER_COUNT},
+            {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, TEXEL_BUFFER_COUNT},
+            {VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR, 1}};
+        VkDescriptorPoolCreateInfo dpi{};
+        dpi.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+        dpi.maxSets = 1;
+        dpi.poolSizeCount = 4;
+        dpi.pPoolSizes = sizes;
+        VK_CHECK(f.vkCreateDescriptorPool, device, &dpi, nullptr, &rq_pool);
+        VkDescriptorSetAllocateInfo dsi{};
+        dsi.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+        dsi.descriptorPool = rq_pool;
+        dsi.descriptorSetCount = 1;
+        dsi.pSetLayouts = &rq_set_layout;
+        VK_CHECK(f.vkAllocateDescriptorSets, device, &dsi, &rq_set);
+    }
+
     void destroy() {
         if (dev) {
             const vk::DeviceFns& f = dev->fn();
@@ -169,6 +228,10 @@ struct VulkanBackend::Impl {
             if (pipeline) f.vkDestroyPipeline(device, pipeline, nullptr);
             if (cache) f.vkDestroyPipelineCache(device, cache, nullptr);
             if (descriptor_pool) f.vkDestroyDescriptorPool(device, descriptor_pool, nullptr);
+            if (rq_pool) f.vkDestroyDescriptorPool(device, rq_pool, nullptr);
+            if (rq_pipeline_layout) f.vkDestroyPipelineLayout(device, rq_pipeline_layout, nullptr);
+            if (rq_set_layout) f.vkDestroyDescriptorSetLayout(device, rq_set_layout, nullptr);
+            if (rq_module) f.vkDestroyShaderModule(device, rq_module, nullptr);
             if (pipeline_layout) f.vkDestroyPipelineLayout(device, pipeline_layout, nullptr);
             if (set_layout) f.vkDestroyDescriptorSetLayout(device, set_layout, nullptr);
             if (module) f.vkDestroyShaderModule(device, module, nullptr);
@@ -189,6 +252,7 @@ struct VulkanBackend::Impl {
 
     static VkDescriptorType descriptor_type(uint32_t binding) {
         if (binding == BINDING_PARAMS) return VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+        if (binding == BINDING_TLAS) return VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR;
         if (binding >= BINDING_COUNT) return VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
         return VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
     }
@@ -228,12 +292,14 @@ struct VulkanBackend::Impl {
             *v = VK_NULL_HANDLE;
         }
         for (Buffer* b : {&params, &tree, &tris, &shading, &accum, &readback}) dev->free_buffer(*b);
+        accel.release();
+        scene_rq = false;
         pixels = 0;
     }
 
-    void build(uint32_t stack_size, uint32_t features, bool texels) {
+    void build(uint32_t stack_size, uint32_t features, bool texels, bool rq) {
         if (pipeline && stack_size == built_stack && features == built_features &&
-            texels == built_texels)
+            texels == built_texels && rq == built_rq)
             return;
         const vk::DeviceFns& f = dev->fn();
         if (pipeline) f.vkDestroyPipeline(dev->handle(), pipeline, nullptr);
@@ -265,10 +331,10 @@ struct VulkanBackend::Impl {
         ci.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
         ci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
         ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-        ci.stage.module = texels ? texel_module : module;
+        ci.stage.module = rq ? rq_module : texels ? texel_module : module;
         ci.stage.pName = "main";
         ci.stage.pSpecializationInfo = &spec;
-        ci.layout = pipeline_layout;
+        ci.layout = rq ? rq_pipeline_layout : pipeline_layout;
         // A cold build (compile nonce) bypasses the pipeline cache and leaves it as it is.
         const bool cold = options.compile_nonce != 0;
         VK_CHECK(f.vkCreateComputePipelines, dev->handle(), cold ? VK_NULL_HANDLE : cache, 1, &ci,
@@ -278,6 +344,11 @@ struct VulkanBackend::Impl {
         built_stack = stack_size;
         built_features = features;
         built_texels = texels;
+        built_rq = rq;
+        log_compile("vulkan", compile_seconds,
+                    built_settings + (rq       ? " rayquery"
+                                      : texels ? " texels"
+                                               : " storage"));
 
         // Save the cache if the driver's data changed.
         if (cold) return;
@@ -328,10 +399,22 @@ struct VulkanBackend::Impl {
         const bool fits = make_view(tree, tree_words.size(), tree_texel, tree_view) &
                           make_view(tris, tri_words.size(), 4, tris_view) &
                           make_view(shading, shading_words.size(), 4, shading_view);
-        scene_texels = prefer_texels() && fits;
+        // Ray queries: the scene's acceleration structures, read by the storage-buffer form.
+        scene_rq = (scene.params.scene_flags & SCENE_RAY_QUERY) != 0u;
+        if (scene_rq) {
+            if (!pd.ray_query) {
+                throw Error(description() +
+                            ": --tree rayquery needs ray queries, and this "
+                            "device has " +
+                            pd.ray_query_note + "; use --tree auto or bvh");
+            }
+            accel.build(*dev, pd, scene.triangles, scene.spheres,
+                        (scene.params.scene_flags & SCENE_ALPHA_MASK) == 0u, options.accel_fault);
+        }
+        scene_texels = !scene_rq && prefer_texels() && fits;
 
         // Pipeline for this scene's stack depth and features, and how it reads the scene.
-        build(scene.stack_size, compile_features(options, scene), scene_texels);
+        build(scene.stack_size, compile_features(options, scene), scene_texels, scene_rq);
         accum = dev->create_buffer(accum_bytes,
                                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
                                        VK_BUFFER_USAGE_TRANSFER_SRC_BIT |
@@ -368,21 +451,29 @@ struct VulkanBackend::Impl {
         views[BINDING_TRIANGLE_TEXELS] = tris_view;
         views[BINDING_SHADING_TEXELS] = shading_view;
         VkDescriptorBufferInfo infos[BINDING_COUNT];
-        VkWriteDescriptorSet writes[VK_BINDING_COUNT]{};
-        for (uint32_t b = 0; b < VK_BINDING_COUNT; ++b) {
+        VkWriteDescriptorSet writes[VK_RAY_QUERY_BINDING_COUNT]{};
+        const uint32_t count = scene_rq ? VK_RAY_QUERY_BINDING_COUNT : VK_BINDING_COUNT;
+        const VkAccelerationStructureKHR top = accel.top();
+        VkWriteDescriptorSetAccelerationStructureKHR top_write{};
+        top_write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET_ACCELERATION_STRUCTURE_KHR;
+        top_write.accelerationStructureCount = 1;
+        top_write.pAccelerationStructures = &top;
+        for (uint32_t b = 0; b < count; ++b) {
             writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-            writes[b].dstSet = set;
+            writes[b].dstSet = scene_rq ? rq_set : set;
             writes[b].dstBinding = b;
             writes[b].descriptorCount = 1;
             writes[b].descriptorType = descriptor_type(b);
             if (b < BINDING_COUNT) {
                 infos[b] = {by_slot[b]->buffer, 0, VK_WHOLE_SIZE};
                 writes[b].pBufferInfo = &infos[b];
+            } else if (b == BINDING_TLAS) {
+                writes[b].pNext = &top_write;
             } else {
                 writes[b].pTexelBufferView = &views[b];
             }
         }
-        dev->fn().vkUpdateDescriptorSets(dev->handle(), VK_BINDING_COUNT, writes, 0, nullptr);
+        dev->fn().vkUpdateDescriptorSets(dev->handle(), count, writes, 0, nullptr);
     }
 
     uint32_t dispatch(const gpu::GpuParams& p) {
@@ -424,8 +515,9 @@ struct VulkanBackend::Impl {
             f.vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, timer, 0);
         }
         f.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
-        f.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_layout, 0, 1, &set,
-                                  0, nullptr);
+        f.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
+                                  scene_rq ? rq_pipeline_layout : pipeline_layout, 0, 1,
+                                  scene_rq ? &rq_set : &set, 0, nullptr);
         f.vkCmdDispatch(cmd, (p.pixel_count + local - 1) / local, 1, 1);
         if (timer) f.vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timer, 1);
         dev->barrier(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
@@ -585,6 +677,7 @@ std::string VulkanBackend::build_settings() const {
 std::string VulkanBackend::layout() const {
     return vk::layout_line(impl_->pd.props.limits) +
            (impl_->scene_texels ? ", scene read as texel buffers" : "") +
+           (impl_->scene_rq ? ", " + impl_->accel.describe() : "") +
            window_note(impl_->accum_shape);
 }
 uint32_t VulkanBackend::local_size() const {

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <iterator>
 #include <mutex>
 #include <sstream>
 
@@ -210,14 +211,15 @@ Instance::Instance(bool validation) {
         extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
     }
 
-    // Instance: API 1.1, so that it runs on Android-class drivers.
+    // Instance: API 1.2, the version ray queries take; a 1.1 device (Android-class drivers)
+    // runs at its own 1.1, which is all the rest of mcpt needs.
     VkApplicationInfo app{};
     app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
     app.pApplicationName = "mcpt";
     app.applicationVersion = VK_MAKE_API_VERSION(0, 0, 1, 0);
     app.pEngineName = "mcpt";
     app.engineVersion = VK_MAKE_API_VERSION(0, 0, 1, 0);
-    app.apiVersion = VK_API_VERSION_1_1;
+    app.apiVersion = VK_API_VERSION_1_2;
     VkInstanceCreateInfo ci{};
     ci.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
     ci.pNext = validation ? &messenger_info : nullptr;  // also covers create/destroy
@@ -294,6 +296,38 @@ VKAPI_ATTR VkBool32 VKAPI_CALL Instance::on_message(
     return VK_FALSE;
 }
 
+// Whether ray queries are usable on d (PhysicalDevice::ray_query, with the reason if not).
+void Instance::probe_ray_query(PhysicalDevice& d, bool extensions) const {
+    if (d.props.apiVersion < VK_API_VERSION_1_2) {
+        d.ray_query_note = "no (Vulkan " + version_string(d.props.apiVersion) + ", 1.2 needed)";
+        return;
+    }
+    if (!extensions) {
+        d.ray_query_note = "no (VK_KHR_ray_query or VK_KHR_acceleration_structure absent)";
+        return;
+    }
+    VkPhysicalDeviceRayQueryFeaturesKHR rq{};
+    rq.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR;
+    VkPhysicalDeviceAccelerationStructureFeaturesKHR as{};
+    as.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR;
+    as.pNext = &rq;
+    VkPhysicalDeviceVulkan12Features v12{};
+    v12.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES;
+    v12.pNext = &as;
+    VkPhysicalDeviceFeatures2 f2{};
+    f2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+    f2.pNext = &v12;
+    fn_.vkGetPhysicalDeviceFeatures2(d.handle, &f2);
+    d.ray_query = rq.rayQuery && as.accelerationStructure && v12.bufferDeviceAddress;
+    d.accel_props.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_PROPERTIES_KHR;
+    VkPhysicalDeviceProperties2 p2{};
+    p2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
+    p2.pNext = &d.accel_props;
+    fn_.vkGetPhysicalDeviceProperties2(d.handle, &p2);
+    d.accel_props.pNext = nullptr;
+    d.ray_query_note = d.ray_query ? "yes (VK_KHR_ray_query)" : "no (features not supported)";
+}
+
 std::vector<PhysicalDevice> Instance::devices(const std::string& profile_request) const {
     const std::string profile = resolve_limits_profile(profile_request);
     std::vector<PhysicalDevice> out;
@@ -317,11 +351,15 @@ std::vector<PhysicalDevice> Instance::devices(const std::string& profile_request
             std::vector<VkExtensionProperties> exts(next);
             VK_CHECK(fn_.vkEnumerateDeviceExtensionProperties, h, nullptr, &next, exts.data());
             bool has_driver_props = false;
+            size_t rq_extensions = 0;
             for (uint32_t i = 0; i < next; ++i) {
                 if (std::strcmp(exts[i].extensionName, VK_KHR_DRIVER_PROPERTIES_EXTENSION_NAME) ==
                     0)
                     has_driver_props = true;
+                for (const char* e : kRayQueryExtensions)
+                    rq_extensions += std::strcmp(exts[i].extensionName, e) == 0;
             }
+            probe_ray_query(d, rq_extensions == std::size(kRayQueryExtensions));
             VkPhysicalDeviceDriverPropertiesKHR drv{};
             drv.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES_KHR;
             VkPhysicalDeviceMaintenance3Properties m3{};
@@ -397,6 +435,9 @@ std::vector<PhysicalDevice> Instance::devices(const std::string& profile_request
                 human_bytes(heap.size) +
                     ((heap.flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) ? ", device-local" : ""));
         }
+        i.ray_queries = d.ray_query;
+        i.limits.emplace_back("ray queries",
+                              d.ray_query_note.empty() ? "no (Vulkan 1.0)" : d.ray_query_note);
         i.limits.emplace_back("timestamps", d.queue_family == UINT32_MAX ? "no compute queue"
                                             : d.timestamp_valid_bits == 0
                                                 ? "none"

@@ -24,6 +24,7 @@ namespace mcpt::vk {
     X(vkEnumeratePhysicalDevices)               \
     X(vkGetPhysicalDeviceProperties)            \
     X(vkGetPhysicalDeviceProperties2)           \
+    X(vkGetPhysicalDeviceFeatures2)             \
     X(vkGetPhysicalDeviceQueueFamilyProperties) \
     X(vkGetPhysicalDeviceMemoryProperties)      \
     X(vkGetPhysicalDeviceFormatProperties)      \
@@ -84,6 +85,18 @@ namespace mcpt::vk {
     X(vkWaitForFences)               \
     X(vkQueueSubmit)
 
+// Buffer device addresses and acceleration structures: loaded only on a device created with
+// ray queries (PhysicalDevice::ray_query).
+#define MCPT_VK_RAY_QUERY_FUNCTIONS(X)               \
+    X(vkGetBufferDeviceAddress)                      \
+    X(vkCreateAccelerationStructureKHR)              \
+    X(vkDestroyAccelerationStructureKHR)             \
+    X(vkGetAccelerationStructureBuildSizesKHR)       \
+    X(vkCmdBuildAccelerationStructuresKHR)           \
+    X(vkGetAccelerationStructureDeviceAddressKHR)    \
+    X(vkCmdWriteAccelerationStructuresPropertiesKHR) \
+    X(vkCmdCopyAccelerationStructureKHR)
+
 #define MCPT_VK_DECLARE(name) PFN_##name name = nullptr;
 struct InstanceFns {
     MCPT_VK_INSTANCE_FUNCTIONS(MCPT_VK_DECLARE)
@@ -93,6 +106,9 @@ struct InstanceFns {
 };
 struct DeviceFns {
     MCPT_VK_DEVICE_FUNCTIONS(MCPT_VK_DECLARE)
+};
+struct RayQueryFns {
+    MCPT_VK_RAY_QUERY_FUNCTIONS(MCPT_VK_DECLARE)
 };
 #undef MCPT_VK_DECLARE
 
@@ -122,14 +138,24 @@ struct PhysicalDevice {
     uint32_t queue_family = UINT32_MAX;  // first family with compute, UINT32_MAX if none
     uint32_t timestamp_valid_bits = 0;   // of that family
     std::string limits_profile = "device";  // vk_limits_profile.h: what props.limits hold
+    // Ray queries usable (--tree rayquery): Vulkan 1.2, VK_KHR_acceleration_structure,
+    // VK_KHR_ray_query and VK_KHR_deferred_host_operations, with their features and
+    // bufferDeviceAddress; the device is then created with them.
+    bool ray_query = false;
+    std::string ray_query_note;                                        // why not, or "yes"
+    VkPhysicalDeviceAccelerationStructurePropertiesKHR accel_props{};  // where ray_query
 };
+
+// The device extensions ray queries take (besides Vulkan 1.2's buffer device addresses).
+inline constexpr const char* kRayQueryExtensions[] = {
+    "VK_KHR_acceleration_structure", "VK_KHR_ray_query", "VK_KHR_deferred_host_operations"};
 
 // The buffer limits of a device for check_device_limits(), with MCPT_VULKAN_MAX_BUFFER_BYTES
 // applied as the environment says now.
 MemoryLimits memory_limits(const PhysicalDevice& d);
 
-// A Vulkan 1.1 instance; with validation, VK_LAYER_KHRONOS_validation and a debug-utils
-// messenger counting warnings and errors.
+// A Vulkan 1.2 instance (1.1 devices keep 1.1); with validation, VK_LAYER_KHRONOS_validation and a
+// debug-utils messenger counting warnings and errors.
 class Instance {
   public:
     // Throws mcpt::Error(kNoDeviceMessage) without a loader or ICD; with validation, throws
@@ -147,6 +173,7 @@ class Instance {
     std::vector<PhysicalDevice> devices(const std::string& profile = "") const;
 
   private:
+    void probe_ray_query(PhysicalDevice& d, bool extensions) const;
     static VKAPI_ATTR VkBool32 VKAPI_CALL on_message(
         VkDebugUtilsMessageSeverityFlagBitsEXT severity, VkDebugUtilsMessageTypeFlagsEXT types,
         const VkDebugUtilsMessengerCallbackDataEXT* data, void* user);

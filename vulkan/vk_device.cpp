@@ -16,7 +16,7 @@ namespace mcpt::vk {
 Device::Device(const Instance& instance, const PhysicalDevice& pd, std::string name)
     : memory_(pd.memory), name_(std::move(name)) {
     const InstanceFns& fi = instance.fn();
-    // Device with one compute queue; no features, no extensions.
+    // Device with one compute queue; no features, no extensions, unless ray queries.
     const float priority = 1.f;
     VkDeviceQueueCreateInfo qi{};
     qi.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO;
@@ -27,6 +27,22 @@ Device::Device(const Instance& instance, const PhysicalDevice& pd, std::string n
     di.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
     di.queueCreateInfoCount = 1;
     di.pQueueCreateInfos = &qi;
+    VkPhysicalDeviceRayQueryFeaturesKHR rq{};
+    rq.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR;
+    rq.rayQuery = VK_TRUE;
+    VkPhysicalDeviceAccelerationStructureFeaturesKHR as{};
+    as.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR;
+    as.accelerationStructure = VK_TRUE;
+    as.pNext = &rq;
+    VkPhysicalDeviceVulkan12Features v12{};
+    v12.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES;
+    v12.bufferDeviceAddress = VK_TRUE;
+    v12.pNext = &as;
+    if (pd.ray_query) {
+        di.pNext = &v12;
+        di.enabledExtensionCount = uint32_t(std::size(kRayQueryExtensions));
+        di.ppEnabledExtensionNames = kRayQueryExtensions;
+    }
     VK_CHECK(fi.vkCreateDevice, pd.handle, &di, nullptr, &device_);
 
     // Device-level functions, all or none.
@@ -42,6 +58,18 @@ Device::Device(const Instance& instance, const PhysicalDevice& pd, std::string n
         throw Error("the Vulkan driver of " + name_ + " has no " + missing);
     }
     f_ = loaded;
+    if (pd.ray_query) {
+#define MCPT_VK_LOAD(name)                                                               \
+    rq_fns_.name = reinterpret_cast<PFN_##name>(fi.vkGetDeviceProcAddr(device_, #name)); \
+    if (!rq_fns_.name && !missing) missing = #name;
+        MCPT_VK_RAY_QUERY_FUNCTIONS(MCPT_VK_LOAD)
+#undef MCPT_VK_LOAD
+        if (missing) {
+            f_.vkDestroyDevice(device_, nullptr);
+            throw Error("the Vulkan driver of " + name_ + " has no " + missing);
+        }
+        rq_ = true;
+    }
     f_.vkGetDeviceQueue(device_, pd.queue_family, 0, &queue_);
 
     // Command pool, one reusable command buffer, a fence.
@@ -106,8 +134,12 @@ Buffer Device::create_buffer(VkDeviceSize size, VkBufferUsageFlags usage,
             }
         }
         if (type == UINT32_MAX) throw Error("no Vulkan memory type for a buffer on " + name_);
+        VkMemoryAllocateFlagsInfo flags{};
+        flags.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_FLAGS_INFO;
+        flags.flags = VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT;
         VkMemoryAllocateInfo mi{};
         mi.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+        if (usage & VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT) mi.pNext = &flags;
         mi.allocationSize = req.size;
         mi.memoryTypeIndex = type;
         VK_CHECK(f_.vkAllocateMemory, device_, &mi, nullptr, &b.memory);

@@ -22,17 +22,21 @@ struct Buffer {
 
 class Device {
   public:
-    // Creates the device with one queue of pd.queue_family; `name` goes into error messages.
+    // Creates the device with one queue of pd.queue_family, and with ray queries where
+    // pd.ray_query; `name` goes into error messages.
     Device(const Instance& instance, const PhysicalDevice& pd, std::string name);
     ~Device();
     Device(const Device&) = delete;
     Device& operator=(const Device&) = delete;
 
     const DeviceFns& fn() const { return f_; }
+    // The acceleration-structure functions; null on a device without ray queries.
+    const RayQueryFns* rq() const { return rq_ ? &rq_fns_ : nullptr; }
     VkDevice handle() const { return device_; }
     VkCommandBuffer cmd() const { return cmd_; }
 
-    // A buffer in the first memory type with required | preferred flags, else required.
+    // A buffer in the first memory type with required | preferred flags, else required (with
+    // a device address where usage asks for one).
     Buffer create_buffer(VkDeviceSize size, VkBufferUsageFlags usage,
                          VkMemoryPropertyFlags required, VkMemoryPropertyFlags preferred);
     void free_buffer(Buffer& b);
@@ -54,6 +58,8 @@ class Device {
     VkPhysicalDeviceMemoryProperties memory_;
     std::string name_;
     DeviceFns f_;
+    bool rq_ = false;
+    RayQueryFns rq_fns_;
     VkDevice device_ = VK_NULL_HANDLE;
     VkQueue queue_ = VK_NULL_HANDLE;
     VkCommandPool pool_ = VK_NULL_HANDLE;

@@ -2,6 +2,7 @@
 
 #include "common/error.h"
 #include "common/gpu/integrator.h"
+#include "common/gpu/ray_cast.h"
 
 namespace mcpt {
 
@@ -52,6 +53,12 @@ gpu::Ray cpu_camera_ray(const GpuScene& s, const gpu::GpuParams& params, float f
     return gpu::camera_ray(&params, s.nodes.data(), s.leaf_indices.data(), s.triangles.data(),
                            s.spheres.data(), s.materials.data(), s.lights.data(),
                            s.attributes.data(), s.textures.data(), s.texels.data(), fx, fy);
+}
+
+gpu::Ray cpu_cast_ray(const GpuScene& s, uint32_t i) {
+    return gpu::cast_ray(&s.params, s.nodes.data(), s.leaf_indices.data(), s.triangles.data(),
+                         s.spheres.data(), s.materials.data(), s.lights.data(), s.attributes.data(),
+                         s.textures.data(), s.texels.data(), i);
 }
 
 gpu::PathResult cpu_trace_path(const GpuScene& s, const gpu::GpuParams& params, uint32_t pixel,

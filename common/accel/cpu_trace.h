@@ -28,6 +28,10 @@ gpu::Hit brute_force_hit(const std::vector<gpu::GpuTriangle>& triangles, const g
 // camera_ray().
 gpu::Ray cpu_camera_ray(const GpuScene& scene, const gpu::GpuParams& params, float fx, float fy);
 
+// Ray i of the device traversals' oracle tests (GpuParams.ray_cast), through the shared
+// cast_ray().
+gpu::Ray cpu_cast_ray(const GpuScene& scene, uint32_t i);
+
 // One path sample through the shared trace_path(); params carries camera and depth settings.
 gpu::PathResult cpu_trace_path(const GpuScene& scene, const gpu::GpuParams& params, uint32_t pixel,
                                uint32_t sample_index);

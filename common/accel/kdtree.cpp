@@ -702,7 +702,8 @@ TreeKind parse_tree_kind(const std::string& name) {
     if (name == "none") return TreeKind::None;
     if (name == "auto") return TreeKind::Auto;
     if (name == "bvh") return TreeKind::Bvh;
-    throw Error("unknown tree kind '" + name + "' (valid: auto, sah, median, none, bvh)");
+    if (name == "rayquery") return TreeKind::RayQuery;
+    throw Error("unknown tree kind '" + name + "' (valid: auto, sah, median, none, bvh, rayquery)");
 }
 
 const char* tree_kind_name(TreeKind kind) {
@@ -717,8 +718,14 @@ const char* tree_kind_name(TreeKind kind) {
             return "auto";
         case TreeKind::Bvh:
             return "bvh";
+        case TreeKind::RayQuery:
+            return "rayquery";
     }
     return "unknown";
+}
+
+std::vector<std::string> tree_kind_names() {
+    return {"auto", "sah", "median", "none", "bvh", "rayquery"};
 }
 
 KdTree build_kdtree(const std::vector<Triangle>& triangles, const TreeOptions& options) {
@@ -763,7 +770,7 @@ KdTree build_kdtree(const std::vector<Triangle>& triangles, const TreeOptions& o
     }
     const size_t n = triangles.size();
     int threads = 1;
-    if (options.kind == TreeKind::None || n == 0) {
+    if (options.kind == TreeKind::None || options.kind == TreeKind::RayQuery || n == 0) {
         // One leaf holding every triangle (or none).
         tree.leaf_indices.resize(n);
         for (size_t i = 0; i < n; ++i) tree.leaf_indices[i] = uint32_t(i);

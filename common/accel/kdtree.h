@@ -13,11 +13,15 @@ namespace mcpt {
 // Auto: the BVH, or none where the cost model says testing every triangle is cheaper (the
 // BVH ran faster than the SAH k-d tree on every device measured: docs/traversal.md).
 // Bvh: the 8-wide BVH (wide_bvh.h), which travels in the same struct.
-enum class TreeKind { Sah, Median, None, Auto, Bvh };
+// RayQuery: no tree on the host (one leaf, as None); the Vulkan device builds acceleration
+// structures and its driver traces (VK_KHR_ray_query).
+enum class TreeKind { Sah, Median, None, Auto, Bvh, RayQuery };
 
-// "sah" | "median" | "none" | "auto" | "bvh"; throws mcpt::Error otherwise.
+// "sah" | "median" | "none" | "auto" | "bvh" | "rayquery"; throws mcpt::Error otherwise.
 TreeKind parse_tree_kind(const std::string& name);
 const char* tree_kind_name(TreeKind kind);
+// Every name parse_tree_kind() takes, "auto" first (the commands' --tree choices).
+std::vector<std::string> tree_kind_names();
 
 // Device costs in units of one triangle test: a k-d node visit, the fixed work of entering
 // the tree (clipping to the scene bounds, the stack), and a BVH node visit (eight child

@@ -94,6 +94,10 @@ MCPT_NAMESPACE_BEGIN
 #define BINDING_TRIANGLE_TEXELS 6
 #define BINDING_SHADING_TEXELS 7
 #define VK_BINDING_COUNT 8
+// Vulkan with ray queries only (the module built with MCPT_RAY_QUERY): the scene's top-level
+// acceleration structure, one more descriptor after the eight above.
+#define BINDING_TLAS 8
+#define VK_RAY_QUERY_BINDING_COUNT 9
 #define MATERIAL_WORDS 24u
 #define SHADING_MATERIALS_WORD(num_spheres) \
     (MATERIAL_WORDS * ((8u * (num_spheres) + MATERIAL_WORDS - 1u) / MATERIAL_WORDS))
@@ -294,7 +298,11 @@ MCPT_STRUCT(GpuParams) {
     // FEATURE_SHEEN: the sheen's albedo table (sheen_albedo_table.h), words after texels_word,
     // where GLSL reads it (layers.h; a constant array there took lavapipe minutes to compile).
     uint sheen_albedo_word;
-    uint pad_params1, pad_params2, pad_params3;  // std140: a multiple of 16 bytes
+    // Tests (ray_cast.h): non-zero, a dispatch casts ray pixel (cast_ray()) of each of its
+    // pixels, writes its closest hit (t, prim, b1, b2 as bits) to the pixel's first sum vec4
+    // and its any-hit prim and both statuses to the second, and traces nothing else.
+    uint ray_cast;
+    uint pad_params2, pad_params3;  // std140: a multiple of 16 bytes
 };
 // GpuParams.scene_flags: the triangle buffer holds GpuTriangleAttributes after the triangles;
 // some material has an alpha mask (the traversal reads materials only then).
@@ -308,6 +316,10 @@ MCPT_STRUCT(GpuParams) {
 // Emissive triangles sampled by area, not by solid angle (triangle_light.h; render
 // --triangle-light-sampling area, to measure against).
 #define SCENE_TRIANGLE_LIGHTS_BY_AREA 32u
+// Vulkan only: rays are traced by the driver through ray queries (VK_KHR_ray_query) against
+// the scene's acceleration structures at BINDING_TLAS (traverse_rayquery.h); the tree buffer
+// holds no tree (--tree rayquery).
+#define SCENE_RAY_QUERY 64u
 #define LIGHT_CONTRIBUTION_MAX 8u
 
 // Accumulation buffer: two vec4 per pixel (every pixel, or the window's state_slots pixels

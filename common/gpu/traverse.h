@@ -118,6 +118,11 @@ MCPT_NAMESPACE_END
 #include "traverse_bvh.h"
 MCPT_NAMESPACE_BEGIN
 
+#if defined(MCPT_RAY_QUERY)
+MCPT_NAMESPACE_END
+#include "traverse_rayquery.h"
+MCPT_NAMESPACE_BEGIN
+#else
 // Nearest hit with t < ray.tmax, ignoring triangle `skip`; with any_hit, the first hit found.
 MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
     Hit hit;
@@ -340,6 +345,8 @@ MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
     cut.node_visits = node_visits;
     return cut;
 }
+
+#endif  // MCPT_RAY_QUERY
 
 MCPT_NAMESPACE_END
 

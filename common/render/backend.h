@@ -28,6 +28,7 @@ struct DeviceInfo {
     std::string type;      // "gpu" | "cpu" | "other"
     std::vector<std::pair<std::string, std::string>> limits;  // name, value (for display)
     bool phone_limits = false;  // held to the phone's limits (Vulkan limits=phone)
+    bool ray_queries = false;   // the driver traces rays for us (Vulkan VK_KHR_ray_query)
     MemoryLimits memory;
     // "opencl: NVIDIA H100": the device in messages and checkpoints.
     std::string label() const { return backend + ": " + name; }
@@ -51,6 +52,9 @@ struct BackendOptions {
     // Fault injection for tests: the device reports itself lost at this dispatch (counted from
     // 1; 0 = never); open_device() takes $MCPT_LOSE_DEVICE_AFTER when 0.
     uint32_t lose_device_after = 0;
+    // Fault injection for tests of ray queries (--tree rayquery): "drop:N" leaves triangle N
+    // out of the acceleration structure, "shrink" makes every sphere's box half its size.
+    std::string accel_fault;
     // Tests: a largest buffer smaller than the device's (0 = the device's), so that large
     // images take the windowed accumulation (gpu_scene.h) on any device.
     uint64_t max_buffer_bytes = 0;
@@ -64,6 +68,9 @@ struct BackendOptions {
 // The MCPT_FEATURES value a backend compiles `scene` with: the feature bits, and the compile
 // nonce above them (ignored by the device code, but part of every cache key).
 uint32_t compile_features(const BackendOptions& options, const GpuScene& scene);
+// Measurements: where $MCPT_COMPILE_LOG names a file, each kernel or pipeline build appends a
+// line to it, "<api>\t<seconds>\t<settings>" (what a test run compiles, and what it costs).
+void log_compile(const char* api, double seconds, const std::string& settings);
 // Node steps and triangles per k-d traversal iteration (KD_NODE_STEPS, KD_TRI_STEPS:
 // common/gpu/traverse.h) for this device; $MCPT_KD_NODE_STEPS and $MCPT_KD_TRI_STEPS (1-32)
 // override them, for measurements (builds with the steps' loops: OpenCL, and Vulkan's

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <cstdlib>
 
+#include "common/accel/kdtree.h"
 #include "common/error.h"
 #if MCPT_WITH_OPENCL
 #include "opencl/cl_backend.h"
@@ -47,15 +48,20 @@ DeviceSpec parse_device_spec(const std::string& full) {
         const size_t next = full.find(',', at + 1);
         const std::string opt =
             full.substr(at + 1, next == std::string::npos ? next : next - at - 1);
+        at = next;
+        if (opt.rfind("tree=", 0) == 0) {
+            s.tree = opt.substr(5);
+            parse_tree_kind(s.tree);  // names the valid kinds if it is none of them
+            continue;
+        }
         if (opt.rfind("limits=", 0) != 0) {
             throw Error("unknown device option '" + opt + "' in '" + full +
-                        "' (valid: limits=device, limits=phone)");
+                        "' (valid: limits=device, limits=phone, tree=<kind>)");
         }
         s.limits = opt.substr(7);
         if (s.limits != "device" && s.limits != "phone") {
             throw Error("unknown limits profile '" + s.limits + "' (valid: device, phone)");
         }
-        at = next;
     }
     const size_t colon = spec.find(':');
     s.api = spec.substr(0, colon);

@@ -17,9 +17,10 @@ std::vector<std::string> device_apis();
 std::vector<DeviceInfo> list_devices(const std::string& api = "");
 
 // "api", "api:device", each optionally followed by ",limits=phone|device" (the Vulkan limits
-// profile, vk_limits_profile.h), split; throws mcpt::Error for an unknown API or option.
+// profile, vk_limits_profile.h) and ",tree=<kind>" (the trace mode a side of an A/B renders
+// with: kdtree.h's names), split; throws mcpt::Error for an unknown API or option.
 struct DeviceSpec {
-    std::string api, device, limits;
+    std::string api, device, limits, tree;
 };
 DeviceSpec parse_device_spec(const std::string& spec);
 

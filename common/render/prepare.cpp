@@ -24,6 +24,13 @@ GpuScene prepare_scene(const Scene& scene, const DeviceInfo& device, TreeOptions
     if (width <= 0 || height <= 0 || width > 16384 || height > 16384)
         throw Error("image size must be between 1x1 and 16384x16384");
     tree.auto_model = tree_cost_model(device);
+    // Ray queries: Vulkan devices whose driver has them; auto does not pick them (yet).
+    if (tree.kind == TreeKind::RayQuery && !device.ray_queries) {
+        throw Error(device.label() + ": --tree rayquery needs a Vulkan device with ray queries (" +
+                    (device.backend == "vulkan" ? "VK_KHR_ray_query; `mcpt devices` lists them"
+                                                : "OpenCL has none") +
+                    "); use --tree auto or bvh");
+    }
     const KdTree kd = build_kdtree(scene.triangles, tree);
     GpuScene g = pack_scene(scene, kd);
     // An environment map the shading buffer cannot hold is halved until it fits (lighting
@@ -51,6 +58,11 @@ GpuScene prepare_scene(const Scene& scene, const DeviceInfo& device, TreeOptions
                 std::to_string(fitted.environment.width) + "x" +
                 std::to_string(fitted.environment.height) + " (mean radiance kept)");
         }
+    }
+    if (tree.kind == TreeKind::Auto && device.ray_queries) {
+        g.tree_choice +=
+            "; ray queries not picked (auto never picks them: on lavapipe the "
+            "BVH traces faster; --tree rayquery to use them)";
     }
     check_device_limits(g, width, height, device, device.label());
     return g;

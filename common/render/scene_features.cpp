@@ -1,5 +1,6 @@
 #include "common/render/scene_features.h"
 
+#include <cstdio>
 #include <cstdlib>
 #include <string>
 
@@ -101,6 +102,19 @@ std::string features_left_out(uint32_t features) {
 uint32_t compile_features(const BackendOptions& options, const GpuScene& scene) {
     const uint32_t f = options.features != 0 ? options.features : scene.features;
     return (f & FEATURE_BITS) | (options.compile_nonce << FEATURE_COUNT);
+}
+
+void log_compile(const char* api, double seconds, const std::string& settings) {
+    const char* path = std::getenv("MCPT_COMPILE_LOG");
+    if (!path || !*path) return;
+    // One write per line (O_APPEND): the processes of a parallel test run interleave whole
+    // lines.
+    const std::string line =
+        std::string(api) + "\t" + std::to_string(seconds) + "\t" + settings + "\n";
+    if (std::FILE* f = std::fopen(path, "a")) {
+        std::fwrite(line.data(), 1, line.size(), f);
+        std::fclose(f);
+    }
 }
 
 namespace {

@@ -1,0 +1,62 @@
+// The scene's acceleration structures for ray queries (private to vulkan/; --tree rayquery):
+// one bottom-level structure over the triangles (primitive i is triangle i), one over a box
+// per sphere (procedural: the shader tests the sphere), and a top-level structure over both,
+// built on the device once per loaded scene, compacted, and never rebuilt per frame.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "common/gpu/shared_types.h"
+#include "vulkan/vk_device.h"
+
+namespace mcpt::vk {
+
+// What a build made: seconds (host wall time, upload to compaction), bytes kept on the device
+// (after compaction), bytes of scratch and input the build took and released.
+struct AccelStats {
+    double build_seconds = 0;
+    uint64_t bytes = 0;
+    uint64_t transient_bytes = 0;
+    bool compacted = false;
+};
+
+class SceneAccel {
+  public:
+    SceneAccel() = default;
+    ~SceneAccel() { release(); }
+    SceneAccel(const SceneAccel&) = delete;
+    SceneAccel& operator=(const SceneAccel&) = delete;
+
+    // Builds the structures of these triangles and spheres on `dev` (created with ray
+    // queries); triangles are opaque unless `opaque_triangles` is false (alpha masks: the
+    // shader decides each candidate). Replaces what an earlier build made. Throws mcpt::Error.
+    // `fault`: BackendOptions::accel_fault (tests).
+    void build(Device& dev, const PhysicalDevice& pd, const std::vector<gpu::GpuTriangle>& tris,
+               const std::vector<gpu::GpuSphere>& spheres, bool opaque_triangles,
+               const std::string& fault = "");
+    void release();
+
+    VkAccelerationStructureKHR top() const { return top_.handle; }
+    const AccelStats& stats() const { return stats_; }
+    // "ray queries: 2 bottom-level structures, 1.2 MB (compacted), built in 3.1 ms".
+    std::string describe() const;
+
+  private:
+    struct Accel {
+        VkAccelerationStructureKHR handle = VK_NULL_HANDLE;
+        Buffer buffer;
+        VkDeviceAddress address = 0;
+    };
+    Accel build_one(const VkAccelerationStructureGeometryKHR& geometry, uint32_t count,
+                    VkAccelerationStructureTypeKHR type);
+    VkDeviceAddress address_of(const Buffer& b) const;
+    void destroy(Accel& a);
+
+    Device* dev_ = nullptr;
+    const PhysicalDevice* pd_ = nullptr;
+    Accel triangles_, spheres_, top_;
+    AccelStats stats_;
+};
+
+}  // namespace mcpt::vk
