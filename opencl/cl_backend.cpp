@@ -145,6 +145,18 @@ class OpenClBackend final : public Backend {
 
     uint32_t dispatch(const gpu::GpuParams& p) override {
         try {
+            if (!first_dispatch_logged_) {
+                // PoCL compiles the kernel for its work-group size at the first launch: what
+                // a build costs is this and the build together ($MCPT_COMPILE_LOG).
+                first_dispatch_logged_ = true;
+                const auto t0 = std::chrono::steady_clock::now();
+                const uint32_t active = run_dispatch(p);
+                log_compile(
+                    "opencl-first-dispatch",
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+                    built_options_);
+                return active;
+            }
             return run_dispatch(p);
         } catch (const cl::Error& e) {
             stopped(e.err(), e.what());
@@ -304,6 +316,7 @@ class OpenClBackend final : public Backend {
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         built_options_ = opts;
         built_features_ = features & FEATURE_BITS;
+        first_dispatch_logged_ = false;
         log_compile("opencl", compile_seconds_, opts);
         // Work-group size within the kernel's and device's limits.
         const size_t kmax = kernel_.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(dev_.device);
@@ -329,6 +342,7 @@ class OpenClBackend final : public Backend {
     cl::Program program_;
     cl::Kernel kernel_;
     std::string built_options_;
+    bool first_dispatch_logged_ = true;  // until a build
     cl::Buffer params_, tree_, tris_, shading_, accum_;
     size_t sums_floats_ = 0, counter_offset_ = 0;
     cl::Buffer pinned_;  // read_back()'s staging memory (GPUs), mapped at pinned_ptr_

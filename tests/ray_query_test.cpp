@@ -268,6 +268,28 @@ TEST(RayQuery, ImagesAgreeWithTheBvh) {
     EXPECT_FALSE(control.agree) << "control: " << control.verdict();
 }
 
+// The furnace (every surface, the sphere included, emits 1 and reflects half: L = 2 exactly,
+// paths unbounded) through ray queries: no leak through the enclosure, no self-hit on the
+// sphere; control: a light 2% brighter is seen.
+TEST(RayQuery, FurnaceIsExact) {
+    VULKAN_WITH_RAY_QUERIES(device, BackendOptions{});
+    Scene furnace = make_furnace_scene(0.5f, 1.0f);
+    validate_scene(furnace);
+    const GpuScene g = prepare_scene(furnace, device->device(), tree_options("rayquery"), 32, 32);
+    const double exact = 2.0, z_limit = 4.5;
+    RenderOptions o;
+    o.width = o.height = 32;
+    o.spp = 256;
+    o.seed = 7;
+    o.max_depth = uint32_t(furnace.max_depth_hint);
+    const test::MeanEstimate e = test::pooled_mean(render(*device, g, furnace.camera, o));
+    EXPECT_LT(std::abs(e.z(exact)), z_limit) << "mean " << e.mean << " std error " << e.std_error;
+    EXPECT_LT(e.std_error / exact, 0.02 / (2 * z_limit));
+    o.light_scale = 1.02f;
+    const test::MeanEstimate bright = test::pooled_mean(render(*device, g, furnace.camera, o));
+    EXPECT_GT(bright.z(exact), z_limit) << "a 2% brighter light went unnoticed";
+}
+
 // Self-intersection at every scale and position the stability suite covers: a scene of
 // oriented triangles (the textured scene: walls at angles, cut-outs) moved and scaled, traced
 // through ray queries, against the BVH's image of the unit scene.
@@ -322,6 +344,24 @@ TEST(RayQuery, CompareTakesATraceModePerSide) {
     EXPECT_NE(same.output.find("rayquery"), std::string::npos) << same.output;
     const test::CliRun brighter = test::run_mcpt(args + " --b-light-scale 1.05");
     EXPECT_EQ(brighter.status, 2) << brighter.output;
+}
+
+// --reproducible through ray queries: the driver's traversal is deterministic, so the file is
+// the same bit for bit from one device or from two splitting the samples into chunks (not the
+// BVH's file: the driver's triangle test rounds otherwise).
+TEST(RayQuery, ReproducibleIsOneFileOnOneOrTwoDevices) {
+    VULKAN_WITH_RAY_QUERIES(probe, BackendOptions{});
+    const std::string dir = ::testing::TempDir();
+    const std::string job =
+        "render cornell --tree rayquery --width 48 --height 32 -q --spp 64 "
+        "--chunk-seconds 0.05 --reproducible --device vulkan:0";
+    const test::CliRun one = test::run_mcpt(job + " -o " + dir + "/rq_one.exr");
+    ASSERT_EQ(one.status, 0) << one.output;
+    const std::string bytes = test::read_file(dir + "/rq_one.exr");
+    const test::CliRun two = test::run_mcpt(job + " --device vulkan:0 -o " + dir + "/rq_two.exr");
+    ASSERT_EQ(two.status, 0) << two.output;
+    EXPECT_TRUE(test::every_device_took_chunks(two.output, 2)) << two.output;
+    EXPECT_TRUE(test::same_bytes(dir + "/rq_two.exr", bytes)) << two.output;
 }
 
 // Debian 12's lavapipe (Mesa 22.3) has no ray queries: asking for them is a clear error,

@@ -67,6 +67,7 @@ struct VulkanBackend::Impl {
     uint32_t max_groups = 1;
     uint32_t built_stack = 0, built_features = 0;
     bool built_texels = false, built_rq = false;
+    bool first_dispatch_logged = true;  // until a build
     std::string built_settings;  // the specialization constants, "NAME=value ..."
     BackendOptions options;
     uint32_t dispatches = 0;  // counted for options.lose_device_after
@@ -345,6 +346,7 @@ struct VulkanBackend::Impl {
         built_features = features;
         built_texels = texels;
         built_rq = rq;
+        first_dispatch_logged = false;
         log_compile("vulkan", compile_seconds,
                     built_settings + (rq       ? " rayquery"
                                       : texels ? " texels"
@@ -639,7 +641,16 @@ const AccumLayout& VulkanBackend::accum_shape() const {
     return impl_->accum_shape;
 }
 uint32_t VulkanBackend::dispatch(const gpu::GpuParams& params) {
-    return impl_->dispatch(params);
+    if (impl_->first_dispatch_logged) return impl_->dispatch(params);
+    // lavapipe compiles the pipeline's code at its first dispatch: what a build costs is this
+    // and the build together ($MCPT_COMPILE_LOG).
+    impl_->first_dispatch_logged = true;
+    const auto t0 = std::chrono::steady_clock::now();
+    const uint32_t active = impl_->dispatch(params);
+    log_compile("vulkan-first-dispatch",
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+                impl_->built_settings);
+    return active;
 }
 void VulkanBackend::write_plan(const std::vector<uint32_t>& words) {
     impl_->write_plan(words);
