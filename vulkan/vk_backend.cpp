@@ -119,43 +119,9 @@ struct VulkanBackend::Impl {
                             std::to_string(format));
         }
 
-        // Descriptor set layout: the params uniform buffer, storage buffers and texel buffers
-        // at the BINDING_* slots.
-        VkDescriptorSetLayoutBinding bindings[VK_BINDING_COUNT]{};
-        for (uint32_t b = 0; b < VK_BINDING_COUNT; ++b) {
-            bindings[b].binding = b;
-            bindings[b].descriptorType = descriptor_type(b);
-            bindings[b].descriptorCount = 1;
-            bindings[b].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
-        }
-        VkDescriptorSetLayoutCreateInfo li{};
-        li.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
-        li.bindingCount = VK_BINDING_COUNT;
-        li.pBindings = bindings;
-        VK_CHECK(f.vkCreateDescriptorSetLayout, device, &li, nullptr, &set_layout);
-        VkPipelineLayoutCreateInfo pli{};
-        pli.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
-        pli.setLayoutCount = 1;
-        pli.pSetLayouts = &set_layout;
-        VK_CHECK(f.vkCreatePipelineLayout, device, &pli, nullptr, &pipeline_layout);
-
-        // Descriptor pool and the one set.
-        const VkDescriptorPoolSize sizes[] = {
-            {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-            {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, STORAGE_BUFFER_COUNT},
-            {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, TEXEL_BUFFER_COUNT}};
-        VkDescriptorPoolCreateInfo dpi{};
-        dpi.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
-        dpi.maxSets = 1;
-        dpi.poolSizeCount = 3;
-        dpi.pPoolSizes = sizes;
-        VK_CHECK(f.vkCreateDescriptorPool, device, &dpi, nullptr, &descriptor_pool);
-        VkDescriptorSetAllocateInfo dsi{};
-        dsi.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
-        dsi.descriptorPool = descriptor_pool;
-        dsi.descriptorSetCount = 1;
-        dsi.pSetLayouts = &set_layout;
-        VK_CHECK(f.vkAllocateDescriptorSets, device, &dsi, &set);
+        // The descriptor set: the params uniform buffer, storage buffers and texel buffers at
+        // the BINDING_* slots.
+        make_descriptor_set(VK_BINDING_COUNT, set_layout, pipeline_layout, descriptor_pool, set);
 
         if (pd.ray_query) init_ray_query();
 
@@ -174,18 +140,15 @@ struct VulkanBackend::Impl {
             uint32_t(vk::env_limit("MCPT_VULKAN_MAX_GROUP_COUNT", l.maxComputeWorkGroupCount[0]));
     }
 
-    // The ray-query module and its descriptor set: the eight bindings of init() and the
-    // top-level acceleration structure at BINDING_TLAS.
-    void init_ray_query() {
+    // A descriptor set layout of `count` bindings (descriptor_type() of each slot), its
+    // pipeline layout, a pool for one set, and the set.
+    void make_descriptor_set(uint32_t count, VkDescriptorSetLayout& layout,
+                             VkPipelineLayout& pipeline_layout_out, VkDescriptorPool& pool,
+                             VkDescriptorSet& out) {
         const vk::DeviceFns& f = dev->fn();
         const VkDevice device = dev->handle();
-        VkShaderModuleCreateInfo si{};
-        si.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
-        si.codeSize = sizeof(kPathtraceRayQuerySpirv);
-        si.pCode = kPathtraceRayQuerySpirv;
-        VK_CHECK(f.vkCreateShaderModule, device, &si, nullptr, &rq_module);
         VkDescriptorSetLayoutBinding bindings[VK_RAY_QUERY_BINDING_COUNT]{};
-        for (uint32_t b = 0; b < VK_RAY_QUERY_BINDING_COUNT; ++b) {
+        for (uint32_t b = 0; b < count; ++b) {
             bindings[b].binding = b;
             bindings[b].descriptorType = descriptor_type(b);
             bindings[b].descriptorCount = 1;
@@ -193,14 +156,14 @@ struct VulkanBackend::Impl {
         }
         VkDescriptorSetLayoutCreateInfo li{};
         li.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
-        li.bindingCount = VK_RAY_QUERY_BINDING_COUNT;
+        li.bindingCount = count;
         li.pBindings = bindings;
-        VK_CHECK(f.vkCreateDescriptorSetLayout, device, &li, nullptr, &rq_set_layout);
+        VK_CHECK(f.vkCreateDescriptorSetLayout, device, &li, nullptr, &layout);
         VkPipelineLayoutCreateInfo pli{};
         pli.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
         pli.setLayoutCount = 1;
-        pli.pSetLayouts = &rq_set_layout;
-        VK_CHECK(f.vkCreatePipelineLayout, device, &pli, nullptr, &rq_pipeline_layout);
+        pli.pSetLayouts = &layout;
+        VK_CHECK(f.vkCreatePipelineLayout, device, &pli, nullptr, &pipeline_layout_out);
         const VkDescriptorPoolSize sizes[] = {
             {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
             {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, STORAGE_BUFFER_COUNT},
@@ -209,15 +172,27 @@ struct VulkanBackend::Impl {
         VkDescriptorPoolCreateInfo dpi{};
         dpi.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
         dpi.maxSets = 1;
-        dpi.poolSizeCount = 4;
+        dpi.poolSizeCount = count > BINDING_TLAS ? 4 : 3;  // the structure: ray queries only
         dpi.pPoolSizes = sizes;
-        VK_CHECK(f.vkCreateDescriptorPool, device, &dpi, nullptr, &rq_pool);
+        VK_CHECK(f.vkCreateDescriptorPool, device, &dpi, nullptr, &pool);
         VkDescriptorSetAllocateInfo dsi{};
         dsi.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
-        dsi.descriptorPool = rq_pool;
+        dsi.descriptorPool = pool;
         dsi.descriptorSetCount = 1;
-        dsi.pSetLayouts = &rq_set_layout;
-        VK_CHECK(f.vkAllocateDescriptorSets, device, &dsi, &rq_set);
+        dsi.pSetLayouts = &layout;
+        VK_CHECK(f.vkAllocateDescriptorSets, device, &dsi, &out);
+    }
+
+    // The ray-query module and its descriptor set: the eight bindings of init() and the
+    // top-level acceleration structure at BINDING_TLAS.
+    void init_ray_query() {
+        VkShaderModuleCreateInfo si{};
+        si.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
+        si.codeSize = sizeof(kPathtraceRayQuerySpirv);
+        si.pCode = kPathtraceRayQuerySpirv;
+        VK_CHECK(dev->fn().vkCreateShaderModule, dev->handle(), &si, nullptr, &rq_module);
+        make_descriptor_set(VK_RAY_QUERY_BINDING_COUNT, rq_set_layout, rq_pipeline_layout, rq_pool,
+                            rq_set);
     }
 
     void destroy() {
