@@ -118,6 +118,19 @@ MCPT_NAMESPACE_END
 #include "traverse_bvh.h"
 MCPT_NAMESPACE_BEGIN
 
+// No hit before tmax, nothing counted: where every query starts.
+MCPT_FN Hit no_hit(float tmax) {
+    Hit h;
+    h.t = tmax;
+    h.b1 = 0.0f;
+    h.b2 = 0.0f;
+    h.prim = NO_HIT;
+    h.status = 0u;
+    h.tri_tests = 0u;
+    h.node_visits = 0u;
+    return h;
+}
+
 #if defined(MCPT_RAY_QUERY)
 MCPT_NAMESPACE_END
 #include "traverse_rayquery.h"
@@ -125,14 +138,7 @@ MCPT_NAMESPACE_BEGIN
 #else
 // Nearest hit with t < ray.tmax, ignoring triangle `skip`; with any_hit, the first hit found.
 MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
-    Hit hit;
-    hit.t = ray.tmax;
-    hit.b1 = 0.0f;
-    hit.b2 = 0.0f;
-    hit.prim = NO_HIT;
-    hit.status = 0u;
-    hit.tri_tests = 0u;
-    hit.node_visits = 0u;
+    Hit hit = no_hit(ray.tmax);
 
     // Spheres: few, tested one by one.
     uint num_spheres = HAS_FEATURE(FEATURE_SPHERES) ? PARAM(num_spheres) : 0u;
@@ -335,11 +341,7 @@ MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
         t_base += hit.t;
         skip = hit.prim;
     }
-    Hit cut;
-    cut.t = ray.tmax;
-    cut.b1 = 0.0f;
-    cut.b2 = 0.0f;
-    cut.prim = NO_HIT;
+    Hit cut = no_hit(ray.tmax);
     cut.status = TRACE_INCOMPLETE;
     cut.tri_tests = tri_tests;
     cut.node_visits = node_visits;

@@ -21,14 +21,7 @@ layout(binding = BINDING_TLAS) uniform accelerationStructureEXT scene_tlas;
 // first one committed). Cut-outs (alpha masks) and spheres are decided in the query's loop.
 MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
     bool masks = HAS_FEATURE(FEATURE_ALPHA_MASK) && (PARAM(scene_flags) & SCENE_ALPHA_MASK) != 0u;
-    Hit hit;
-    hit.t = ray.tmax;
-    hit.b1 = 0.0f;
-    hit.b2 = 0.0f;
-    hit.prim = NO_HIT;
-    hit.status = 0u;
-    hit.tri_tests = 0u;
-    hit.node_visits = 0u;
+    Hit hit = no_hit(ray.tmax);
     uint flags = any_hit ? gl_RayFlagsTerminateOnFirstHitEXT : gl_RayFlagsNoneEXT;
     rayQueryEXT q;
     vec3 ao = abs(ray.o);
