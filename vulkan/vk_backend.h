@@ -1,5 +1,6 @@
 // Vulkan backend (the port): device discovery, compute pipeline from the SPIR-V embedded at
-// build time, buffer upload, dispatch and read-back. Vulkan 1.1 core only; the loader is
+// build time, buffer upload, dispatch and read-back. Vulkan 1.1 core, and with --tree rayquery
+// Vulkan 1.2 with VK_KHR_ray_query (acceleration structures: vk_accel.h); the loader is
 // opened at run time, so mcpt runs (OpenCL only) where no Vulkan is installed.
 //
 // Environment:

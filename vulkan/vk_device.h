@@ -1,5 +1,7 @@
 // A logical device for compute (private to vulkan/): one queue, one reusable command buffer
-// with a fence, buffers with their own allocations, and the on-disk pipeline cache file.
+// with a fence, buffers with their own allocations (with device addresses where asked), the
+// acceleration-structure functions where the device has ray queries, and the on-disk pipeline
+// cache file.
 #pragma once
 #include <string>
 #include <vector>

@@ -1,5 +1,6 @@
 // The device traversal and path tracer compiled for the CPU: the same functions the kernels
-// run, used by tests (against brute force), `mcpt tree` and `mcpt bench` (work per ray).
+// run, used by tests (against brute force; the rays the device oracle tests cast), `mcpt tree`
+// and `mcpt bench` (work per ray).
 // Only the plain data of gpu/ray_types.h is visible here, not the device dialect's macros.
 #pragma once
 #include <vector>
