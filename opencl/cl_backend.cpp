@@ -20,7 +20,7 @@ namespace mcpt {
 
 namespace {
 
-std::string trim(std::string s) {
+std::string trim_cl_string(std::string s) {
     while (!s.empty() && (s.back() == '\0' || s.back() == ' ')) s.pop_back();
     return s;
 }
@@ -55,12 +55,12 @@ std::vector<ClDevice> enumerate() {
             DeviceInfo& i = cd.info;
             i.backend = "opencl";
             i.index = int(out.size());
-            i.name = trim(d.getInfo<CL_DEVICE_NAME>());
-            i.platform = trim(pl.getInfo<CL_PLATFORM_NAME>());
+            i.name = trim_cl_string(d.getInfo<CL_DEVICE_NAME>());
+            i.platform = trim_cl_string(pl.getInfo<CL_PLATFORM_NAME>());
             const cl_device_type t = d.getInfo<CL_DEVICE_TYPE>();
             i.type = (t & CL_DEVICE_TYPE_GPU) ? "gpu" : (t & CL_DEVICE_TYPE_CPU) ? "cpu" : "other";
             i.limits = {
-                {"version", trim(d.getInfo<CL_DEVICE_VERSION>())},
+                {"version", trim_cl_string(d.getInfo<CL_DEVICE_VERSION>())},
                 {"compute units", std::to_string(d.getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>())},
                 {"global memory", human_bytes(d.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>())},
                 {"max allocation", human_bytes(d.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>())},

@@ -768,7 +768,7 @@ TEST(GltfLoader, BadPunctualLights) {
     const auto with_light = [](json light) {
         Gltf g = quad_gltf();
         g.doc["extensionsUsed"] = {"KHR_lights_punctual"};
-        g.doc["extensions"]["KHR_lights_punctual"]["lights"] = {light};
+        g.doc["extensions"]["KHR_lights_punctual"]["lights"] = json::array({light});
         g.doc["nodes"].push_back({{"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}});
         g.doc["scenes"][0]["nodes"].push_back(g.doc["nodes"].size() - 1);
         return load_error(g.write("bad_light.gltf"));

@@ -5,6 +5,8 @@
 #include "common/analysis/compare.h"
 #include "common/error.h"
 #include "common/render/device_registry.h"
+#include "common/scene/gltf_loader.h"
+#include "light_cases.h"
 #include "test_scenes.h"
 #include "test_util.h"
 #include "vulkan/vk_backend.h"
@@ -111,6 +113,93 @@ TEST(PhoneProfile, AgreesWithDesktopOnADeepMeshBvh) {
 TEST(PhoneProfile, NegativeControlBrighterLightIsRejected) {
     const Agreement g = desktop_vs_phone(make_builtin_scene("cornell"), 1.02f);
     EXPECT_FALSE(g.agree) << g.verdict();
+}
+
+// Same seed, every kind of scene the statistical suites render: the phone profile changes how
+// the scene is read (storage buffers past 65,536 texels), how the image is accumulated
+// (windows), how dispatches are cut and the workgroup, never the arithmetic, so its image is
+// the device profile's up to the order of float sums. This is what stands for running every
+// Vulkan suite once more under the profile: the suites whose code paths the profile changes
+// still run under it (tests/CMakeLists.txt, ".phone"). Control: a light 0.1 % brighter on the
+// phone side must part the images.
+Scene phone_case(const std::string& name) {
+    const std::string data = MCPT_TEST_DATA_DIR;
+    if (name == "bumpy_bvh") return make_bumpy_sphere_scene(60);
+    if (name == "deep_furnace") return make_furnace_scene(0.99f, 1.f);
+    if (name == "textured") return load_gltf(data + "/textured.glb");
+    if (name == "lamps") return load_gltf(data + "/lamps.gltf");
+    if (name == "emissive_triangle") return load_gltf(data + "/emissive_triangle.gltf");
+    if (name == "map_and_sun") {
+        Scene s = test::plane_scene(0.7f, 2.f, 1.f);
+        s.environment = test::map_with_sun(64, 32, 0.3f, 20, 6, 3000.f);
+        return s;
+    }
+    if (name == "beyond_phone_texels") {  // 75,000 texels of triangles: storage reads on phones
+        Scene s = make_builtin_scene("cornell");
+        for (int i = 0; i < 30000; ++i) {
+            const glm::vec3 o(float(i % 200), -1000.f, float(i / 200));
+            s.triangles.push_back({o, o + glm::vec3(0.5f, 0.f, 0.f), o + glm::vec3(0.f, 0.f, 0.5f), 0});
+        }
+        return s;
+    }
+    return make_builtin_scene(name);  // cornell, materials, spheres
+}
+
+struct PhoneSameSeed {
+    size_t apart = 0, values = 0;
+    std::string desktop_layout, phone_layout;
+};
+
+PhoneSameSeed phone_same_seed(const std::string& name, float phone_light_scale = 1.f) {
+    Scene scene = phone_case(name);
+    validate_scene(scene);
+    TreeOptions to;
+    to.kind = name == "bumpy_bvh" || name == "textured" || name == "materials" ? TreeKind::Bvh
+                                                                               : TreeKind::Sah;
+    const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, to));
+    RenderOptions o;
+    o.width = o.height = 24;
+    o.spp = 4;
+    o.seed = 11;
+    if (scene.max_depth_hint > 0) o.max_depth = uint32_t(scene.max_depth_hint);
+    auto desktop = open_device("vulkan,limits=device");
+    auto phone = open_device("vulkan,limits=phone");
+    const RenderResult a = render(*desktop, g, scene.camera, o);
+    o.light_scale = phone_light_scale;
+    const RenderResult b = render(*phone, g, scene.camera, o);
+    PhoneSameSeed r;
+    r.desktop_layout = desktop->layout(), r.phone_layout = phone->layout();
+    const std::vector<float> x = a.mean_image(), y = b.mean_image();
+    EXPECT_EQ(x.size(), y.size());
+    EXPECT_EQ(a.nonfinite_total, b.nonfinite_total);
+    r.values = std::min(x.size(), y.size());
+    for (size_t i = 0; i < r.values; ++i)
+        r.apart += std::abs(x[i] - y[i]) > 1e-5f * std::max(1e-3f, std::abs(x[i]));
+    std::printf("%s: %zu of %zu values apart (phone light x%g)\n", name.c_str(), r.apart, r.values,
+                double(phone_light_scale));
+    return r;
+}
+
+class PhoneProfileScenes : public testing::TestWithParam<std::string> {};
+
+TEST_P(PhoneProfileScenes, SameSeedImageIsTheDeviceProfiles) {
+    const PhoneSameSeed r = phone_same_seed(GetParam());
+    EXPECT_EQ(r.apart, 0u) << r.apart << " of " << r.values << " values";
+    if (GetParam() == "beyond_phone_texels") {
+        EXPECT_NE(r.desktop_layout.find("texel buffers"), std::string::npos) << r.desktop_layout;
+        EXPECT_EQ(r.phone_layout.find("texel buffers"), std::string::npos) << r.phone_layout;
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenes, PhoneProfileScenes,
+                         testing::Values("cornell", "materials", "spheres", "bumpy_bvh",
+                                         "deep_furnace", "textured", "lamps", "emissive_triangle",
+                                         "map_and_sun", "beyond_phone_texels"),
+                         [](const testing::TestParamInfo<std::string>& i) { return i.param; });
+
+TEST(PhoneProfile, SameSeedControlBrighterLightParts) {
+    const PhoneSameSeed r = phone_same_seed("cornell", 1.001f);
+    EXPECT_GT(r.apart, r.values / 2) << r.apart << " of " << r.values << " values";
 }
 
 }  // namespace

@@ -28,7 +28,7 @@ namespace mcpt {
 
 namespace {
 
-constexpr int kBins = 16;
+constexpr int kSahBins = 16;
 constexpr size_t kParallelMin = 16384;  // a node this large builds its children on two threads
 
 // A triangle's reference: its box and index, moved as the build partitions (sequential
@@ -63,7 +63,7 @@ struct Binner {
     float lo = 0, scale_f = 0;
     double scale_d = 0;
     bool in_float = false;
-    int bins = kBins;
+    int bins = kSahBins;
     Binner(float lo_, float hi_, int bins_) : lo(lo_), bins(bins_) {
         const double extent = double(hi_) - lo_;
         scale_d = double(bins) / extent;
@@ -169,10 +169,10 @@ struct BinaryBuilder {
             uint32_t n;
             Boxes boxes;  // its references' boxes, centroids included
         };
-        Bin bins[kBins];
-        // A bin per reference below kBins: the same work per ray on the meshes, the 871k
+        Bin bins[kSahBins];
+        // A bin per reference below kSahBins: the same work per ray on the meshes, the 871k
         // dragon built 3% faster (fewer bins to clear and sweep at the bottom levels).
-        const int nb = count < uint32_t(kBins) ? int(count) : kBins;
+        const int nb = count < uint32_t(kSahBins) ? int(count) : kSahBins;
         double best_cost = std::numeric_limits<double>::infinity();
         int best_axis = -1, best_bin = 0;
         // Binned on the axis of the centroids' largest extent: all three axes built the 871k
@@ -192,7 +192,7 @@ struct BinaryBuilder {
                 bin.boxes.add(p);
             }
             // Sweep: areas and counts left of each boundary, then right of it.
-            double left_cost[kBins];
+            double left_cost[kSahBins];
             Boxes acc = bins[0].boxes;
             uint32_t n = 0;
             for (int b = 0; b < nb - 1; ++b) {

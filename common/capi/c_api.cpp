@@ -195,7 +195,12 @@ const char* mcpt_version_string(void) {
 }
 
 const char* mcpt_status_name(mcpt_status status) {
-    switch (status) {
+    // A C caller may pass any int: read its bits as one (in C++ loading an enum outside its
+    // enumerators' range is undefined, and clang's UBSan stops there).
+    int code = 0;
+    static_assert(sizeof(code) == sizeof(status), "mcpt_status is an int");
+    std::memcpy(&code, &status, sizeof(code));
+    switch (code) {
         case MCPT_OK:
             return "MCPT_OK";
         case MCPT_CANCELLED:

@@ -312,7 +312,7 @@ std::string mode_name(int mode) {
     }
 }
 
-std::string trim(std::string s) {
+std::string trim_trailing_space(std::string s) {
     while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.pop_back();
     return s;
 }
@@ -571,11 +571,11 @@ void GltfLoader::read_model() {
     }
     if (!ok)
         fail(std::string("cannot load ") + (binary ? "binary glTF (.glb)" : "glTF") +
-             " file: " + (err.empty() ? "unknown tinygltf error" : trim(err)));
+             " file: " + (err.empty() ? "unknown tinygltf error" : trim_trailing_space(err)));
     // tinygltf's own warnings, one line each.
     std::string line;
     for (std::istringstream lines(warn); std::getline(lines, line);)
-        if (!trim(line).empty()) warn_once("tinygltf:" + line, "glTF: " + trim(line));
+        if (!trim_trailing_space(line).empty()) warn_once("tinygltf:" + line, "glTF: " + trim_trailing_space(line));
     decode_compressed();
 }
 
@@ -661,10 +661,10 @@ void GltfLoader::parse_memory() {
     }
     if (!ok)
         fail(std::string("cannot load ") + (binary ? "binary glTF (.glb)" : "glTF") +
-             " data: " + (err.empty() ? "unknown tinygltf error" : trim(err)));
+             " data: " + (err.empty() ? "unknown tinygltf error" : trim_trailing_space(err)));
     std::string line;
     for (std::istringstream lines(warn); std::getline(lines, line);)
-        if (!trim(line).empty()) warn_once("tinygltf:" + line, "glTF: " + trim(line));
+        if (!trim_trailing_space(line).empty()) warn_once("tinygltf:" + line, "glTF: " + trim_trailing_space(line));
     decode_compressed();
 }
 
