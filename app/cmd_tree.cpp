@@ -1,8 +1,10 @@
 // mcpt tree: build the k-d tree of a scene and report its statistics and the work per ray
 // (triangle tests and node visits), measured with the shared traversal code on the CPU.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <random>
+#include <vector>
 
 #include "app/commands.h"
 #include "common/accel/cpu_trace.h"
@@ -16,6 +18,7 @@ struct TreeArgs {
     std::string tree = "sah";
     int depth = -1;
     int rays = 65536;
+    int warps = 64;
 };
 
 void print_work(const char* what, const gpu::RayWork& w) {
@@ -65,6 +68,33 @@ void run_tree(const TreeArgs& a) {
     std::printf("work per ray (shared traversal on the CPU):\n");
     print_work("camera rays", camera);
     print_work("random rays from inside the bounds", random_rays);
+
+    // A warp's view of full paths at 1024^2 (pixel = first pixel + invocation: a warp is 32
+    // pixels of a row), the same sample in each lane, every trace as long as its longest ray.
+    if (a.warps > 0) {
+        const RenderOptions ro;
+        gpu::GpuParams pp = g.params;
+        set_camera(pp, scene.camera, 1024, 1024);
+        pp.max_depth = ro.max_depth, pp.rr_depth = ro.rr_depth, pp.seed = 12345;
+        const uint32_t warps_in_image = 1024u * 1024u / 32u;
+        double busy = 0, active = 0, rays = 0, visits = 0;
+        for (int w = 0; w < a.warps; ++w) {
+            const uint32_t first = uint32_t((uint64_t(w) * 2654435761u) % warps_in_image) * 32u;
+            std::vector<std::vector<uint32_t>> lanes;
+            for (uint32_t i = 0; i < 32; ++i) {
+                lanes.push_back(cpu_path_visits(g, pp, first + i, uint32_t(w)));
+                rays += double(lanes.back().size());
+                for (uint32_t v : lanes.back()) visits += v;
+            }
+            const WarpLanes wl = warp_lanes(lanes);
+            busy += wl.busy, active += wl.active;
+        }
+        std::printf("  warps of 32 paths in lock-step, %d warps at 1024x1024: %.1f of 32 lanes "
+                    "visit a node per step, %.1f still tracing (%.2f visits/ray, %.1f "
+                    "rays/path)\n",
+                    a.warps, busy / a.warps, active / a.warps, visits / std::max(1.0, rays),
+                    rays / (32.0 * a.warps));
+    }
 }
 
 }  // namespace
@@ -81,6 +111,10 @@ void add_tree_command(CLI::App& app) {
     sub->add_option("--depth", args->depth, "Depth limit (median: default 3)");
     sub->add_option("--rays", args->rays, "Rays per measurement")
         ->check(CLI::Range(1, 100000000))
+        ->capture_default_str();
+    sub->add_option("--warps", args->warps,
+                    "Warps of 32 full paths for the model of a GPU warp's busy lanes (0: none)")
+        ->check(CLI::Range(0, 100000))
         ->capture_default_str();
     sub->callback([args] { run_tree(*args); });
 }

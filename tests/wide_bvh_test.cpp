@@ -18,6 +18,8 @@
 
 #include "accel_cases.h"
 #include "common/accel/cpu_trace.h"
+#include "common/render/gpu_scene.h"
+#include "common/scene/builtin_scenes.h"
 #include "common/gpu/traverse.h"
 
 namespace mcpt {
@@ -346,6 +348,39 @@ TEST(WideBvhTraversal, NearestChildFirstInEveryOctant) {
                     << "axis " << axis << ", octant " << octant << ", ray " << k;
             }
         }
+}
+
+// The model of a GPU warp that `mcpt tree` prints (issue 64's probe): each lane's log of node
+// visits is what the path's counter adds up, and the warp's figures are the work over the
+// longest ray of each trace, worked by hand.
+TEST(WarpModel, LanesAreTheWorkOverEachTracesLongestRay) {
+    // Trace 0: lanes visit 1 and 3 nodes (a third lane's path traced nothing): the warp waits
+    // 3 steps, 2 lanes tracing; trace 1: 1 node, 1 lane tracing. 5 visits over 4 steps.
+    const WarpLanes w = warp_lanes({{1, 1}, {3}, {}});
+    EXPECT_DOUBLE_EQ(w.busy, 5.0 / 4.0);
+    EXPECT_DOUBLE_EQ(w.active, (3.0 * 2 + 1.0 * 1) / 4.0);
+    const WarpLanes same = warp_lanes(std::vector<std::vector<uint32_t>>(32, {2, 5, 1}));
+    EXPECT_DOUBLE_EQ(same.busy, 32.0);
+    EXPECT_DOUBLE_EQ(same.active, 32.0);
+    EXPECT_DOUBLE_EQ(warp_lanes({}).busy, 0.0);
+
+    Scene scene = make_bumpy_sphere_scene(20);
+    validate_scene(scene);
+    const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, bvh_options()));
+    gpu::GpuParams p = g.params;
+    set_camera(p, scene.camera, 64, 64);
+    p.max_depth = 8, p.rr_depth = 3, p.seed = 7;
+    double rays = 0;
+    for (uint32_t pixel = 0; pixel < 4096; pixel += 97) {
+        const gpu::RayWork work = cpu_path_work(g, p, pixel, 3);
+        const std::vector<uint32_t> visits = cpu_path_visits(g, p, pixel, 3);
+        ASSERT_EQ(double(visits.size()), work.rays) << pixel;
+        double sum = 0;
+        for (uint32_t v : visits) sum += v;
+        EXPECT_EQ(sum, work.node_visits) << pixel;
+        rays += work.rays;
+    }
+    EXPECT_GT(rays, 2 * 43.0);  // paths of more than a camera ray
 }
 
 }  // namespace

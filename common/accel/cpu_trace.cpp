@@ -1,5 +1,7 @@
 #include "common/accel/cpu_trace.h"
 
+#include <algorithm>
+
 #include "common/error.h"
 #include "common/gpu/integrator.h"
 #include "common/gpu/ray_cast.h"
@@ -77,6 +79,33 @@ gpu::RayWork cpu_path_work(const GpuScene& s, const gpu::GpuParams& params, uint
     cpu_trace_path(s, params, pixel, sample_index);
     gpu::path_work = nullptr;
     return work;
+}
+
+std::vector<uint32_t> cpu_path_visits(const GpuScene& s, const gpu::GpuParams& params,
+                                      uint32_t pixel, uint32_t sample_index) {
+    gpu::RayWork work;
+    work.keep_visits = true;
+    gpu::path_work = &work;
+    cpu_trace_path(s, params, pixel, sample_index);
+    gpu::path_work = nullptr;
+    return std::move(work.visits_per_trace);
+}
+
+WarpLanes warp_lanes(const std::vector<std::vector<uint32_t>>& lanes) {
+    size_t traces = 0;
+    for (const auto& l : lanes) traces = std::max(traces, l.size());
+    double done = 0, waited = 0, active = 0;
+    for (size_t k = 0; k < traces; ++k) {
+        uint32_t longest = 0, tracing = 0;
+        for (const auto& l : lanes) {
+            const uint32_t v = k < l.size() ? l[k] : 0u;
+            done += v, longest = std::max(longest, v), tracing += k < l.size();
+        }
+        waited += longest, active += double(longest) * tracing;
+    }
+    WarpLanes w;
+    if (waited > 0) w.busy = done / waited, w.active = active / waited;
+    return w;
 }
 
 }  // namespace mcpt

@@ -41,4 +41,18 @@ gpu::PathResult cpu_trace_path(const GpuScene& scene, const gpu::GpuParams& para
 gpu::RayWork cpu_path_work(const GpuScene& scene, const gpu::GpuParams& params, uint32_t pixel,
                            uint32_t sample_index);
 
+// The node visits of each ray of that path sample in the order traced (camera ray, then each
+// vertex's shadow and bounce rays): a GPU warp walks 32 such sequences in lock-step.
+std::vector<uint32_t> cpu_path_visits(const GpuScene& scene, const gpu::GpuParams& params,
+                                      uint32_t pixel, uint32_t sample_index);
+
+// A model of a GPU warp in the traversal: `lanes` neighbouring pixels' paths in lock-step, one
+// trace after another; the warp spends each trace as long as its longest ray. Per node-visit
+// step of the warp, on average: the lanes visiting a node (busy) and the lanes whose path is
+// still tracing (active; the rest ended their paths).
+struct WarpLanes {
+    double busy = 0, active = 0;
+};
+WarpLanes warp_lanes(const std::vector<std::vector<uint32_t>>& lanes);
+
 }  // namespace mcpt

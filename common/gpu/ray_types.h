@@ -5,6 +5,10 @@
 #define MCPT_GPU_RAY_TYPES_H
 
 #include "platform.h"
+#if defined(MCPT_CPP)
+#include <cstdint>
+#include <vector>
+#endif
 
 MCPT_NAMESPACE_BEGIN
 
@@ -43,8 +47,11 @@ MCPT_STRUCT(PathResult) {
 // Traversal work summed over rays; the C++ build counts it (mcpt tree, mcpt bench).
 struct RayWork {
     double rays = 0, hits = 0, tri_tests = 0, node_visits = 0;
+    bool keep_visits = false;                // log each ray's node visits, in the order traced
+    std::vector<uint32_t> visits_per_trace;  // (cpu_path_visits: a model of a GPU warp)
     void add(const Hit& h) {
         rays += 1, hits += h.prim != NO_HIT, tri_tests += h.tri_tests, node_visits += h.node_visits;
+        if (keep_visits) visits_per_trace.push_back(h.node_visits);
     }
     void add(const RayWork& w) {
         rays += w.rays, hits += w.hits, tri_tests += w.tri_tests, node_visits += w.node_visits;
