@@ -1,5 +1,7 @@
 // The phone limits profile (Vulkan 1.1 required minimums): the backend works within it, says
-// so, refuses what does not fit, and renders what the device profile renders.
+// so, refuses what does not fit, and renders what the device profile renders: statistically
+// on a few scenes, and with the same seed value for value on every kind of scene the
+// statistical suites use (which stands for rerunning them all under the profile).
 #include <gtest/gtest.h>
 
 #include "common/analysis/compare.h"

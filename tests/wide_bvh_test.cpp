@@ -4,7 +4,8 @@
 // force and to the k-d tree on the k-d tests' meshes and rays, at extreme scales and far from
 // the origin (kdtree_test.cpp runs its device-traversal checks, any hit included, on the BVH
 // too). The negative control: a BVH whose leaf boxes stop one grid cell
-// short of their triangles is caught by rays that meet only that cell.
+// short of their triangles is caught by rays that meet only that cell. Also the model of a GPU
+// warp that `mcpt tree --warps` prints (per-ray visit logs, lanes busy), worked by hand.
 #include "common/accel/wide_bvh.h"
 
 #include <gtest/gtest.h>
