@@ -32,14 +32,6 @@ inline constexpr const char* kTreeChoicesHelp =
     "queries), sah, median, none, bvh (the wide BVH), rayquery (Vulkan devices with "
     "VK_KHR_ray_query: the driver traces)";
 
-// The device specs of --backend and the --device values (an index, a name substring, or
-// api:device); none: the backend's best device.
-std::vector<std::string> device_specs(const std::string& backend,
-                                      const std::vector<std::string>& devices);
-// A side of compare or view on one device or several: "opencl:0,opencl:1,limits=phone" ->
-// {"opencl:0,limits=phone", "opencl:1,limits=phone"}: options (name=value) apply to every
-// device; a bare index or name takes the API before it ("vulkan:0,1").
-std::vector<std::string> device_list(const std::string& side);
 // Several devices: what each rendered of the session's image since its accumulation began,
 // a line each ("  device K: NAME: C chunks, S spp (P%), R spp/s").
 void print_device_shares(const Session& session);

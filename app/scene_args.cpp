@@ -62,42 +62,6 @@ Environment lighting_environment(const LightingArgs& a) {
     return env;
 }
 
-std::vector<std::string> device_specs(const std::string& backend,
-                                      const std::vector<std::string>& devices) {
-    if (devices.empty()) return {backend};
-    std::vector<std::string> specs;
-    for (const std::string& d : devices) {
-        const bool has_api = d.rfind("opencl", 0) == 0 || d.rfind("vulkan", 0) == 0;
-        specs.push_back(has_api ? d : backend + ":" + d);
-    }
-    return specs;
-}
-
-std::vector<std::string> device_list(const std::string& side) {
-    std::vector<std::string> devices, options;
-    std::string api;
-    for (size_t at = 0; at <= side.size();) {
-        const size_t comma = std::min(side.find(',', at), side.size());
-        const std::string item = side.substr(at, comma - at);
-        at = comma + 1;
-        if (item.find('=') != std::string::npos) {
-            options.push_back(item);
-            continue;
-        }
-        if (item.empty()) throw Error("an empty device in '" + side + "'");
-        const size_t colon = item.find(':');
-        const bool has_api = item.rfind("opencl", 0) == 0 || item.rfind("vulkan", 0) == 0;
-        if (has_api) api = item.substr(0, colon);
-        if (!has_api && api.empty())
-            throw Error("'" + item + "' in '" + side + "' names no API (opencl or vulkan)");
-        devices.push_back(has_api ? item : api + ":" + item);
-    }
-    if (devices.empty()) throw Error("no device in '" + side + "'");
-    for (std::string& d : devices)
-        for (const std::string& o : options) d += "," + o;
-    return devices;
-}
-
 void print_device_shares(const Session& session) {
     const uint64_t spp = session.result().spp;
     // The render time: what a device did not spend in chunks went to hand-outs, read-backs

@@ -97,7 +97,9 @@ BatchSet render_batches(const std::vector<Session*>& sessions, const BatchOption
     // Device k takes the next batch while any is left: `one` renders batch b.
     const auto take_batches = [&](size_t k, const std::function<BatchMean(uint32_t seed)>& one) {
         try {
-            for (int b; (b = next.fetch_add(1)) < batch.batches; ++rendered[k])
+            for (int b;
+                 !(batch.cancel && batch.cancel->load()) && (b = next.fetch_add(1)) < batch.batches;
+                 ++rendered[k])
                 batches[size_t(b)] = one(batch.seed_base + uint32_t(b));
         } catch (const std::exception& e) {
             failures[k] = e.what();
@@ -134,7 +136,7 @@ BatchSet render_batches(const std::vector<Session*>& sessions, const BatchOption
         const size_t k = sessions.size() + remote.size() + j;
         const auto& ready = joining[j].ready;
         while (ready.wait_for(std::chrono::milliseconds(2)) != std::future_status::ready)
-            if (next.load() >= batch.batches) return;
+            if (next.load() >= batch.batches || (batch.cancel && batch.cancel->load())) return;
         std::shared_ptr<Session> session;
         try {
             session = ready.get();
@@ -161,7 +163,15 @@ BatchSet render_batches(const std::vector<Session*>& sessions, const BatchOption
             throw Error(devices == 1
                             ? failures[k]
                             : "device " + std::to_string(k) + " (" + name(k) + "): " + failures[k]);
-    BatchSet set = batch_means(batches);
+    // Cancelled: the batches taken were all rendered (each device ends the one it has).
+    const int done = std::min(next.load(), batch.batches);
+    if (done < batch.batches) batches.resize(size_t(done));
+    BatchSet set;
+    if (done >= 2) {
+        set = batch_means(batches);
+    } else {
+        set.batches = done;
+    }
     set.per_device = rendered;
     if (devices > 1)
         set.seconds =

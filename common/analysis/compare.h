@@ -3,6 +3,7 @@
 // plus global tests for a small uniform bias), and same-seed agreement (identical random
 // streams: what differs is float rounding and compiler behaviour).
 #pragma once
+#include <atomic>
 #include <functional>
 #include <future>
 #include <memory>
@@ -29,6 +30,9 @@ struct BatchOptions {
     int batches = 32;
     uint64_t spp_per_batch = 4;
     uint32_t seed_base = 1;  // batch b uses seed seed_base + b
+    // Set: no batch starts once it is true (those in flight finish); the set then holds the
+    // batches done (`batches` says how many; no means below two).
+    const std::atomic<bool>* cancel = nullptr;
 };
 
 // One batch as the test needs it: per pixel the mean of r, g and b; its totals.

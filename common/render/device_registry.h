@@ -35,4 +35,16 @@ size_t select_device(const std::vector<DeviceInfo>& devices, const std::string& 
 // `spec` overrides options.device or options.limits.
 std::unique_ptr<Backend> open_device(const std::string& spec, BackendOptions options = {});
 
+// The device specs of --backend and the --device values (an index, a name substring, or
+// api:device); none: the backend's best device.
+std::vector<std::string> device_specs(const std::string& backend,
+                                      const std::vector<std::string>& devices);
+// A side of compare or view on one device or several: "opencl:0,opencl:1,limits=phone" ->
+// {"opencl:0,limits=phone", "opencl:1,limits=phone"}: options (name=value) apply to every
+// device; a bare index or name takes the API before it ("vulkan:0,1").
+std::vector<std::string> device_list(const std::string& side);
+
+// What the device code is: the kernel source, a key of cached results that depend on it.
+std::string device_source_key();
+
 }  // namespace mcpt

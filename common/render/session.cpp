@@ -498,7 +498,7 @@ PassStats render_until(Session& session, const RenderGoal& goal,
     const RenderResult& r = session.result();
     double elapsed = r.seconds;  // a resumed render's time counts
     PassStats st;
-    while (true) {
+    while (!(goal.cancel && goal.cancel->load())) {
         // Steps long enough that their ends (a read-back; on several devices, collecting the
         // sums) cost little.
         const double step = std::max(goal.step_seconds, session.step_seconds());
@@ -506,10 +506,12 @@ PassStats render_until(Session& session, const RenderGoal& goal,
         st = session.render(std::max(budget, 0.0) * 1e3, goal.target_error, goal.spp);
         elapsed += st.seconds;
         if (after_step) after_step(st);
-        if (st.target_reached || (goal.spp > 0 && r.spp >= goal.spp) ||
+        if (st.cancelled || st.target_reached || (goal.spp > 0 && r.spp >= goal.spp) ||
             (goal.seconds > 0 && elapsed >= goal.seconds))
             return st;
     }
+    st.cancelled = true;
+    return st;
 }
 
 void Session::reset() {

@@ -235,6 +235,8 @@ struct RenderGoal {
     // Each step (a Session::render() call, which ends with a read-back) lasts at most this,
     // unless Session::step_seconds() asks for longer.
     double step_seconds = 1.0;
+    // Set: no step starts once it is true (a job's cancel, between steps of a second or so).
+    const std::atomic<bool>* cancel = nullptr;
 };
 
 // The loop of `mcpt render` and `mcpt bench --throughput`: Session::render() in steps until
