@@ -223,6 +223,7 @@ std::vector<Checkpoint> render_progressive(Session& session, const ProgressiveOp
         RenderGoal goal;
         goal.spp = spp, goal.seconds = until_s;
         goal.step_seconds = until_s > 0 ? until_s : 3600;
+        goal.cancel = opt.cancel;
         render_until(session, goal);
     };
     const int n_time = std::max(1, opt.time_checkpoints);
@@ -252,9 +253,14 @@ std::vector<Checkpoint> render_progressive(Session& session, const ProgressiveOp
             else
                 render_to(total.spp + want, 0);
         }
+        // Cancelled before a sample more: nothing new to measure.
+        if (opt.cancel && opt.cancel->load() &&
+            (total.spp == 0 || (!cps.empty() && cps.back().spp == total.spp)))
+            break;
         cps.push_back({total.seconds, total.spp, measure_error(total, ref)});
         if (on_cp) on_cp(cps.back());
-        // Stop at the sample or time budget.
+        // Stop at the sample or time budget, or once cancelled.
+        if (opt.cancel && opt.cancel->load()) break;
         if (opt.max_spp > 0 && total.spp >= opt.max_spp) break;
         if (opt.seconds > 0 && total.seconds >= opt.seconds) break;
     }

@@ -3,6 +3,7 @@
 // log-log convergence fits, a bias flag, and time-to-error. Shared by `mcpt converge` and the
 // tests, so both judge a render by the same code.
 #pragma once
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -84,6 +85,8 @@ struct ProgressiveOptions {
     double seconds = 0;    // stop once this much render time is spent (0: no limit)
     int time_checkpoints = 8;
     uint32_t seed_base = 1;  // the seed of the one sample sequence
+    // Set: the render ends once it is true, at a last checkpoint of what was rendered.
+    const std::atomic<bool>* cancel = nullptr;
 };
 
 // Renders progressively through `session` (its scene and settings: size, bounces, tree,
