@@ -34,3 +34,75 @@ TEST(CApiMisuse, NullAndMadeUpHandles) {
     EXPECT_EQ(mcpt_session_create("", nullptr), MCPT_ERROR_INVALID_ARGUMENT);
     EXPECT_EQ(mcpt_devices(nullptr, 0, nullptr), MCPT_ERROR_INVALID_ARGUMENT);
 }
+
+// Jobs (section 10) before any device is opened: bad handles, bad sides, out-of-order calls,
+// a compare reading on a converge job, and a released handle.
+TEST(CApiMisuse, Jobs) {
+    for (mcpt_job j : {mcpt_job(nullptr), reinterpret_cast<mcpt_job>(0x5678)}) {
+        mcpt_compare_result r;
+        EXPECT_EQ(mcpt_job_release(j), MCPT_ERROR_INVALID_HANDLE);
+        EXPECT_EQ(mcpt_job_run(j), MCPT_ERROR_INVALID_HANDLE);
+        EXPECT_EQ(mcpt_job_cancel(j), MCPT_ERROR_INVALID_HANDLE);
+        EXPECT_EQ(mcpt_compare_get_result(j, &r), MCPT_ERROR_INVALID_HANDLE);
+        EXPECT_NE(std::string(mcpt_job_last_error(j)).find("job handle"), std::string::npos);
+    }
+    // A session handle is not a job, nor the reverse.
+    mcpt_job out = nullptr;
+    EXPECT_EQ(mcpt_compare_create("opencl", "", &out), MCPT_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(out, nullptr);
+    EXPECT_NE(std::string(mcpt_job_last_error(nullptr)).find("an empty device in ''"),
+              std::string::npos)
+        << mcpt_job_last_error(nullptr);
+    EXPECT_EQ(mcpt_compare_create("opencl", "metal:0", &out), MCPT_ERROR_INVALID_ARGUMENT);
+    EXPECT_NE(std::string(mcpt_job_last_error(nullptr)).find("'metal:0' in 'metal:0' names no API"),
+              std::string::npos)
+        << mcpt_job_last_error(nullptr);
+    EXPECT_EQ(mcpt_compare_create("opencl", "vulkan,limits=moon", &out),
+              MCPT_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(mcpt_compare_create(nullptr, "opencl", &out), MCPT_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(mcpt_compare_create("opencl", "opencl", nullptr), MCPT_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(mcpt_converge_create(nullptr, 0, &out), MCPT_ERROR_INVALID_ARGUMENT);
+
+    ASSERT_EQ(mcpt_compare_create("opencl", "opencl:0,opencl:0,tree=bvh", &out), MCPT_OK)
+        << mcpt_job_last_error(nullptr);
+    EXPECT_EQ(mcpt_session_release(reinterpret_cast<mcpt_session>(out)), MCPT_ERROR_INVALID_HANDLE);
+    // Out of order: a result before a run, a run before a scene.
+    mcpt_compare_result r;
+    EXPECT_EQ(mcpt_compare_get_result(out, &r), MCPT_ERROR_INVALID_STATE);
+    EXPECT_NE(std::string(mcpt_job_last_error(out)).find("has not run"), std::string::npos);
+    EXPECT_EQ(mcpt_job_run(out), MCPT_ERROR_INVALID_STATE);
+    EXPECT_NE(std::string(mcpt_job_last_error(out)).find("no scene"), std::string::npos);
+    EXPECT_EQ(mcpt_job_write_report(out, "/tmp/x"), MCPT_ERROR_INVALID_STATE);
+    // The other kind's calls.
+    mcpt_converge_result cr;
+    EXPECT_EQ(mcpt_converge_get_result(out, &cr), MCPT_ERROR_INVALID_ARGUMENT);
+    mcpt_converge_options co;
+    ASSERT_EQ(mcpt_converge_default_options(&co), MCPT_OK);
+    EXPECT_EQ(mcpt_converge_set_options(out, &co), MCPT_ERROR_INVALID_ARGUMENT);
+    EXPECT_NE(std::string(mcpt_job_last_error(out)).find("not a converge job"), std::string::npos);
+    // Options out of range, a tree that does not exist, a scene that cannot be read.
+    mcpt_compare_options o;
+    ASSERT_EQ(mcpt_compare_default_options(&o), MCPT_OK);
+    EXPECT_EQ(o.batches, 32);
+    o.batches = 1;
+    EXPECT_EQ(mcpt_compare_set_options(out, &o), MCPT_ERROR_INVALID_ARGUMENT);
+    EXPECT_NE(std::string(mcpt_job_last_error(out)).find("batches"), std::string::npos);
+    EXPECT_EQ(mcpt_job_set_tree(out, "octree"), MCPT_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(mcpt_job_set_size(out, 0, 64), MCPT_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(mcpt_job_load_file(out, "/no/such/scene.gltf"), MCPT_ERROR_SCENE);
+    EXPECT_EQ(mcpt_compare_read_map(out, MCPT_MAP_Z, nullptr, 0), MCPT_ERROR_INVALID_STATE);
+    // Released: refused, never reached.
+    EXPECT_EQ(mcpt_job_release(out), MCPT_OK);
+    EXPECT_EQ(mcpt_job_release(out), MCPT_ERROR_INVALID_HANDLE);
+    EXPECT_EQ(mcpt_job_run(out), MCPT_ERROR_INVALID_HANDLE);
+
+    const char* runs[] = {"vulkan", nullptr};
+    EXPECT_EQ(mcpt_converge_create(runs, 2, &out), MCPT_ERROR_INVALID_ARGUMENT);
+    ASSERT_EQ(mcpt_converge_create(runs, 1, &out), MCPT_OK);
+    co.seconds = 0, co.max_spp = 0;
+    EXPECT_EQ(mcpt_converge_set_options(out, &co), MCPT_ERROR_INVALID_ARGUMENT);
+    mcpt_converge_run run;
+    EXPECT_EQ(mcpt_converge_get_run(out, 0, &run), MCPT_ERROR_INVALID_STATE);
+    EXPECT_EQ(mcpt_compare_get_result(out, &r), MCPT_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(mcpt_job_release(out), MCPT_OK);
+}

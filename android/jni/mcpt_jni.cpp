@@ -8,25 +8,15 @@
 #include <string>
 #include <vector>
 
+#include "android/jni/jni_util.h"
 #include "mcpt/mcpt.h"
 
 namespace {
 
+using namespace mcpt_jni;
+
 mcpt_session handle(jlong s) {
     return reinterpret_cast<mcpt_session>(static_cast<intptr_t>(s));
-}
-
-void throw_error(JNIEnv* env, int status, const std::string& message) {
-    if (env->ExceptionCheck()) return;  // one pending exception at a time
-    jclass cls = env->FindClass("org/mcpt/RendererException");
-    if (!cls) return;  // NoClassDefFoundError pending
-    jmethodID ctor = env->GetMethodID(cls, "<init>", "(ILjava/lang/String;)V");
-    if (!ctor) return;
-    const std::string text = std::string(mcpt_status_name(mcpt_status(status))) + ": " + message;
-    jstring msg = env->NewStringUTF(text.c_str());
-    if (!msg) return;
-    jobject ex = env->NewObject(cls, ctor, jint(status), msg);
-    if (ex) env->Throw(static_cast<jthrowable>(ex));
 }
 
 // True when the call succeeded (or was cancelled); else throws and returns false.
@@ -42,32 +32,8 @@ bool open(JNIEnv* env, jlong s) {
     return false;
 }
 
-// A Java string as UTF-8 (empty for null), or false with an exception pending.
-bool utf8(JNIEnv* env, jstring js, std::string& out) {
-    out.clear();
-    if (!js) return true;
-    const char* c = env->GetStringUTFChars(js, nullptr);
-    if (!c) return false;  // OutOfMemoryError pending
-    out = c;
-    env->ReleaseStringUTFChars(js, c);
-    return true;
-}
-
 std::string describe(const mcpt_device_info& d) {
     return std::string(d.spec) + "\t" + d.name + "\t" + d.type;
-}
-
-jobjectArray strings(JNIEnv* env, const std::vector<std::string>& v) {
-    jclass cls = env->FindClass("java/lang/String");
-    if (!cls) return nullptr;
-    jobjectArray arr = env->NewObjectArray(jsize(v.size()), cls, nullptr);
-    for (size_t i = 0; arr && i < v.size(); ++i) {
-        jstring s = env->NewStringUTF(v[i].c_str());
-        if (!s) return nullptr;
-        env->SetObjectArrayElement(arr, jsize(i), s);
-        env->DeleteLocalRef(s);
-    }
-    return arr;
 }
 
 }  // namespace

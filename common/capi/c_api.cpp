@@ -1,15 +1,10 @@
-// include/mcpt/mcpt.h over the engine: handles are ids in a table (never pointers that a stale
-// handle could reach), every entry point catches everything, and messages are kept per
-// session (or per thread where there is no session).
+// include/mcpt/mcpt.h over the engine, sections 1 to 9 (devices and sessions; the jobs are in
+// c_api_jobs.cpp): handles are ids in a table (never pointers that a stale handle could
+// reach), every entry point catches everything, and messages are kept per session (or per
+// thread where there is no session).
 #include <cmath>
-#include <cstring>
-#include <memory>
-#include <mutex>
-#include <new>
-#include <string>
-#include <unordered_map>
 
-#include "common/error.h"
+#include "common/capi/c_api_internal.h"
 #include "common/render/device_registry.h"
 #include "common/render/prepare.h"
 #include "common/render/scene_features.h"
@@ -21,12 +16,7 @@
 namespace {
 
 using mcpt::Session;
-
-// A C-side error: the status and its message.
-struct CError {
-    mcpt_status status;
-    std::string message;
-};
+using namespace mcpt::capi;
 
 struct SessionBox {
     std::mutex mutex;  // serialises calls on the session (cancel does not take it)
@@ -35,47 +25,10 @@ struct SessionBox {
     std::mutex error_mutex;
 };
 
-// The table of live sessions: handle value -> session.
-class Handles {
-  public:
-    mcpt_session add(std::shared_ptr<SessionBox> box) {
-        std::lock_guard<std::mutex> lock(mutex_);
-        const uintptr_t id = next_;
-        next_ += 16;  // never 0, never a small integer
-        boxes_[id] = std::move(box);
-        return reinterpret_cast<mcpt_session>(id);
-    }
-    std::shared_ptr<SessionBox> find(mcpt_session s) {
-        std::lock_guard<std::mutex> lock(mutex_);
-        auto it = boxes_.find(reinterpret_cast<uintptr_t>(s));
-        return it == boxes_.end() ? nullptr : it->second;
-    }
-    std::shared_ptr<SessionBox> remove(mcpt_session s) {
-        std::lock_guard<std::mutex> lock(mutex_);
-        auto it = boxes_.find(reinterpret_cast<uintptr_t>(s));
-        if (it == boxes_.end()) return nullptr;
-        std::shared_ptr<SessionBox> box = std::move(it->second);
-        boxes_.erase(it);
-        return box;
-    }
-
-  private:
-    std::mutex mutex_;
-    std::unordered_map<uintptr_t, std::shared_ptr<SessionBox>> boxes_;
-    uintptr_t next_ = 0x6d637074000ull & ~uintptr_t(15);
-};
-
-Handles& handles() {
-    static Handles* h = new Handles;  // never destroyed: safe from atexit order
+HandleTable<SessionBox, mcpt_session>& handles() {
+    // Never destroyed: safe from atexit order.
+    static auto* h = new HandleTable<SessionBox, mcpt_session>(0x6d637074000ull);
     return *h;
-}
-
-thread_local std::string t_thread_error;    // failures without a live session
-thread_local std::string t_returned_error;  // what mcpt_last_error() handed out
-
-mcpt_status thread_fail(mcpt_status status, const std::string& message) {
-    t_thread_error = message;
-    return status;
 }
 
 mcpt_status box_fail(SessionBox& box, mcpt_status status, const std::string& message) {
@@ -84,52 +37,8 @@ mcpt_status box_fail(SessionBox& box, mcpt_status status, const std::string& mes
     return status;
 }
 
-// Runs `body` with every exception turned into a status; `context` is the status that an
-// mcpt::Error means in this call (a scene error while loading, a device error while rendering).
-template <class Body>
-mcpt_status guarded(mcpt_status context, std::string& message, Body&& body) {
-    try {
-        return body();
-    } catch (const CError& e) {
-        message = e.message;
-        return e.status;
-    } catch (const mcpt::OutOfMemory& e) {
-        message = e.what();
-        return MCPT_ERROR_OUT_OF_MEMORY;
-    } catch (const mcpt::DeviceLost& e) {
-        message = e.what();
-        return MCPT_ERROR_DEVICE_LOST;
-    } catch (const mcpt::Error& e) {
-        message = e.what();
-        return context;
-    } catch (const std::bad_alloc&) {
-        message = "out of memory";
-        return MCPT_ERROR_OUT_OF_MEMORY;
-    } catch (const std::exception& e) {
-        message = std::string("internal error: ") + e.what();
-        return MCPT_ERROR_INTERNAL;
-    } catch (...) {
-        message = "internal error: unknown exception";
-        return MCPT_ERROR_INTERNAL;
-    }
-}
-
-// The session's box, found (or taken out of the table when `remove`); null with the status
-// set (and the thread's message) when the handle is not a live session.
 std::shared_ptr<SessionBox> lookup(mcpt_session s, bool remove, mcpt_status& st) {
-    std::shared_ptr<SessionBox> box;
-    try {
-        box = remove ? handles().remove(s) : handles().find(s);
-    } catch (...) {
-        st = thread_fail(MCPT_ERROR_INTERNAL, "internal error: handle table");
-        return nullptr;
-    }
-    if (!box) {
-        st = thread_fail(MCPT_ERROR_INVALID_HANDLE,
-                         s == nullptr ? "NULL session handle"
-                                      : "invalid session handle (released or never created)");
-    }
-    return box;
+    return mcpt::capi::lookup(handles(), s, remove, st, "session");
 }
 
 // Looks up the session and runs body(Session&) under its lock.
@@ -150,28 +59,6 @@ mcpt_status with_session(mcpt_session s, mcpt_status context, Body&& body) {
     return st;
 }
 
-void copy(char* dst, size_t size, const std::string& src) {
-    const size_t n = std::min(size - 1, src.size());
-    std::memcpy(dst, src.data(), n);
-    dst[n] = '\0';
-}
-
-void require(bool ok, const char* message) {
-    if (!ok) throw CError{MCPT_ERROR_INVALID_ARGUMENT, message};
-}
-
-mcpt_device_info device_info(const mcpt::DeviceInfo& d) {
-    mcpt_device_info out;
-    std::memset(&out, 0, sizeof out);
-    copy(out.api, sizeof out.api, d.backend);
-    out.index = d.index;
-    copy(out.name, sizeof out.name, d.name);
-    copy(out.platform, sizeof out.platform, d.platform);
-    copy(out.type, sizeof out.type, d.type);
-    copy(out.spec, sizeof out.spec, d.backend + ":" + std::to_string(d.index));
-    return out;
-}
-
 // The session's scene is loaded; else an out-of-order error.
 void require_scene(const Session& s) {
     if (!s.has_scene())
@@ -183,6 +70,43 @@ void require_image(const Session& s) {
 }
 
 }  // namespace
+
+namespace mcpt::capi {
+
+mcpt_device_info device_info(const DeviceInfo& d) {
+    mcpt_device_info out;
+    std::memset(&out, 0, sizeof out);
+    copy(out.api, sizeof out.api, d.backend);
+    out.index = d.index;
+    copy(out.name, sizeof out.name, d.name);
+    copy(out.platform, sizeof out.platform, d.platform);
+    copy(out.type, sizeof out.type, d.type);
+    copy(out.spec, sizeof out.spec, d.backend + ":" + std::to_string(d.index));
+    return out;
+}
+
+Scene scene_from_file(const char* path) {
+    require(path != nullptr && *path, "path is NULL or empty");
+    Scene scene = load_scene(path);
+    scene.choose_lights_automatically();
+    return scene;
+}
+
+Scene scene_from_memory(const void* data, size_t size, const char* base_dir) {
+    require(data != nullptr || size == 0, "data is NULL");
+    Scene scene = load_scene_memory(data, size, "memory", base_dir ? base_dir : "");
+    scene.choose_lights_automatically();
+    return scene;
+}
+
+Scene scene_builtin(const char* name) {
+    require(name != nullptr, "name is NULL");
+    Scene scene = load_scene(name);
+    scene.choose_lights_automatically();
+    return scene;
+}
+
+}  // namespace mcpt::capi
 
 extern "C" {
 
@@ -312,18 +236,9 @@ mcpt_status mcpt_session_device(mcpt_session s, mcpt_device_info* out) {
     });
 }
 
-namespace {
-// Lights picked as the command line's --light-sampling auto picks them.
-mcpt::Scene with_auto_light_sampling(mcpt::Scene scene) {
-    scene.choose_lights_automatically();
-    return scene;
-}
-}  // namespace
-
 mcpt_status mcpt_session_load_file(mcpt_session s, const char* path) {
     return with_session(s, MCPT_ERROR_SCENE, [&](Session& session) {
-        require(path != nullptr && *path, "path is NULL or empty");
-        session.set_scene(with_auto_light_sampling(mcpt::load_scene(path)));
+        session.set_scene(scene_from_file(path));
         return MCPT_OK;
     });
 }
@@ -331,17 +246,14 @@ mcpt_status mcpt_session_load_file(mcpt_session s, const char* path) {
 mcpt_status mcpt_session_load_memory(mcpt_session s, const void* data, size_t size,
                                      const char* base_dir) {
     return with_session(s, MCPT_ERROR_SCENE, [&](Session& session) {
-        require(data != nullptr || size == 0, "data is NULL");
-        session.set_scene(with_auto_light_sampling(
-            mcpt::load_scene_memory(data, size, "memory", base_dir ? base_dir : "")));
+        session.set_scene(scene_from_memory(data, size, base_dir));
         return MCPT_OK;
     });
 }
 
 mcpt_status mcpt_session_load_builtin(mcpt_session s, const char* name) {
     return with_session(s, MCPT_ERROR_SCENE, [&](Session& session) {
-        require(name != nullptr, "name is NULL");
-        session.set_scene(with_auto_light_sampling(mcpt::load_scene(name)));
+        session.set_scene(scene_builtin(name));
         return MCPT_OK;
     });
 }

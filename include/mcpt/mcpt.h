@@ -12,6 +12,8 @@
  *   6. Settings
  *   7. Rendering: passes with a time budget, target error, cancel
  *   8. Images: linear float RGBA, 8-bit sRGB RGBA, EXR/PNG files
+ *   9. Checkpoints
+ *  10. Jobs: the A/B test (compare) and the error curve (converge)
  *
  * Handles are opaque: a released or never-created handle is recognised and refused with
  * MCPT_ERROR_INVALID_HANDLE, never dereferenced. Every function returns a status (or a value
@@ -21,7 +23,7 @@
  * Thread safety: device enumeration and session creation may be called from any thread.
  * Calls on one session are serialised by the session (a second thread waits), except
  * mcpt_session_cancel(), which never waits and may be called from any thread at any time.
- * Different sessions run independently.
+ * Different sessions run independently. Jobs (section 10) follow the same rules.
  */
 #ifndef MCPT_MCPT_H
 #define MCPT_MCPT_H
@@ -245,6 +247,166 @@ MCPT_API mcpt_status mcpt_session_save_checkpoint(mcpt_session session, const ch
  * the next render adds to it. MCPT_ERROR_IO with a message naming what differs (version,
  * scene, an option, the device) or that the file is truncated or corrupted. */
 MCPT_API mcpt_status mcpt_session_resume_checkpoint(mcpt_session session, const char* path);
+
+/* ---- 10. Jobs: the A/B test and the error curve
+ *
+ * A job renders on devices of its own (it opens them when it runs) and ends with a result read
+ * field by field: create, load a scene, set options, run, read, release. mcpt_job_run() takes
+ * as long as the job (seconds to minutes); mcpt_job_cancel() from another thread ends it
+ * early, and what was done is kept and can be read. Reading a result before a run:
+ * MCPT_ERROR_INVALID_STATE; a compare reading on a converge job (or the reverse):
+ * MCPT_ERROR_INVALID_ARGUMENT. */
+
+typedef struct mcpt_job_s* mcpt_job;
+
+/* An A/B test: does side B render the same image as side A, and how fast is each? A side is
+ * a device as mcpt_session_create() takes it ("opencl", "vulkan:0"), or several that render
+ * it together ("opencl:0,opencl:1"), with options for the whole side after a comma:
+ * "limits=phone" (a phone's Vulkan limits) and "tree=KIND" (as mcpt_session_set_tree()).
+ * Both sides render independent batches (per-pixel Welch tests with Sidak and
+ * Benjamini-Hochberg corrections, global tests for a uniform bias) and one image with the
+ * same seed (what differs is float rounding). An empty side or an unknown API or option:
+ * MCPT_ERROR_INVALID_ARGUMENT; devices are opened by mcpt_job_run(). */
+MCPT_API mcpt_status mcpt_compare_create(const char* side_a, const char* side_b, mcpt_job* out);
+
+/* The error curve: progressive renders on each of `count` runs (a run's devices as a side of
+ * mcpt_compare_create(): several render one image), one after the other, their error against
+ * a reference at doubling sample counts, the log-log fit, a bias flag and the time to reach a
+ * relative error. */
+MCPT_API mcpt_status mcpt_converge_create(const char* const* runs, size_t count, mcpt_job* out);
+
+/* Cancels a run in progress, waits for it, and frees everything. Any thread. */
+MCPT_API mcpt_status mcpt_job_release(mcpt_job job);
+/* Ends the job's run in progress (the batches or the step under way finish first, about a
+ * second); never waits. A run that starts after this call is not affected. Any thread. */
+MCPT_API mcpt_status mcpt_job_cancel(mcpt_job job);
+/* The message of the last failed call on `job`; for a handle that is not a live job, of the
+ * last failed call on this thread without one. Valid until this thread's next call. */
+MCPT_API const char* mcpt_job_last_error(mcpt_job job);
+
+/* The scene, as for sessions: a glTF file, bytes in memory, a built-in name. */
+MCPT_API mcpt_status mcpt_job_load_file(mcpt_job job, const char* path);
+MCPT_API mcpt_status mcpt_job_load_memory(mcpt_job job, const void* data, size_t size,
+                                          const char* base_dir);
+MCPT_API mcpt_status mcpt_job_load_builtin(mcpt_job job, const char* name);
+/* Image size (compare default 64 x 64, converge 256 x 256), bounces (-1: the scene's
+ * default) and trace mode ("auto" default; a side's tree= option wins), as for sessions. */
+MCPT_API mcpt_status mcpt_job_set_size(mcpt_job job, int width, int height);
+MCPT_API mcpt_status mcpt_job_set_max_bounces(mcpt_job job, int bounces);
+MCPT_API mcpt_status mcpt_job_set_tree(mcpt_job job, const char* kind);
+
+/* Runs the job to its end: MCPT_OK, or MCPT_CANCELLED when mcpt_job_cancel() ended it (the
+ * result then holds what was done). A failure keeps no result. */
+MCPT_API mcpt_status mcpt_job_run(mcpt_job job);
+/* The report of the last run as DIR/index.html, self-contained (verdicts or the plot,
+ * tables, images), as `mcpt compare --report` and `mcpt converge --report` write it. */
+MCPT_API mcpt_status mcpt_job_write_report(mcpt_job job, const char* dir);
+
+typedef struct mcpt_compare_options {
+    int batches;            /* independent batches per side, 2 to 100000 (32) */
+    uint64_t spp;           /* samples per pixel per batch (4) */
+    uint64_t same_seed_spp; /* samples per pixel of the same-seed images (4) */
+    double same_seed_limit; /* fraction of pixels the same-seed images may differ in (0.01) */
+    double alpha;           /* family-wise false alarm rate of the statistical test (0.01) */
+    float light_scale_b;    /* B's lights scaled: 1.02 is a negative control (1) */
+    int parallel;           /* 1: both sides render at once, each on its devices (0) */
+} mcpt_compare_options;
+/* The defaults above. */
+MCPT_API mcpt_status mcpt_compare_default_options(mcpt_compare_options* out);
+MCPT_API mcpt_status mcpt_compare_set_options(mcpt_job job, const mcpt_compare_options* options);
+
+typedef struct mcpt_compare_side {
+    char device[512];   /* description of its first device ("+N more" with several) */
+    char tree[16];      /* the trace mode it rendered with */
+    int devices;        /* devices that rendered it */
+    int batches_done;   /* fewer than asked after a cancel */
+    uint64_t nonfinite; /* non-finite samples in its batches */
+    double samples_per_second, rays_per_second;
+    double device_ns_per_sample; /* kernel time per sample; 0 where unknown */
+    double compile_seconds;
+} mcpt_compare_side;
+
+typedef struct mcpt_compare_result {
+    int agree; /* both tests ran and agree */
+    int cancelled;
+    int statistical_tested; /* both sides rendered two batches at least */
+    int statistical_agree;
+    uint64_t pixels_tested;
+    double min_p, sidak_level;
+    uint64_t sidak_rejections, bh_discoveries;
+    double mean_z_score, chi2_score, global_z_limit; /* |mean z| and chi2 z below the limit */
+    double detectable_bias;    /* uniform relative bias detected with 90 % power */
+    double mean_relative_diff; /* (mean B - mean A) / mean A over the image */
+    int same_seed_tested;      /* both sides rendered their same-seed image */
+    int same_seed_agree;
+    uint64_t same_seed_pixels, same_seed_diverged; /* diverged: relative difference > 1e-3 */
+    double same_seed_max_abs_diff;
+    double speed_ratio; /* B's samples per second over A's */
+    double seconds;     /* the run's wall time */
+    mcpt_compare_side side[2];
+} mcpt_compare_result;
+MCPT_API mcpt_status mcpt_compare_get_result(mcpt_job job, mcpt_compare_result* out);
+
+typedef enum mcpt_compare_map {
+    MCPT_MAP_P_VALUE = 0,           /* per-pixel p-value of the statistical test */
+    MCPT_MAP_Z = 1,                 /* its signed z of B - A */
+    MCPT_MAP_MEAN_DIFFERENCE = 2,   /* batch mean of B - A (radiance) */
+    MCPT_MAP_SAME_SEED_RELATIVE = 3 /* same seed: max over channels |B - A| / max(|A|,|B|,1e-3) */
+} mcpt_compare_map;
+/* A map as RGBA32F (the value in r, g and b, alpha 1), top row first: capacity >= 4 * width *
+ * height floats. Zeros where its test did not run (cancelled). */
+MCPT_API mcpt_status mcpt_compare_read_map(mcpt_job job, mcpt_compare_map map, float* rgba,
+                                           size_t capacity);
+
+typedef struct mcpt_converge_options {
+    double seconds;         /* render time per run (10); 0: only max_spp */
+    uint64_t max_spp;       /* also stop at this many samples per pixel (0: no limit) */
+    int time_checkpoints;   /* 0: at 1, 2, 4, ... spp (default); 1: at the budget / 2^k */
+    int reference;          /* 0 auto (exact when known, else a cached render), 1 exact,
+                               2 cached (in $XDG_CACHE_HOME/mcpt) */
+    uint64_t reference_spp; /* samples per pixel of a new cached reference (1024) */
+    uint32_t seed;          /* of the first run; each further run adds 100000 (1) */
+    int independent;        /* 1: independent samples instead of Owen-scrambled Sobol (0) */
+    int adaptive;           /* 1: adaptive sampling (0) */
+} mcpt_converge_options;
+MCPT_API mcpt_status mcpt_converge_default_options(mcpt_converge_options* out);
+MCPT_API mcpt_status mcpt_converge_set_options(mcpt_job job, const mcpt_converge_options* options);
+
+typedef struct mcpt_converge_result {
+    uint64_t runs; /* runs with at least one checkpoint */
+    int biased;    /* a run flattens above the noise floor */
+    int cancelled;
+    double reference_mean; /* mean radiance of the reference */
+    int reference_exact;   /* 1: an exact solution; 0: a render, its noise subtracted */
+} mcpt_converge_result;
+MCPT_API mcpt_status mcpt_converge_get_result(mcpt_job job, mcpt_converge_result* out);
+
+typedef struct mcpt_converge_run {
+    char backend[64]; /* "opencl", "opencl x2" */
+    char device[512];
+    uint64_t checkpoints;
+    double time_slope;  /* RMSE ~ seconds^time_slope (ideal -0.5) */
+    double spp_slope;   /* RMSE ~ spp^spp_slope */
+    double slope_sigma; /* expected spread of spp_slope for an unbiased estimator */
+    double local_slope; /* over the last three checkpoints */
+    int biased;
+    double relative_bias; /* mean signed error at the last checkpoint / mean reference */
+} mcpt_converge_run;
+MCPT_API mcpt_status mcpt_converge_get_run(mcpt_job job, uint64_t run, mcpt_converge_run* out);
+
+typedef struct mcpt_checkpoint {
+    double seconds; /* render time so far */
+    uint64_t spp;
+    double rmse, rel_rmse, rel_mse, mean_signed_error;
+    double reference_noise; /* RMS standard error of the reference (0: exact) */
+} mcpt_checkpoint;
+MCPT_API mcpt_status mcpt_converge_get_checkpoint(mcpt_job job, uint64_t run, uint64_t index,
+                                                  mcpt_checkpoint* out);
+/* The time run `run` took (or would take) to reach relative RMSE `target`: *seconds, and
+ * *how: 1 reached, 2 extrapolated along the local slope, 3 below target at the first
+ * checkpoint, 0 never (flat or biased; *seconds 0). */
+MCPT_API mcpt_status mcpt_converge_time_to_error(mcpt_job job, uint64_t run, double target,
+                                                 double* seconds, int* how);
 
 #ifdef __cplusplus
 }
