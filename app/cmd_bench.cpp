@@ -30,22 +30,6 @@ namespace mcpt {
 
 namespace {
 
-struct BenchArgs {
-    bool quick = false;
-    bool specialize = false;
-    bool throughput = false;
-    double seconds = 0;                 // --throughput: timed seconds per row (0: 5, quick 0.3)
-    std::string tree = "auto";          // --throughput
-    std::vector<int> device_counts;     // --throughput --devices 1,2,4
-    std::vector<std::string> backends;  // empty: every device found
-    std::string models = "models";
-    std::string output = "bench";
-    int width = 0, height = 0;  // 0: 256 (quick: 64)
-    uint64_t spp = 0;           // 0: 4 (quick: 2)
-    int frames = 3;
-    double max_frame_seconds = 10;
-};
-
 struct TreeConfig {
     const char* label;
     const char* kind;
@@ -150,6 +134,8 @@ void write_plot(const std::string& path, const std::vector<Row>& rows, const Ren
     write_svg(path, plot);
 }
 
+}  // namespace
+
 void run_bench(const BenchArgs& a) {
     if (a.throughput) {
         ThroughputBenchArgs t;
@@ -235,60 +221,6 @@ void run_bench(const BenchArgs& a) {
     write_plot(a.output + ".svg", rows, ro);
     std::printf("wrote %s.md, %s.csv, %s.svg\n", a.output.c_str(), a.output.c_str(),
                 a.output.c_str());
-}
-
-}  // namespace
-
-void add_bench_command(CLI::App& app) {
-    auto a = std::make_shared<BenchArgs>();
-    CLI::App* sub = app.add_subcommand("bench", "The thesis' tables: models x trees x devices");
-    sub->add_flag("--quick", a->quick, "64x64, 2 spp, small scenes only");
-    sub->add_flag("--specialize", a->specialize,
-                  "Full kernel vs builds for each scene's features (and --tree auto), with "
-                  "cold and cached compile times");
-    sub->add_flag("--throughput", a->throughput,
-                  "Long renders (1024^2, 5 s after a warm-up) per scene and backend: rays/s, "
-                  "Vulkan/OpenCL, work and bytes per ray");
-    sub->add_option("--time", a->seconds, "--throughput: timed seconds per row (default 5)")
-        ->check(CLI::PositiveNumber);
-    sub->add_option("--tree", a->tree,
-                    std::string("--throughput: trace modes separated by commas (rows for "
-                                "each): ") +
-                        kTreeChoicesHelp)
-        ->check([](const std::string& v) {
-            std::stringstream list(v);
-            const std::vector<std::string> names = tree_kind_names();
-            for (std::string t; std::getline(list, t, ',');)
-                if (std::find(names.begin(), names.end(), t) == names.end())
-                    return "unknown tree '" + t + "' (auto, sah, median, none, bvh, rayquery)";
-            return std::string();
-        })
-        ->capture_default_str();
-    sub->add_option("--devices", a->device_counts,
-                    "--throughput: rows of one image on the first N devices of each API, for "
-                    "each N (1,2,4: the scaling table; speed-up against one)")
-        ->delimiter(',')
-        ->check(CLI::Range(1, 64));
-    sub->add_option("--backend", a->backends,
-                    "opencl|vulkan[:device], repeatable (default: every device found)");
-    sub->add_option("--models", a->models, "Directory of models (scripts/fetch-models)")
-        ->capture_default_str();
-    sub->add_option("-o,--output", a->output, "Output prefix: prefix.md, .csv, .svg")
-        ->capture_default_str();
-    sub->add_option("--width", a->width, "Image width (default 256, quick 64)")
-        ->check(CLI::Range(1, 16384));
-    sub->add_option("--height", a->height, "Image height (default 256, quick 64)")
-        ->check(CLI::Range(1, 16384));
-    sub->add_option("--spp", a->spp, "Samples per pixel per frame (default 4, quick 2)")
-        ->check(CLI::Range(1, 1000000));
-    sub->add_option("--frames", a->frames, "Timed frames per configuration (median)")
-        ->check(CLI::Range(1, 1000))
-        ->capture_default_str();
-    sub->add_option("--max-frame-seconds", a->max_frame_seconds,
-                    "Skip configurations estimated slower than this (quick: at most 5)")
-        ->check(CLI::PositiveNumber)
-        ->capture_default_str();
-    sub->callback([a] { run_bench(*a); });
 }
 
 }  // namespace mcpt

@@ -16,26 +16,6 @@ namespace mcpt {
 
 namespace {
 
-struct CompareArgs {
-    std::string scene = "cornell";
-    std::string b_scene;  // B renders this file instead (another encoding of the same scene)
-    LightingArgs lighting;
-    std::string a = "opencl", b = "vulkan";
-    int width = 64, height = 64;
-    int batches = 32;
-    uint64_t spp = 4;
-    uint64_t same_seed_spp = 4;
-    double same_seed_limit = kSameSeedDivergedLimit;
-    int max_depth = -1;
-    std::string tree = "auto";
-    double alpha = 0.01;
-    std::string output;
-    std::string report;  // folder of the HTML report (index.html)
-    float b_light_scale = 1.f;
-    std::string b_defines;
-    bool parallel = false;  // A and B at once, each in a thread of its own
-};
-
 // Under mpirun each rank takes one device a side: the one the side names, or (the API alone)
 // its GPU at its local rank (rank_device()).
 std::string rank_side_device(const std::string& side, const MpiJob& mpi) {
@@ -58,6 +38,8 @@ std::shared_ptr<const Scene> side_scene(const CompareArgs& args, const std::stri
     check_lit(*scene);
     return scene;
 }
+
+}  // namespace
 
 void run_compare(const CompareArgs& args) {
     const MpiJob& mpi = mpi_job();
@@ -154,61 +136,6 @@ void run_compare(const CompareArgs& args) {
     // Either test can tell the images apart: the statistical one small biases in noisy pixels,
     // the same-seed one any change of the integrand beyond rounding.
     if (!r.agree()) throw ExitStatus{2};
-}
-
-}  // namespace
-
-void add_compare_command(CLI::App& app) {
-    auto a = std::make_shared<CompareArgs>();
-    CLI::App* sub = app.add_subcommand("compare", "A/B-test two backends on one scene");
-    sub->add_option("scene", a->scene, "Built-in scene or .gltf/.glb file")->capture_default_str();
-    add_lighting_options(sub, a->lighting);
-    sub->add_option("--b-scene", a->b_scene,
-                    "B renders this .gltf/.glb instead: the same scene in another encoding "
-                    "(compressed, quantized); its camera and lights as the file has them");
-    sub->add_option(
-           "--a", a->a,
-           "Backend A: opencl|vulkan[:device][,limits=phone][,tree=KIND]; several devices, "
-           "comma-separated (opencl:0,opencl:1), render it together")
-        ->capture_default_str();
-    sub->add_option("--b", a->b, "Backend B, as --a")->capture_default_str();
-    sub->add_option("--width", a->width)->check(CLI::Range(1, 4096))->capture_default_str();
-    sub->add_option("--height", a->height)->check(CLI::Range(1, 4096))->capture_default_str();
-    sub->add_option("--batches", a->batches, "Independent batches per backend")
-        ->check(CLI::Range(2, 100000))
-        ->capture_default_str();
-    sub->add_option("--spp", a->spp, "Samples per pixel per batch")
-        ->check(CLI::Range(1, 1000000))
-        ->capture_default_str();
-    sub->add_option("--same-seed-spp", a->same_seed_spp, "Samples per pixel of the same-seed test")
-        ->check(CLI::Range(1, 1000000))
-        ->capture_default_str();
-    sub->add_option("--same-seed-limit", a->same_seed_limit,
-                    "Fraction of pixels the same-seed renders may diverge in (rounding)")
-        ->check(CLI::Range(0.0, 1.0))
-        ->capture_default_str();
-    sub->add_option("--max-depth", a->max_depth, "Bounces (default 8, or the scene's)");
-    sub->add_option("--tree", a->tree,
-                    std::string("Trace mode of both sides (a side's tree= option overrides): ") +
-                        kTreeChoicesHelp)
-        ->check(CLI::IsMember(tree_kind_names()))
-        ->capture_default_str();
-    sub->add_option("--alpha", a->alpha, "Family-wise false alarm rate")
-        ->check(CLI::Range(1e-12, 0.5))
-        ->capture_default_str();
-    sub->add_option("-o,--output", a->output, "Write p-value / z / difference image (.exr)");
-    sub->add_option(
-           "--report", a->report,
-           "Write a self-contained HTML report (verdicts, speed, images) to DIR/index.html")
-        ->type_name("DIR");
-    sub->add_flag("--parallel", a->parallel,
-                  "Render A and B at once, each on its device (two GPUs: half the time)");
-    sub->add_option("--b-light-scale", a->b_light_scale,
-                    "Scale B's emitters (negative control: 1.02 must be detected)");
-    sub->add_option("--b-defines", a->b_defines,
-                    "Extra OpenCL defines for B (negative controls, e.g. "
-                    "-DMCPT_NEGATIVE_CONTROL_NO_REFRACTION)");
-    sub->callback([a] { run_compare(*a); });
 }
 
 }  // namespace mcpt

@@ -21,28 +21,6 @@ namespace mcpt {
 
 namespace {
 
-struct ConvergeArgs {
-    std::string scene = "cornell";
-    LightingArgs lighting;
-    std::vector<std::string> backends{"opencl"};
-    int width = 256, height = 256;
-    double seconds = 10;
-    uint64_t max_spp = 0;
-    std::string checkpoints = "geometric";
-    std::string reference = "auto";
-    uint64_t reference_spp = 1024;
-    std::vector<double> targets{0.10, 0.05};
-    int max_depth = -1;
-    std::string tree = "auto";
-    std::string output = "converge";
-    std::string report;  // folder of the HTML report (index.html)
-    uint32_t seed = 1;
-    std::vector<std::string> samplers{"sobol"};
-    std::vector<std::string> sampling{"uniform"};
-    std::vector<std::string> devices;  // --device repeated: each backend's run on all of them
-    bool beside_one = false;           // and on its first device alone
-};
-
 std::string scene_label(const Scene& scene, const std::string& arg) {
     if (!scene.name.empty()) return scene.name;
     return std::filesystem::path(arg).stem().string();
@@ -70,6 +48,8 @@ std::vector<ConvergeDevices> converge_runs(const ConvergeArgs& a, const MpiJob& 
     }
     return runs;
 }
+
+}  // namespace
 
 void run_converge(const ConvergeArgs& a) {
     const MpiJob& mpi = mpi_job();
@@ -182,68 +162,6 @@ void run_converge(const ConvergeArgs& a) {
         write_converge_report(result, a.report);
         std::printf("wrote %s/index.html\n", a.report.c_str());
     }
-}
-
-}  // namespace
-
-void add_converge_command(CLI::App& app) {
-    auto a = std::make_shared<ConvergeArgs>();
-    CLI::App* sub = app.add_subcommand("converge", "Error against run time, per backend");
-    sub->add_option("scene", a->scene, "Built-in scene or .gltf/.glb file")->capture_default_str();
-    add_lighting_options(sub, a->lighting);
-    sub->add_option("--backend", a->backends, "opencl|vulkan[:device], repeatable")
-        ->capture_default_str();
-    sub->add_option("--device", a->devices,
-                    "Device index or name, repeatable: each backend's run renders one image on "
-                    "all of them (api:device mixes APIs)");
-    sub->add_flag("--beside-one", a->beside_one,
-                  "With several devices: also a run on the first alone, the curve beside");
-    sub->add_option("--width", a->width)->check(CLI::Range(1, 16384))->capture_default_str();
-    sub->add_option("--height", a->height)->check(CLI::Range(1, 16384))->capture_default_str();
-    sub->add_option("--time", a->seconds, "Render time per backend (s)")
-        ->check(CLI::Range(1e-3, 1e7))
-        ->capture_default_str();
-    sub->add_option("--spp", a->max_spp, "Also stop at this many samples per pixel")
-        ->check(CLI::Range(int64_t(1), int64_t(1000000000000)));
-    sub->add_option("--checkpoints", a->checkpoints,
-                    "geometric (1, 2, 4, ... spp) or time (time budget / 2^k)")
-        ->check(CLI::IsMember({"geometric", "time"}))
-        ->capture_default_str();
-    sub->add_option("--reference", a->reference,
-                    "auto (exact when known, else cached), exact, or cached")
-        ->check(CLI::IsMember({"auto", "exact", "cached"}))
-        ->capture_default_str();
-    sub->add_option("--reference-spp", a->reference_spp, "Samples per pixel of a new reference")
-        ->check(CLI::Range(16, 100000000))
-        ->capture_default_str();
-    sub->add_option("--target-rmse", a->targets, "Relative RMSE targets for time-to-error")
-        ->check(CLI::Range(1e-9, 10.0))
-        ->capture_default_str();
-    sub->add_option("--max-depth", a->max_depth, "Bounces (default 8, or the scene's)")
-        ->check(CLI::Range(0, 1000000));
-    sub->add_option("--tree", a->tree, std::string("Trace mode: ") + kTreeChoicesHelp)
-        ->check(CLI::IsMember(tree_kind_names()))
-        ->capture_default_str();
-    sub->add_option(
-           "--seed", a->seed,
-           "Seed of the first run (each further run adds 100000; --beside-one's takes its twin's)")
-        ->capture_default_str();
-    sub->add_option("--sampler", a->samplers,
-                    "sobol (Owen-scrambled Sobol) and/or independent, one run per backend each")
-        ->check(CLI::IsMember({"sobol", "independent"}))
-        ->capture_default_str();
-    sub->add_option("--sampling", a->sampling,
-                    "uniform and/or adaptive (samples where the estimated noise is), one run "
-                    "per backend and sampler each")
-        ->check(CLI::IsMember({"uniform", "adaptive"}))
-        ->capture_default_str();
-    sub->add_option("-o,--output", a->output, "Output prefix: prefix.csv, prefix.svg")
-        ->capture_default_str();
-    sub->add_option("--report", a->report,
-                    "Also write a self-contained HTML report (plot, tables, images) to "
-                    "DIR/index.html")
-        ->type_name("DIR");
-    sub->callback([a] { run_converge(*a); });
 }
 
 }  // namespace mcpt

@@ -5,20 +5,17 @@
 
 namespace mcpt {
 
-void add_devices_command(CLI::App& app) {
-    CLI::App* sub = app.add_subcommand("devices", "List backends and devices with their limits");
-    sub->callback([] {
-        auto print = [](const char* backend, const std::vector<DeviceInfo>& devices) {
-            std::printf("%s: %zu device(s)\n", backend, devices.size());
-            for (const DeviceInfo& d : devices) {
-                std::printf("  [%d] %s (%s, %s)\n", d.index, d.name.c_str(), d.platform.c_str(),
-                            d.type.c_str());
-                for (const auto& [k, v] : d.limits)
-                    std::printf("      %-30s %s\n", k.c_str(), v.c_str());
-            }
-        };
-        for (const std::string& api : device_apis()) print(api.c_str(), list_devices(api));
-    });
+void run_devices() {
+    const auto print = [](const char* backend, const std::vector<DeviceInfo>& devices) {
+        std::printf("%s: %zu device(s)\n", backend, devices.size());
+        for (const DeviceInfo& d : devices) {
+            std::printf("  [%d] %s (%s, %s)\n", d.index, d.name.c_str(), d.platform.c_str(),
+                        d.type.c_str());
+            for (const auto& [k, v] : d.limits)
+                std::printf("      %-30s %s\n", k.c_str(), v.c_str());
+        }
+    };
+    for (const std::string& api : device_apis()) print(api.c_str(), list_devices(api));
 }
 
 }  // namespace mcpt

@@ -10,13 +10,6 @@
 
 namespace mcpt {
 
-namespace {
-struct MergeArgs {
-    std::vector<std::string> parts;
-    std::string output = "merged.exr";
-    bool allow_missing = false;
-};
-
 void run_merge(const MergeArgs& a) {
     check_image_path(a.output);
     const MergeResult m = merge_parts(a.parts, a.allow_missing);
@@ -40,18 +33,4 @@ void run_merge(const MergeArgs& a) {
     write_image(a.output, r.width, r.height, r.mean_image());
     std::printf("wrote %s\n", a.output.c_str());
 }
-}  // namespace
-
-void add_merge_command(CLI::App& app) {
-    auto args = std::make_shared<MergeArgs>();
-    CLI::App* sub = app.add_subcommand(
-        "merge", "Add the checkpoints of a render in parts (render --part I/N) into one image");
-    sub->add_option("parts", args->parts, "The parts' checkpoint files")->required();
-    sub->add_option("-o,--output", args->output, "Output image (.exr linear, .png sRGB)")
-        ->capture_default_str();
-    sub->add_flag("--allow-missing", args->allow_missing,
-                  "Merge the parts there are, saying how many samples are missing");
-    sub->callback([args] { run_merge(*args); });
-}
-
 }  // namespace mcpt

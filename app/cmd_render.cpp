@@ -24,37 +24,6 @@ namespace mcpt {
 
 namespace {
 
-struct RenderArgs {
-    std::string scene = "cornell";
-    std::string backend = "opencl";
-    std::vector<std::string> devices;  // several: one image on all of them
-    std::string limits;
-    uint64_t spp = 0;
-    double seconds = 0;
-    int width = 256, height = 256;
-    std::string output = "render.png";
-    std::string tree = "auto";
-    int depth = -1;
-    int max_depth = -1;
-    uint32_t seed = 0;
-    bool fast_math = false;
-    bool quiet = false;
-    bool verbose = false;
-    std::string specialize = "on";
-    std::string sampler = "sobol";
-    double target_error = 0;  // stop once the mean relative standard error is below this
-    bool reproducible = false;
-    bool adaptive = false;
-    std::string checkpoint;          // resume from / save to this file
-    double checkpoint_every = 30;    // seconds between checkpoints
-    std::string part;                // "I/N": this run renders part I of N of the samples
-    double chunk_seconds = 0.5;      // several devices: a chunk's duration
-    double rank_timeout = 30;        // mpirun: the least time a rank is given to answer
-    std::string reduction = "tree";  // mpirun: how a round's sums reach rank 0
-    std::string display_server;      // "HOST:PORT": stream the image to tev
-    LightingArgs lighting;
-};
-
 void print_progress(double frac, const RenderResult& r) {
     const int width = 30;
     const int filled = int(std::round(frac * width));
@@ -65,6 +34,8 @@ void print_progress(double frac, const RenderResult& r) {
                  (unsigned long long)r.spp, r.seconds > 0 ? paths / r.seconds * 1e-6 : 0.0);
     std::fflush(stderr);
 }
+
+}  // namespace
 
 void run_render(const RenderArgs& a) {
     // Device, scene, settings: the engine's session does the rest.
@@ -300,97 +271,6 @@ void run_render(const RenderArgs& a) {
     session.write_image(a.output);
     std::printf("wrote %s%s%s\n", a.output.c_str(), a.checkpoint.empty() ? "" : " and ",
                 a.checkpoint.c_str());
-}
-
-}  // namespace
-
-void add_render_command(CLI::App& app) {
-    auto args = std::make_shared<RenderArgs>();
-    CLI::App* sub = app.add_subcommand("render", "Render a built-in scene or a glTF file");
-    sub->add_option("scene", args->scene, "Built-in scene (cornell, furnace) or .gltf/.glb file")
-        ->capture_default_str();
-    sub->add_option("--backend", args->backend, "opencl or vulkan")->capture_default_str();
-    sub->add_option("--device", args->devices,
-                    "Device index or name substring (mcpt devices), or api:device; repeated: "
-                    "one image on several devices");
-    sub->add_option("--limits", args->limits,
-                    "Vulkan limits: device (as reported) or phone (Vulkan 1.1 minimums); "
-                    "default $MCPT_VULKAN_LIMITS or device")
-        ->check(CLI::IsMember({"device", "phone"}));
-    auto* spp = sub->add_option("--spp", args->spp, "Samples per pixel (default 64)")
-                    ->check(CLI::Range(
-                        int64_t(1), int64_t(1000000000000)));  // as a number: "-1" is not 2^64 - 1
-    sub->add_option("--time", args->seconds, "Render for this many seconds instead")
-        ->excludes(spp)
-        ->check(CLI::Range(1e-3, 1e7));
-    sub->add_option("--target-error", args->target_error,
-                    "Stop once mean standard error / mean radiance is below this (e.g. 0.05)")
-        ->check(CLI::Range(1e-6, 1.0));
-    sub->add_option("--width", args->width, "Image width")
-        ->check(CLI::Range(1, 16384))
-        ->capture_default_str();
-    sub->add_option("--height", args->height, "Image height")
-        ->check(CLI::Range(1, 16384))
-        ->capture_default_str();
-    sub->add_option("-o,--output", args->output, "Output image (.exr linear, .png sRGB)")
-        ->capture_default_str();
-    sub->add_option("--tree", args->tree, std::string("Trace mode: ") + kTreeChoicesHelp)
-        ->check(CLI::IsMember(tree_kind_names()))
-        ->capture_default_str();
-    sub->add_option("--depth", args->depth, "Tree depth limit (median: default 3)");
-    sub->add_option("--max-depth", args->max_depth, "Bounces per path (default 8, or the scene's)")
-        ->check(CLI::Range(0, 1000000));
-    sub->add_option("--seed", args->seed, "Random seed")->capture_default_str();
-    sub->add_flag("--fast-math", args->fast_math, "Compile with -cl-fast-relaxed-math");
-    sub->add_option("--specialize", args->specialize,
-                    "on: compile only the features the scene uses; off: the full kernel")
-        ->check(CLI::IsMember({"on", "off"}))
-        ->capture_default_str();
-    sub->add_option("--sampler", args->sampler,
-                    "sobol: Owen-scrambled Sobol points; independent: independent uniforms")
-        ->check(CLI::IsMember({"sobol", "independent"}))
-        ->capture_default_str();
-    sub->add_flag("--reproducible", args->reproducible,
-                  "The image depends only on the seed, the samples and the device, not on "
-                  "timing (sums in fixed groups of 16 samples)");
-    sub->add_flag("--adaptive", args->adaptive,
-                  "Adaptive sampling: after 16 samples everywhere, samples where the estimated "
-                  "noise is (--spp is then the mean over pixels)")
-        ->excludes("--reproducible");
-    sub->add_option("--checkpoint", args->checkpoint,
-                    "Save the accumulation to this file (atomically) and resume from it when "
-                    "it exists; implies --reproducible");
-    sub->add_option("--checkpoint-every", args->checkpoint_every,
-                    "Seconds between checkpoints (and one at the end)")
-        ->check(CLI::Range(0.0, 1e7))
-        ->capture_default_str();
-    sub->add_option("--part", args->part,
-                    "I/N: render part I of N of the --spp samples into --checkpoint (job "
-                    "arrays; mcpt merge adds the parts)")
-        ->needs(spp);
-    sub->add_option("--chunk-seconds", args->chunk_seconds,
-                    "Several devices: the duration of a chunk of samples handed to one")
-        ->check(CLI::Range(0.01, 3600.0))
-        ->capture_default_str();
-    sub->add_option("--rank-timeout", args->rank_timeout,
-                    "Under mpirun: the least time a rank is given to deliver a chunk or its "
-                    "sums (each chunk's deadline is the larger of this and 10x its time at the "
-                    "rank's measured speed; a rank's first chunk 10x this); a rank that misses "
-                    "it ends the job, named")
-        ->check(CLI::Range(0.01, 1e6))
-        ->capture_default_str();
-    sub->add_option("--reduction", args->reduction,
-                    "Under mpirun: a round's sums reach rank 0 up a binomial tree (log2 N "
-                    "steps), or flat (rank 0 adds every rank's in turn; to compare)")
-        ->check(CLI::IsMember({"tree", "flat"}))
-        ->capture_default_str();
-    sub->add_option("--display-server", args->display_server,
-                    "Stream the image to tev as it renders (tev's TCP protocol)")
-        ->type_name("HOST:PORT");
-    add_lighting_options(sub, args->lighting);
-    sub->add_flag("-q,--quiet", args->quiet, "No progress bar");
-    sub->add_flag("-v,--verbose", args->verbose, "Say what the build left out and why");
-    sub->callback([args] { run_render(*args); });
 }
 
 }  // namespace mcpt

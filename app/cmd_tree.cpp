@@ -13,20 +13,14 @@ namespace mcpt {
 
 namespace {
 
-struct TreeArgs {
-    std::string scene = "cornell";
-    std::string tree = "sah";
-    int depth = -1;
-    int rays = 65536;
-    int warps = 64;
-};
-
 void print_work(const char* what, const gpu::RayWork& w) {
     std::printf(
         "  %-34s %8.0f rays: %7.2f triangle tests/ray, %7.2f node visits/ray, "
         "%5.1f%% hit\n",
         what, w.rays, w.tests_per_ray(), w.visits_per_ray(), 100.0 * w.hits / w.rays);
 }
+
+}  // namespace
 
 void run_tree(const TreeArgs& a) {
     Scene scene = load_scene_argument(a.scene);
@@ -95,28 +89,6 @@ void run_tree(const TreeArgs& a) {
                     a.warps, busy / a.warps, active / a.warps, visits / std::max(1.0, rays),
                     rays / (32.0 * a.warps));
     }
-}
-
-}  // namespace
-
-void add_tree_command(CLI::App& app) {
-    auto args = std::make_shared<TreeArgs>();
-    CLI::App* sub =
-        app.add_subcommand("tree", "Build a scene's k-d tree, report stats and work/ray");
-    sub->add_option("scene", args->scene, "Built-in scene or .gltf/.glb file")
-        ->capture_default_str();
-    sub->add_option("--tree", args->tree, "sah, median, none or bvh")
-        ->check(CLI::IsMember({"sah", "median", "none", "bvh"}))
-        ->capture_default_str();
-    sub->add_option("--depth", args->depth, "Depth limit (median: default 3)");
-    sub->add_option("--rays", args->rays, "Rays per measurement")
-        ->check(CLI::Range(1, 100000000))
-        ->capture_default_str();
-    sub->add_option("--warps", args->warps,
-                    "Warps of 32 full paths for the model of a GPU warp's busy lanes (0: none)")
-        ->check(CLI::Range(0, 100000))
-        ->capture_default_str();
-    sub->callback([args] { run_tree(*args); });
 }
 
 }  // namespace mcpt

@@ -18,23 +18,6 @@ namespace mcpt {
 
 namespace {
 
-struct ViewArgs {
-    std::string scene = "cornell";
-    LightingArgs lighting;
-    std::string backend = "opencl";
-    std::vector<std::string> devices;  // one side: --device repeated, one image on all
-    std::string a, b;                  // A/B: each side's device, or several (device_list)
-    float b_light_scale = 1.f;
-    int width = 512, height = 512;
-    uint64_t spp = 0;    // each side stops there (0: renders until stopped)
-    double seconds = 0;  // quit after this long (0: until Ctrl-C)
-    uint32_t seed = 0;
-    int max_depth = -1;
-    std::string tree = "auto";
-    std::string listen = "127.0.0.1";
-    int port = 8017;
-};
-
 std::atomic<bool> g_interrupted{false};
 extern "C" void on_interrupt(int) {
     g_interrupted.store(true);
@@ -59,6 +42,8 @@ std::unique_ptr<Session> open_view_session(const std::vector<std::string>& spec,
     session->commit();
     return session;
 }
+
+}  // namespace
 
 void run_view(const ViewArgs& args) {
     if (args.a.empty() != args.b.empty()) throw Error("an A/B view needs both --a and --b");
@@ -162,48 +147,6 @@ void run_view(const ViewArgs& args) {
                 (unsigned long long)server.frames_sent(), wall,
                 wall > 0 ? double(server.frames_sent()) / wall : 0.0);
     if (!live.failure().empty()) throw Error(live.failure());
-}
-
-}  // namespace
-
-void add_view_command(CLI::App& app) {
-    auto a = std::make_shared<ViewArgs>();
-    CLI::App* sub = app.add_subcommand(
-        "view", "Watch a render converge in the browser (A/B: --a SPEC --b SPEC)");
-    sub->add_option("scene", a->scene, "Built-in scene or .gltf/.glb file")->capture_default_str();
-    add_lighting_options(sub, a->lighting);
-    sub->add_option("--backend", a->backend, "opencl or vulkan")->capture_default_str();
-    sub->add_option("--device", a->devices,
-                    "Device index or name substring (mcpt devices); repeated: one image on all");
-    auto* opt_a = sub->add_option("--a", a->a,
-                                  "A/B: side A, opencl|vulkan[:device][,limits=phone][,tree=KIND]; "
-                                  "several: opencl:0,opencl:1");
-    sub->add_option("--b", a->b, "A/B: side B, as --a")->needs(opt_a);
-    sub->add_option("--b-light-scale", a->b_light_scale,
-                    "Scale B's emitters (negative control: the z map must light up)")
-        ->check(CLI::Range(0.0, 1e6));
-    sub->add_option("--width", a->width)->check(CLI::Range(1, 16384))->capture_default_str();
-    sub->add_option("--height", a->height)->check(CLI::Range(1, 16384))->capture_default_str();
-    sub->add_option("--spp", a->spp, "Stop rendering at this many samples per pixel")
-        ->check(CLI::Range(int64_t(1), int64_t(1000000000000)));
-    sub->add_option("--time", a->seconds, "Quit after this many seconds (default: Ctrl-C)")
-        ->check(CLI::Range(1e-3, 1e7));
-    sub->add_option("--seed", a->seed, "Random seed (A and B share it)")->capture_default_str();
-    sub->add_option("--max-depth", a->max_depth, "Bounces (default 8, or the scene's)")
-        ->check(CLI::Range(0, 1000000));
-    sub->add_option(
-           "--tree", a->tree,
-           std::string("Trace mode (a side's tree= option overrides): ") + kTreeChoicesHelp)
-        ->check(CLI::IsMember(tree_kind_names()))
-        ->capture_default_str();
-    sub->add_option("--listen", a->listen,
-                    "Address to serve on (127.0.0.1: this machine only; 0.0.0.0: every network, "
-                    "with a warning: the token then travels over plain HTTP)")
-        ->capture_default_str();
-    sub->add_option("--port", a->port, "Port (0: any free one)")
-        ->check(CLI::Range(0, 65535))
-        ->capture_default_str();
-    sub->callback([a] { run_view(*a); });
 }
 
 }  // namespace mcpt

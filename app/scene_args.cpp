@@ -13,40 +13,6 @@ Scene load_scene_argument(const std::string& arg) {
     return scene;
 }
 
-void add_lighting_options(CLI::App* sub, LightingArgs& a) {
-    auto* env = sub->add_option("--env", a.env,
-                                "Environment map lighting the scene (equirectangular, linear "
-                                ".exr or .hdr; +Y up)");
-    sub->add_option("--env-rotate", a.env_rotate, "Turn the environment about +Y (degrees)")
-        ->check(CLI::Range(-1e6, 1e6));
-    sub->add_option("--env-scale", a.env_scale, "Scale the environment's radiance")
-        ->check(CLI::Range(0.0, 1e30));
-    sub->add_option("--env-sampling", a.env_sampling,
-                    "Next-event estimation of the environment: compensated (texels by their "
-                    "luminance above the map's mean; BSDF sampling takes the rest) or luminance")
-        ->check(CLI::IsMember({"compensated", "luminance"}))
-        ->capture_default_str();
-    sub->add_option("--light-sampling", a.light_sampling,
-                    "How next-event estimation picks a light: power (every light by its power), "
-                    "tree (local lights by their importance at the shading point), contribution "
-                    "(scenes lit by 1 to 8 lamps only: each lamp by its unshadowed contribution, "
-                    "the BSDF included) or auto (contribution where possible from 2 lamps, else "
-                    "the tree from 2 local lights with a lamp or from 32, else power)")
-        ->check(CLI::IsMember({"auto", "power", "tree", "contribution"}))
-        ->capture_default_str();
-    sub->add_option("--triangle-light-sampling", a.triangle_light_sampling,
-                    "How next-event estimation samples an emissive triangle: solid-angle "
-                    "(uniform over the solid angle it subtends, where that is stable; else by "
-                    "area) or area (uniform over its area, to measure against)")
-        ->check(CLI::IsMember({"solid-angle", "area"}))
-        ->capture_default_str();
-    sub->add_option("--background", a.background,
-                    "Constant background radiance R,G,B lighting the scene (default: black)")
-        ->delimiter(',')
-        ->expected(3)
-        ->excludes(env);
-}
-
 Environment lighting_environment(const LightingArgs& a) {
     Environment env;
     if (!a.env.empty()) {
