@@ -40,11 +40,8 @@
 
 #include "common/scene/gltf_loader.h"
 
-// tinygltf's implementation lives here. It hands images over undecoded (its image callback
-// keeps the bytes); the loader decodes the ones materials use (common/io/texture_image.h).
-#define TINYGLTF_IMPLEMENTATION
-#define TINYGLTF_NO_STB_IMAGE
-#define TINYGLTF_NO_STB_IMAGE_WRITE
+// tinygltf (its implementation: tinygltf_impl.cpp) hands images over undecoded (its image
+// callback keeps the bytes); the loader decodes the ones materials use (texture_image.h).
 #include <tiny_gltf.h>
 
 #include <algorithm>
