@@ -152,18 +152,7 @@ const char* mcpt_status_name(mcpt_status status) {
 }
 
 const char* mcpt_last_error(mcpt_session s) {
-    try {
-        std::shared_ptr<SessionBox> box = s ? handles().find(s) : nullptr;
-        if (box) {
-            std::lock_guard<std::mutex> lock(box->error_mutex);
-            t_returned_error = box->last_error;
-        } else {
-            t_returned_error = t_thread_error;
-        }
-    } catch (...) {
-        return "out of memory";
-    }
-    return t_returned_error.c_str();
+    return last_error_of(handles(), s);
 }
 
 mcpt_status mcpt_devices(mcpt_device_info* devices, size_t capacity, size_t* count) {

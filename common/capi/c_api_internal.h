@@ -116,6 +116,24 @@ std::shared_ptr<Box> lookup(HandleTable<Box, Handle>& table, Handle h, bool remo
     return box;
 }
 
+// The message of the last failed call on a live handle (its box's last_error, guarded by its
+// error_mutex), else of this thread's last failure without one.
+template <class Box, class Handle>
+const char* last_error_of(HandleTable<Box, Handle>& table, Handle h) {
+    try {
+        std::shared_ptr<Box> box = h ? table.find(h) : nullptr;
+        if (box) {
+            std::lock_guard<std::mutex> lock(box->error_mutex);
+            t_returned_error = box->last_error;
+        } else {
+            t_returned_error = t_thread_error;
+        }
+    } catch (...) {
+        return "out of memory";
+    }
+    return t_returned_error.c_str();
+}
+
 inline void copy(char* dst, size_t size, const std::string& src) {
     const size_t n = std::min(size - 1, src.size());
     std::memcpy(dst, src.data(), n);

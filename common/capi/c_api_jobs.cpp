@@ -24,11 +24,11 @@ struct JobBox {
     std::optional<mcpt::CompareResult> compared;
     std::optional<mcpt::ConvergeResult> converged;
     bool released = false;
-    // The job while it runs, for cancel(); guarded by cancel_mutex.
-    std::mutex cancel_mutex;
+    // The job while it runs (for cancel()) and the last error, guarded by error_mutex.
+    std::mutex error_mutex;
     mcpt::CompareJob* running_compare = nullptr;
     mcpt::ConvergeJob* running_converge = nullptr;
-    std::string last_error;  // guarded by cancel_mutex
+    std::string last_error;
 };
 
 HandleTable<JobBox, mcpt_job>& jobs() {
@@ -37,7 +37,7 @@ HandleTable<JobBox, mcpt_job>& jobs() {
 }
 
 mcpt_status job_fail(JobBox& box, mcpt_status status, const std::string& message) {
-    std::lock_guard<std::mutex> lock(box.cancel_mutex);
+    std::lock_guard<std::mutex> lock(box.error_mutex);
     box.last_error = message;
     return status;
 }
@@ -108,14 +108,14 @@ const mcpt::ConvergeRun& converge_run(const JobBox& box, uint64_t run) {
 template <class Job, class Result>
 Result run_reachable(JobBox& box, Job& job, Job*& slot) {
     {
-        std::lock_guard<std::mutex> lock(box.cancel_mutex);
+        std::lock_guard<std::mutex> lock(box.error_mutex);
         slot = &job;
     }
     struct Clear {
         JobBox& box;
         Job*& slot;
         ~Clear() {
-            std::lock_guard<std::mutex> lock(box.cancel_mutex);
+            std::lock_guard<std::mutex> lock(box.error_mutex);
             slot = nullptr;
         }
     } clear{box, slot};
@@ -160,7 +160,7 @@ mcpt_status mcpt_job_release(mcpt_job j) {
     std::string message;
     const mcpt_status st = guarded(MCPT_ERROR_INTERNAL, message, [&] {
         {
-            std::lock_guard<std::mutex> lock(box->cancel_mutex);
+            std::lock_guard<std::mutex> lock(box->error_mutex);
             if (box->running_compare) box->running_compare->cancel();
             if (box->running_converge) box->running_converge->cancel();
         }
@@ -178,7 +178,7 @@ mcpt_status mcpt_job_cancel(mcpt_job j) {
     const std::shared_ptr<JobBox> box = lookup(jobs(), j, false, found, "job");
     if (!box) return found;
     try {
-        std::lock_guard<std::mutex> lock(box->cancel_mutex);
+        std::lock_guard<std::mutex> lock(box->error_mutex);
         if (box->running_compare) box->running_compare->cancel();
         if (box->running_converge) box->running_converge->cancel();
         return MCPT_OK;
@@ -188,18 +188,7 @@ mcpt_status mcpt_job_cancel(mcpt_job j) {
 }
 
 const char* mcpt_job_last_error(mcpt_job j) {
-    try {
-        std::shared_ptr<JobBox> box = j ? jobs().find(j) : nullptr;
-        if (box) {
-            std::lock_guard<std::mutex> lock(box->cancel_mutex);
-            t_returned_error = box->last_error;
-        } else {
-            t_returned_error = t_thread_error;
-        }
-    } catch (...) {
-        return "out of memory";
-    }
-    return t_returned_error.c_str();
+    return last_error_of(jobs(), j);
 }
 
 mcpt_status mcpt_job_load_file(mcpt_job j, const char* path) {

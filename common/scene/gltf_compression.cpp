@@ -2,14 +2,13 @@
 // streams decoded by the libraries made for them, every count and range checked first.
 #include "common/scene/gltf_compression.h"
 
-#include <tiny_gltf.h>
-
 #include <cstring>
 #include <limits>
 #include <nlohmann/json.hpp>
 
 #include "common/error.h"
 #include "common/io/host_memory.h"
+#include "common/scene/tinygltf.h"
 
 #if defined(MCPT_WITH_MESHOPT)
 #include <meshoptimizer.h>

@@ -42,8 +42,6 @@
 
 // tinygltf (its implementation: tinygltf_impl.cpp) hands images over undecoded (its image
 // callback keeps the bytes); the loader decodes the ones materials use (texture_image.h).
-#include <tiny_gltf.h>
-
 #include <algorithm>
 #include <cctype>
 #include <cfloat>
@@ -67,6 +65,7 @@
 #include "common/io/host_memory.h"
 #include "common/io/texture_image.h"
 #include "common/scene/gltf_compression.h"
+#include "common/scene/tinygltf.h"
 
 namespace mcpt {
 namespace {

@@ -1,5 +1,8 @@
 package org.mcpt;
 
+import static org.mcpt.Checks.check;
+import static org.mcpt.Checks.expectError;
+
 /**
  * org.mcpt.Compare and Converge on a desktop JVM, run by CTest on the CPU drivers: an A/B of
  * OpenCL against Vulkan and of two trees agree, and a 1.02 light on B's side is told apart
@@ -8,27 +11,6 @@ package org.mcpt;
  * Usage: JobsTest OPENCL_DEVICE VULKAN_DEVICE
  */
 public final class JobsTest {
-    static int failures = 0;
-
-    static void check(boolean ok, String what) {
-        System.out.println((ok ? "ok:   " : "FAIL: ") + what);
-        if (!ok) failures++;
-    }
-
-    interface Call {
-        void run();
-    }
-
-    static void expectError(String what, int status, String text, Call call) {
-        try {
-            call.run();
-            check(false, what + ": no exception");
-        } catch (RendererException e) {
-            check(e.status == status && e.getMessage().contains(text),
-                what + ": " + e.status + " \"" + e.getMessage() + "\"");
-        }
-    }
-
     static CompareResult compare(String a, String b, float lightScaleB) {
         try (Compare ab = new Compare(a, b)) {
             ab.loadBuiltin("cornell");
@@ -100,7 +82,6 @@ public final class JobsTest {
         }
         expectError("no runs", -1, "count", () -> new Converge(new String[0]));
 
-        System.out.println(failures == 0 ? "all passed" : failures + " failed");
-        System.exit(failures == 0 ? 0 : 1);
+        Checks.finish();
     }
 }

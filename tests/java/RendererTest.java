@@ -1,5 +1,8 @@
 package org.mcpt;
 
+import static org.mcpt.Checks.check;
+import static org.mcpt.Checks.expectError;
+
 import java.nio.ByteBuffer;
 import java.nio.file.Files;
 import java.nio.file.Paths;
@@ -13,28 +16,6 @@ import java.util.Random;
  * Usage: RendererTest DEVICE OUT.rgba GLB_FILE
  */
 public final class RendererTest {
-    static int failures = 0;
-
-    static void check(boolean ok, String what) {
-        System.out.println((ok ? "ok:   " : "FAIL: ") + what);
-        if (!ok) failures++;
-    }
-
-    interface Call {
-        void run();
-    }
-
-    // The call must throw a RendererException with this status and a message containing text.
-    static void expectError(String what, int status, String text, Call call) {
-        try {
-            call.run();
-            check(false, what + ": no exception");
-        } catch (RendererException e) {
-            check(e.status == status && e.getMessage().contains(text),
-                  what + ": " + e.status + " \"" + e.getMessage() + "\"");
-        }
-    }
-
     static Renderer reproducible(String device, int seed) {
         Renderer r = new Renderer(device);
         r.loadBuiltin("cornell");
@@ -174,7 +155,6 @@ public final class RendererTest {
         }
         expectError("unknown device", -5, "unknown backend", () -> new Renderer("metal"));
 
-        System.out.println(failures == 0 ? "all passed" : failures + " failed");
-        System.exit(failures == 0 ? 0 : 1);
+        Checks.finish();
     }
 }
