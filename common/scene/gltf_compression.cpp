@@ -24,8 +24,6 @@ namespace {
 using json = nlohmann::json;
 namespace tg = tinygltf;
 
-const char* const kMeshopt = "EXT_meshopt_compression";
-const char* const kDraco = "KHR_draco_mesh_compression";
 // tinygltf 2.7 takes data URIs of a few media types only; WebP images (EXT_texture_webp) are
 // handed to it as octet streams.
 const char* const kWebpUri = "data:image/webp;base64,";
@@ -106,8 +104,8 @@ bool GltfCompression::has_draco() {
 }
 
 bool GltfCompression::needed(std::string_view json) {
-    return json.find(kMeshopt) != std::string_view::npos ||
-           json.find(kDraco) != std::string_view::npos ||
+    return json.find(kMeshoptCompression) != std::string_view::npos ||
+           json.find(kDracoCompression) != std::string_view::npos ||
            json.find(kWebpUri) != std::string_view::npos;
 }
 
@@ -127,9 +125,10 @@ bool GltfCompression::prepare(std::vector<unsigned char>& bytes, bool binary) {
     // Meshopt: each compressed view's stream, and fallback buffers given one byte of data.
     if (auto views = doc.find("bufferViews"); views != doc.end() && views->is_array()) {
         for (size_t i = 0; i < views->size(); ++i) {
-            const json* e = extension((*views)[i], kMeshopt);
+            const json* e = extension((*views)[i], kMeshoptCompression);
             if (!e) continue;
-            const std::string what = "bufferView " + std::to_string(i) + " (" + kMeshopt + ")";
+            const std::string what =
+                "bufferView " + std::to_string(i) + " (" + kMeshoptCompression + ")";
             MeshoptView m;
             m.view = int(i);
             m.buffer = index_of(count_member(*e, "buffer", what), what + ": buffer");
@@ -145,9 +144,10 @@ bool GltfCompression::prepare(std::vector<unsigned char>& bytes, bool binary) {
     if (auto buffers = doc.find("buffers"); buffers != doc.end() && buffers->is_array()) {
         for (size_t i = 0; i < buffers->size(); ++i) {
             json& b = (*buffers)[i];
-            const json* e = extension(b, kMeshopt);
+            const json* e = extension(b, kMeshoptCompression);
             if (!e || !e->value("fallback", false) || b.contains("uri")) continue;
-            const std::string what = "buffer " + std::to_string(i) + " (" + kMeshopt + ")";
+            const std::string what =
+                "buffer " + std::to_string(i) + " (" + kMeshoptCompression + ")";
             fallbacks_.push_back({int(i), count_member(b, "byteLength", what)});
             b["byteLength"] = 1;
             b["uri"] = "data:application/octet-stream;base64,AA==";
@@ -172,10 +172,10 @@ bool GltfCompression::prepare(std::vector<unsigned char>& bytes, bool binary) {
                 continue;
             json& prims = mesh["primitives"];
             for (size_t p = 0; p < prims.size(); ++p) {
-                const json* e = extension(prims[p], kDraco);
+                const json* e = extension(prims[p], kDracoCompression);
                 if (!e) continue;
                 const std::string what = "mesh " + std::to_string(m) + " primitive " +
-                                         std::to_string(p) + " (" + kDraco + ")";
+                                         std::to_string(p) + " (" + kDracoCompression + ")";
                 DracoPrimitive d;
                 d.mesh = int(m), d.primitive = int(p);
                 d.view = index_of(count_member(*e, "bufferView", what), what + ": bufferView");
@@ -231,7 +231,7 @@ void GltfCompression::decode(tg::Model& model) const {
 void GltfCompression::decode_meshopt(tg::Model& model) const {
 #if !defined(MCPT_WITH_MESHOPT)
     (void)model;
-    throw Error(std::string("the file uses ") + kMeshopt +
+    throw Error(std::string("the file uses ") + kMeshoptCompression +
                 ", and this build has no meshoptimizer decoder (Debian: libmeshoptimizer-dev)");
 #else
     // Fallback buffers at their real size (zeros), within the budget.
@@ -240,13 +240,14 @@ void GltfCompression::decode_meshopt(tg::Model& model) const {
     for (const FallbackBuffer& f : fallbacks_) {
         total += f.length;
         if (f.length > kMaxDecodedBytes || total > budget)
-            throw Error("buffer " + std::to_string(f.buffer) + " (" + kMeshopt + " fallback) of " +
-                        std::to_string(f.length) + " bytes: decoded buffers exceed " +
-                        human_bytes(budget));
+            throw Error("buffer " + std::to_string(f.buffer) + " (" + kMeshoptCompression +
+                        " fallback) of " + std::to_string(f.length) +
+                        " bytes: decoded buffers exceed " + human_bytes(budget));
         model.buffers[size_t(f.buffer)].data.assign(size_t(f.length), 0);
     }
     for (const MeshoptView& m : meshopt_views_) {
-        const std::string what = "bufferView " + std::to_string(m.view) + " (" + kMeshopt + ")";
+        const std::string what =
+            "bufferView " + std::to_string(m.view) + " (" + kMeshoptCompression + ")";
         // The compressed stream inside its buffer.
         if (m.buffer < 0 || size_t(m.buffer) >= model.buffers.size())
             throw Error(what + ": buffer " + std::to_string(m.buffer) + " out of range");
@@ -338,14 +339,14 @@ bool convert_points(const draco::Mesh& mesh, const draco::PointAttribute& a, int
 void GltfCompression::decode_draco(tg::Model& model) const {
 #if !defined(MCPT_WITH_DRACO)
     (void)model;
-    throw Error(std::string("the file uses ") + kDraco +
+    throw Error(std::string("the file uses ") + kDracoCompression +
                 ", and this build has no Draco decoder (Debian: libdraco-dev)");
 #else
     uint64_t total = 0;
     const uint64_t budget = std::min(kMaxDecodedBytes, host_memory_available() / 2);
     for (const DracoPrimitive& d : draco_) {
         const std::string what = "mesh " + std::to_string(d.mesh) + " primitive " +
-                                 std::to_string(d.primitive) + " (" + kDraco + ")";
+                                 std::to_string(d.primitive) + " (" + kDracoCompression + ")";
         if (size_t(d.mesh) >= model.meshes.size() ||
             size_t(d.primitive) >= model.meshes[size_t(d.mesh)].primitives.size())
             throw Error(what + ": not in the parsed model");

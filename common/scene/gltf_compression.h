@@ -23,6 +23,10 @@ class Model;
 
 namespace mcpt {
 
+// The extensions this file decodes.
+inline constexpr const char* kMeshoptCompression = "EXT_meshopt_compression";
+inline constexpr const char* kDracoCompression = "KHR_draco_mesh_compression";
+
 class GltfCompression {
   public:
     // Rewrites `bytes` (a .gltf's JSON text, or a whole .glb, its JSON chunk rebuilt) when the

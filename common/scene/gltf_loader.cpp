@@ -85,8 +85,6 @@ const char* const kQuantization = "KHR_mesh_quantization";
 const char* const kTextureTransform = "KHR_texture_transform";
 const char* const kTextureWebp = "EXT_texture_webp";
 const char* const kTextureBasisu = "KHR_texture_basisu";
-const char* const kMeshopt = "EXT_meshopt_compression";
-const char* const kDraco = "KHR_draco_mesh_compression";
 
 // Extensions the loader reads (the decoders only where this build has their libraries).
 bool supported_extension(const std::string& name) {
@@ -94,8 +92,8 @@ bool supported_extension(const std::string& name) {
            name == kSpecular || name == kVolume || name == kClearcoat || name == kSheen ||
            name == kLightsPunctual || name == kQuantization || name == kTextureTransform ||
            (name == kTextureWebp && has_webp_decoder()) ||
-           (name == kMeshopt && GltfCompression::has_meshopt()) ||
-           (name == kDraco && GltfCompression::has_draco());
+           (name == kMeshoptCompression && GltfCompression::has_meshopt()) ||
+           (name == kDracoCompression && GltfCompression::has_draco());
 }
 
 // What to do about a required extension the loader lacks, where there is something to say.
@@ -105,8 +103,9 @@ std::string unsupported_advice(const std::string& name) {
                "or WebP textures instead: gltfpack without -tc, gltf-transform without "
                "etc1s/uastc)";
     if (name == kTextureWebp) return " (this build has no WebP decoder: libwebp-dev)";
-    if (name == kMeshopt) return " (this build has no meshoptimizer: libmeshoptimizer-dev)";
-    if (name == kDraco) return " (this build has no Draco decoder: libdraco-dev)";
+    if (name == kMeshoptCompression)
+        return " (this build has no meshoptimizer: libmeshoptimizer-dev)";
+    if (name == kDracoCompression) return " (this build has no Draco decoder: libdraco-dev)";
     return "";
 }
 
