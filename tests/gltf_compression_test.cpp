@@ -31,6 +31,7 @@ using namespace gltf_test;
 
 const std::vector<uint16_t> kQuadIndices = {0, 1, 2, 0, 2, 3};
 
+#if defined(MCPT_WITH_MESHOPT) || defined(MCPT_WITH_DRACO)
 // The unit quad's two triangles, as quad_gltf's.
 void expect_quad(const Scene& s) {
     ASSERT_EQ(s.triangles.size(), 2u);
@@ -39,6 +40,7 @@ void expect_quad(const Scene& s) {
     expect_vec(s.triangles[0].v2, kQuad[2]);
     expect_vec(s.triangles[1].v2, kQuad[3]);
 }
+#endif
 
 #if defined(MCPT_WITH_MESHOPT)
 // The quad with positions and indices meshopt-encoded in buffer 0 and decoded into a fallback

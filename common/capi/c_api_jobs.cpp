@@ -1,8 +1,10 @@
 // include/mcpt/mcpt.h section 10 over the engine's CompareJob and ConvergeJob: a job is its
 // spec until it runs, then its result; cancel() reaches the job while it runs.
+#include <algorithm>
 #include <cmath>
 #include <optional>
 
+#include "common/accel/kdtree.h"
 #include "common/analysis/compare_report.h"
 #include "common/analysis/converge_report.h"
 #include "common/capi/c_api_internal.h"
@@ -233,7 +235,9 @@ mcpt_status mcpt_job_set_max_bounces(mcpt_job j, int bounces) {
 mcpt_status mcpt_job_set_tree(mcpt_job j, const char* kind) {
     return with_job(j, MCPT_ERROR_INVALID_ARGUMENT, [&](JobBox& box) {
         require(kind != nullptr, "kind is NULL");
-        mcpt::parse_device_spec(std::string("opencl,tree=") + kind);  // a known kind
+        const std::vector<std::string> known = mcpt::tree_kind_names();
+        if (std::find(known.begin(), known.end(), kind) == known.end())
+            throw CError{MCPT_ERROR_INVALID_ARGUMENT, std::string("unknown tree '") + kind + "'"};
         box.compare.tree = box.converge.tree = kind;
         return MCPT_OK;
     });

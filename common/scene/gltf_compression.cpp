@@ -70,6 +70,7 @@ int index_of(uint64_t v, const std::string& what) {
     return int(v);
 }
 
+#if defined(MCPT_WITH_MESHOPT) || defined(MCPT_WITH_DRACO)
 // The buffer view's bytes [offset, offset + length) after checking that they lie in its buffer.
 unsigned char* view_bytes(tg::Model& model, int view, uint64_t& length, const std::string& what) {
     if (view < 0 || size_t(view) >= model.bufferViews.size())
@@ -84,6 +85,7 @@ unsigned char* view_bytes(tg::Model& model, int view, uint64_t& length, const st
     length = bv.byteLength;
     return data.data() + bv.byteOffset;
 }
+#endif
 
 }  // namespace
 
