@@ -100,7 +100,9 @@ TEST(CApiCompare, CancelKeepsWhatWasDone) {
     ASSERT_EQ(mcpt_compare_set_options(job.j, &o), MCPT_OK);
     mcpt_status st = MCPT_OK;
     std::thread run([&] { st = mcpt_job_run(job.j); });
-    std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+    // Long enough for both sides' start and kernel builds (2 to 3 s on a GPU's first run) and
+    // A's first batches (milliseconds each at 64x64).
+    std::this_thread::sleep_for(std::chrono::milliseconds(4000));
     EXPECT_EQ(mcpt_job_cancel(job.j), MCPT_OK);
     run.join();
     EXPECT_EQ(st, MCPT_CANCELLED) << job.error();
@@ -202,7 +204,9 @@ TEST(CApiConverge, CancelKeepsTheCheckpointsSoFar) {
     mcpt_status st = MCPT_OK;
     const auto start = std::chrono::steady_clock::now();
     std::thread run([&] { st = mcpt_job_run(job.j); });
-    std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+    // Long enough for the device's start and kernel build (2 s on NVIDIA's OpenCL) and the
+    // first checkpoints (milliseconds at 32x32).
+    std::this_thread::sleep_for(std::chrono::milliseconds(4000));
     EXPECT_EQ(mcpt_job_cancel(job.j), MCPT_OK);
     run.join();
     EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(60));
