@@ -31,6 +31,18 @@ struct Job {
     std::string error() const { return mcpt_job_last_error(j); }
 };
 
+// Waits (a minute at most) until the job's progress passes `fraction`.
+bool progress_passes(mcpt_job j, double fraction) {
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    double f = 0;
+    while (std::chrono::steady_clock::now() < until) {
+        if (mcpt_job_progress(j, &f) != MCPT_OK) return false;
+        if (f > fraction) return true;
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return false;
+}
+
 // An A/B of the Cornell box at the command's defaults (64x64, 32 batches x 4 spp).
 mcpt_compare_result compare(const std::string& a, const std::string& b, float light_scale_b) {
     Job job;
@@ -41,7 +53,12 @@ mcpt_compare_result compare(const std::string& a, const std::string& b, float li
     EXPECT_EQ(mcpt_compare_default_options(&o), MCPT_OK);
     o.light_scale_b = light_scale_b;
     EXPECT_EQ(mcpt_compare_set_options(job.j, &o), MCPT_OK) << job.error();
+    double progress = -1;
+    EXPECT_EQ(mcpt_job_progress(job.j, &progress), MCPT_OK);
+    EXPECT_EQ(progress, 0.0);  // before a run
     EXPECT_EQ(mcpt_job_run(job.j), MCPT_OK) << job.error();
+    EXPECT_EQ(mcpt_job_progress(job.j, &progress), MCPT_OK);
+    EXPECT_EQ(progress, 1.0);
     mcpt_compare_result r{};
     EXPECT_EQ(mcpt_compare_get_result(job.j, &r), MCPT_OK) << job.error();
     // The maps: the p-values are probabilities, alpha 1.
@@ -100,16 +117,15 @@ TEST(CApiCompare, CancelKeepsWhatWasDone) {
     ASSERT_EQ(mcpt_compare_set_options(job.j, &o), MCPT_OK);
     mcpt_status st = MCPT_OK;
     std::thread run([&] { st = mcpt_job_run(job.j); });
-    // Long enough for both sides' start and kernel builds (2 to 3 s on a GPU's first run) and
-    // A's first batches (milliseconds each at 64x64).
-    std::this_thread::sleep_for(std::chrono::milliseconds(4000));
+    // Once A has rendered three batches (progress counts both sides' 200,000).
+    EXPECT_TRUE(progress_passes(job.j, 2.5 / 200000)) << "no batch within a minute";
     EXPECT_EQ(mcpt_job_cancel(job.j), MCPT_OK);
     run.join();
     EXPECT_EQ(st, MCPT_CANCELLED) << job.error();
     mcpt_compare_result r{};
     ASSERT_EQ(mcpt_compare_get_result(job.j, &r), MCPT_OK) << job.error();
     EXPECT_TRUE(r.cancelled);
-    EXPECT_GE(r.side[0].batches_done, 2);
+    EXPECT_GE(r.side[0].batches_done, 3);
     EXPECT_LT(r.side[0].batches_done, 100000);
     EXPECT_EQ(r.side[1].batches_done, 0);  // A's batches come first
     EXPECT_FALSE(r.statistical_tested);
@@ -204,9 +220,8 @@ TEST(CApiConverge, CancelKeepsTheCheckpointsSoFar) {
     mcpt_status st = MCPT_OK;
     const auto start = std::chrono::steady_clock::now();
     std::thread run([&] { st = mcpt_job_run(job.j); });
-    // Long enough for the device's start and kernel build (2 s on NVIDIA's OpenCL) and the
-    // first checkpoints (milliseconds at 32x32).
-    std::this_thread::sleep_for(std::chrono::milliseconds(4000));
+    // Once the first run has a checkpoint (progress: its time against the 600 s budget).
+    EXPECT_TRUE(progress_passes(job.j, 0)) << "no checkpoint within a minute";
     EXPECT_EQ(mcpt_job_cancel(job.j), MCPT_OK);
     run.join();
     EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(60));
@@ -217,7 +232,10 @@ TEST(CApiConverge, CancelKeepsTheCheckpointsSoFar) {
     ASSERT_EQ(r.runs, 1u);
     mcpt_converge_run one{};
     ASSERT_EQ(mcpt_converge_get_run(job.j, 0, &one), MCPT_OK);
-    EXPECT_GE(one.checkpoints, 2u);
+    EXPECT_GE(one.checkpoints, 1u);
+    double progress = 0;
+    EXPECT_EQ(mcpt_job_progress(job.j, &progress), MCPT_OK);
+    EXPECT_LE(progress, 0.5);  // the first of two runs ended (cancelled), the second never began
 }
 
 }  // namespace

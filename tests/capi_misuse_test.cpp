@@ -50,6 +50,8 @@ TEST(CApiMisuse, Jobs) {
         EXPECT_EQ(mcpt_job_release(j), MCPT_ERROR_INVALID_HANDLE);
         EXPECT_EQ(mcpt_job_run(j), MCPT_ERROR_INVALID_HANDLE);
         EXPECT_EQ(mcpt_job_cancel(j), MCPT_ERROR_INVALID_HANDLE);
+        double f = 0;
+        EXPECT_EQ(mcpt_job_progress(j, &f), MCPT_ERROR_INVALID_HANDLE);
         EXPECT_EQ(mcpt_compare_get_result(j, &r), MCPT_ERROR_INVALID_HANDLE);
         EXPECT_NE(std::string(mcpt_job_last_error(j)).find("job handle"), std::string::npos);
     }
@@ -83,6 +85,7 @@ TEST(CApiMisuse, Jobs) {
     EXPECT_EQ(mcpt_job_run(out), MCPT_ERROR_INVALID_STATE);
     EXPECT_NE(std::string(mcpt_job_last_error(out)).find("no scene"), std::string::npos);
     EXPECT_EQ(mcpt_job_write_report(out, "/tmp/x"), MCPT_ERROR_INVALID_STATE);
+    EXPECT_EQ(mcpt_job_progress(out, nullptr), MCPT_ERROR_INVALID_ARGUMENT);
     // The other kind's calls.
     mcpt_converge_result cr;
     EXPECT_EQ(mcpt_converge_get_result(out, &cr), MCPT_ERROR_INVALID_ARGUMENT);

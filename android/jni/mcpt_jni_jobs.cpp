@@ -73,6 +73,12 @@ JOB_FN(nativeCancel)(JNIEnv* env, jclass, jlong j)->void {
     if (open(env, j)) check(env, j, mcpt_job_cancel(handle(j)));
 }
 
+JOB_FN(nativeProgress)(JNIEnv* env, jclass, jlong j)->jdouble {
+    double f = 0;
+    if (open(env, j)) check(env, j, mcpt_job_progress(handle(j), &f));
+    return f;
+}
+
 JOB_FN(nativeLoadMemory)(JNIEnv* env, jclass, jlong j, jbyteArray data)->void {
     if (!open(env, j)) return;
     if (!data) return throw_error(env, MCPT_ERROR_INVALID_ARGUMENT, "scene data is null");

@@ -99,8 +99,10 @@ BatchSet render_batches(const std::vector<Session*>& sessions, const BatchOption
         try {
             for (int b;
                  !(batch.cancel && batch.cancel->load()) && (b = next.fetch_add(1)) < batch.batches;
-                 ++rendered[k])
+                 ++rendered[k]) {
                 batches[size_t(b)] = one(batch.seed_base + uint32_t(b));
+                if (batch.on_batch) batch.on_batch();
+            }
         } catch (const std::exception& e) {
             failures[k] = e.what();
             next.store(batch.batches);  // the others stop after their batch

@@ -33,6 +33,8 @@ struct BatchOptions {
     // Set: no batch starts once it is true (those in flight finish); the set then holds the
     // batches done (`batches` says how many; no means below two).
     const std::atomic<bool>* cancel = nullptr;
+    // Set: called after each batch, on the thread that rendered it (a progress count).
+    std::function<void()> on_batch;
 };
 
 // One batch as the test needs it: per pixel the mean of r, g and b; its totals.

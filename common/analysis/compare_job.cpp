@@ -176,6 +176,7 @@ CompareResult CompareJob::run() {
         bo.spp_per_batch = spec.spp;
         bo.seed_base = 1000u + 100000u * uint32_t(s);
         bo.cancel = &cancel_;
+        if (spec.on_batch) bo.on_batch = [&spec, s] { spec.on_batch(s); };
         const double device_before = session.backend().device_seconds();
         // Devices elsewhere (MPI ranks) render batches too.
         std::vector<std::unique_ptr<BatchRenderer>> ranks;

@@ -38,6 +38,8 @@ struct CompareSpec {
     std::string tree = "auto";
     double alpha = 0.01;    // family-wise false alarm rate
     bool parallel = false;  // both sides at once, each on its devices
+    // Set: called after each batch of side 0 (A) or 1 (B), from the thread that rendered it.
+    std::function<void(int side)> on_batch;
     // Devices elsewhere (MPI ranks) that render a side's batches too; none when unset.
     std::function<std::vector<std::unique_ptr<BatchRenderer>>(Session& first, int side)> remote;
 };

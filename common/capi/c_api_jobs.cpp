@@ -1,6 +1,7 @@
 // include/mcpt/mcpt.h section 10 over the engine's CompareJob and ConvergeJob: a job is its
 // spec until it runs, then its result; cancel() reaches the job while it runs.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <optional>
 
@@ -31,6 +32,12 @@ struct JobBox {
     mcpt::CompareJob* running_compare = nullptr;
     mcpt::ConvergeJob* running_converge = nullptr;
     std::string last_error;
+    // Progress of the run under way (mcpt_job_progress), read without the job's lock.
+    std::atomic<uint64_t> batches_done{0};  // compare: both sides
+    std::atomic<uint64_t> runs_done{0};     // converge
+    std::atomic<double> run_fraction{0};    // converge: the run under way
+    std::atomic<bool> finished{false};      // the last run ended uncancelled
+    std::atomic<double> planned{0};         // batches (compare) or runs (converge) of the run
 };
 
 HandleTable<JobBox, mcpt_job>& jobs() {
@@ -319,10 +326,14 @@ mcpt_status mcpt_job_run(mcpt_job j) {
         if (!box.scene)
             throw CError{MCPT_ERROR_INVALID_STATE, "no scene loaded (load one before running)"};
         box.compared.reset(), box.converged.reset();
+        box.batches_done = 0, box.runs_done = 0, box.run_fraction = 0, box.finished = false;
+        box.planned = box.kind == Kind::Compare ? 2.0 * box.compare.batches
+                                                : double(box.converge.runs.size());
         bool cancelled = false;
         if (box.kind == Kind::Compare) {
             mcpt::CompareSpec spec = box.compare;
             spec.scene = box.scene;
+            spec.on_batch = [&box](int) { ++box.batches_done; };
             mcpt::CompareJob job(std::move(spec));
             box.compared =
                 run_reachable<mcpt::CompareJob, mcpt::CompareResult>(box, job, box.running_compare);
@@ -332,13 +343,44 @@ mcpt_status mcpt_job_run(mcpt_job j) {
             spec.scene = box.scene;
             spec.label = box.scene->name.empty() ? "scene" : box.scene->name;
             spec.keep_images = true;
+            // A run's share: its time against the budget, or its samples against the cap.
+            const double seconds = spec.seconds;
+            const uint64_t max_spp = spec.max_spp;
+            spec.on_checkpoint = [&box, seconds, max_spp](const mcpt::ConvergeRun&,
+                                                          const mcpt::Checkpoint& c) {
+                double f = seconds > 0 ? c.seconds / seconds : 0;
+                if (max_spp > 0) f = std::max(f, double(c.spp) / double(max_spp));
+                box.run_fraction = std::min(1.0, f);
+            };
+            spec.on_run_end = [&box](const mcpt::ConvergeRun&, const mcpt::Session&) {
+                ++box.runs_done;
+                box.run_fraction = 0;
+            };
             mcpt::ConvergeJob job(std::move(spec));
             box.converged = run_reachable<mcpt::ConvergeJob, mcpt::ConvergeResult>(
                 box, job, box.running_converge);
             cancelled = box.converged->cancelled;
         }
+        box.finished = !cancelled;
         return cancelled ? MCPT_CANCELLED : MCPT_OK;
     });
+}
+
+mcpt_status mcpt_job_progress(mcpt_job j, double* fraction) {
+    // No job lock: a run holds it.
+    mcpt_status found = MCPT_OK;
+    const std::shared_ptr<JobBox> box = lookup(jobs(), j, false, found, "job");
+    if (!box) return found;
+    if (!fraction) return job_fail(*box, MCPT_ERROR_INVALID_ARGUMENT, "fraction is NULL");
+    double f = 1;
+    const double planned = box->planned;
+    if (!box->finished) {
+        const double done = box->kind == Kind::Compare ? double(box->batches_done)
+                                                       : double(box->runs_done) + box->run_fraction;
+        f = planned > 0 ? done / planned : 0;
+    }
+    *fraction = std::min(1.0, std::max(0.0, f));
+    return MCPT_OK;
 }
 
 mcpt_status mcpt_job_write_report(mcpt_job j, const char* dir) {

@@ -280,6 +280,11 @@ MCPT_API mcpt_status mcpt_job_release(mcpt_job job);
 /* Ends the job's run in progress (the batches or the step under way finish first, about a
  * second); never waits. A run that starts after this call is not affected. Any thread. */
 MCPT_API mcpt_status mcpt_job_cancel(mcpt_job job);
+/* How far the job's run is, 0 to 1, without waiting (any thread, while another runs it): a
+ * compare's batches done on both sides over all of them; a converge's runs done, the one under
+ * way counted by its time or samples against its budget. 1 once a run ended uncancelled; 0
+ * before the first. */
+MCPT_API mcpt_status mcpt_job_progress(mcpt_job job, double* fraction);
 /* The message of the last failed call on `job`; for a handle that is not a live job, of the
  * last failed call on this thread without one. Valid until this thread's next call. */
 MCPT_API const char* mcpt_job_last_error(mcpt_job job);

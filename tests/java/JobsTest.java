@@ -16,6 +16,7 @@ public final class JobsTest {
             ab.loadBuiltin("cornell");
             ab.setOptions(32, 4, 4, 0.01, lightScaleB, false);
             CompareResult r = ab.run();
+            check(ab.progress() == 1.0, "progress 1 after the run");
             float[] p = ab.readMap(Compare.MAP_P_VALUE);
             boolean probabilities = p.length == 4 * 64 * 64;
             for (int i = 0; i < p.length; i += 4) probabilities &= p[i] >= 0 && p[i] <= 1;

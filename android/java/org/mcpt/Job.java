@@ -36,6 +36,12 @@ public abstract class Job implements AutoCloseable {
      */
     public void cancel() { nativeCancel(job); }
 
+    /**
+     * How far a run is, 0 to 1 (any thread, never waits): a compare's batches done, a
+     * converge's runs done with the one under way by its budget; 1 once a run ended.
+     */
+    public double progress() { return nativeProgress(job); }
+
     /** The last run's self-contained HTML report, DIR/index.html. */
     public void writeReport(String dir) { nativeWriteReport(job, dir); }
 
@@ -52,6 +58,7 @@ public abstract class Job implements AutoCloseable {
 
     static native void nativeRelease(long j);
     static native void nativeCancel(long j);
+    static native double nativeProgress(long j);
     static native void nativeLoadMemory(long j, byte[] data);
     static native void nativeLoadFile(long j, String path);
     static native void nativeLoadBuiltin(long j, String name);
