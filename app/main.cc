@@ -36,9 +36,10 @@ void add_lighting_options(CLI::App* sub, LightingArgs& a) {
         ->capture_default_str();
     sub->add_option("--triangle-light-sampling", a.triangle_light_sampling,
                     "How next-event estimation samples an emissive triangle: solid-angle "
-                    "(uniform over the solid angle it subtends, where that is stable; else by "
-                    "area) or area (uniform over its area, to measure against)")
-        ->check(CLI::IsMember({"solid-angle", "area"}))
+                    "(uniform over the solid angle it subtends, where that is stable, else by "
+                    "area; the two halves of a rectangle as one), or, to measure against, "
+                    "triangles (each half on its own) or area (uniform over its area)")
+        ->check(CLI::IsMember({"solid-angle", "triangles", "area"}))
         ->capture_default_str();
     sub->add_option("--background", a.background,
                     "Constant background radiance R,G,B lighting the scene (default: black)")

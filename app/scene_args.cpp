@@ -46,7 +46,11 @@ void print_device_shares(const Session& session) {
 }
 
 void apply_light_sampling(Scene& scene, const LightingArgs& lighting) {
-    scene.triangle_lights_by_area = lighting.triangle_light_sampling == "area";
+    using Tls = Scene::TriangleLightSampling;
+    const std::string& tls = lighting.triangle_light_sampling;
+    scene.triangle_light_sampling = tls == "area"        ? Tls::Area
+                                    : tls == "triangles" ? Tls::Triangles
+                                                         : Tls::SolidAngle;
     const std::string& how = lighting.light_sampling;
     if (how == "contribution" && !scene.lamp_choice_possible())
         throw Error(

@@ -164,8 +164,14 @@ TEST(LightTree, NodeConesHoldTheirLights) {
 TEST(LightTree, PicksFollowTheirPmfAndSumToOne) {
     const Scene scene = many_lights(100, 3);
     const GpuScene g = pack_scene(scene, build_kdtree(scene.triangles, TreeOptions{}));
-    ASSERT_EQ(g.params.num_tree_lights, 300u);
-    ASSERT_EQ(g.lights.size(), 300u);
+    // 100 rectangles (one light each, for two triangles) and 100 lamps; each rectangle's
+    // other half found in the trails with its head's trail.
+    ASSERT_EQ(g.params.num_tree_lights, 200u);
+    ASSERT_EQ(g.lights.size(), 200u);
+    ASSERT_EQ(g.params.num_light_trails, 300u);
+    ASSERT_EQ(scene.triangles.size(), 202u);
+    for (uint32_t head = 2; head < 202; head += 2)  // triangles 0 and 1 are the floor
+        EXPECT_EQ(gpu::light_tree_trail(TREE_ARGS head + 1), gpu::light_tree_trail(TREE_ARGS head));
     std::mt19937 rng(9);
     std::uniform_real_distribution<float> u01(0.f, 1.f), pos(-10.f, 10.f);
     // Receivers without a normal, facing up, tilted.
@@ -234,6 +240,9 @@ Scene two_storeys(int n, uint32_t seed, bool quads) {
         scene.punctual_lights.push_back(l);
     }
     scene.light_tree = true;
+    // Each triangle a light of its own (the thresholds below were set so; the tree over
+    // rectangles is tested by LightTree.PicksFollowTheirPmfAndSumToOne and SeveralLights).
+    scene.triangle_light_sampling = Scene::TriangleLightSampling::Triangles;
     return scene;
 }
 

@@ -50,10 +50,15 @@ Scene minimal_scene(bool sphere_light, bool extra_is_sphere, MaterialType extra)
 TEST(SceneFeatures, BuiltinScenes) {
     EXPECT_EQ(features_of(make_builtin_scene("cornell")),
               FEATURE_TRIANGLES | FEATURE_SPHERES | FEATURE_DIFFUSE | FEATURE_MIRROR |
-                  FEATURE_GLASS | FEATURE_TRIANGLE_LIGHTS | FEATURE_KDTREE);
-    // The furnace's sphere emits too.
+                  FEATURE_GLASS | FEATURE_RECT_LIGHTS | FEATURE_KDTREE);
+    // Each triangle on its own: no rectangle.
+    Scene triangles = make_builtin_scene("cornell");
+    triangles.triangle_light_sampling = Scene::TriangleLightSampling::Triangles;
+    EXPECT_EQ(features_of(triangles) & (FEATURE_RECT_LIGHTS | FEATURE_TRIANGLE_LIGHTS),
+              FEATURE_TRIANGLE_LIGHTS);
+    // The furnace's sphere emits too (and its walls are rectangles).
     EXPECT_EQ(features_of(make_builtin_scene("furnace")),
-              FEATURE_TRIANGLES | FEATURE_SPHERES | FEATURE_DIFFUSE | FEATURE_TRIANGLE_LIGHTS |
+              FEATURE_TRIANGLES | FEATURE_SPHERES | FEATURE_DIFFUSE | FEATURE_RECT_LIGHTS |
                   FEATURE_SPHERE_LIGHTS | FEATURE_KDTREE);
     EXPECT_EQ(features_of(make_builtin_scene("spheres")), FEATURE_SPHERES | FEATURE_DIFFUSE |
                                                               FEATURE_MIRROR | FEATURE_GLASS |

@@ -174,7 +174,7 @@ TEST_P(SeveralLights, SphereQuadsAndLampThroughTheTree) {
     const RenderResult r = test::render_case(api, scene, kSize, how);
     how.plant = [](GpuScene& g) {
         // (prim, trail) pairs sorted by prim: the sphere's (the last) and triangle 2's.
-        const uint32_t at = g.params.light_trails_word, n = g.params.num_tree_lights;
+        const uint32_t at = g.params.light_trails_word, n = g.params.num_light_trails;
         uint32_t sphere = n, triangle = n;
         for (uint32_t i = 0; i < n; ++i) {
             if (g.texels.at(at + 2 * i) == (0u | LIGHT_SPHERE_BIT)) sphere = i;

@@ -94,7 +94,7 @@ TEST_P(TriangleLightRender, GlossyPlaneAgreesWithAreaSampling) {
     plane.metallic = 1.f, plane.roughness = 0.3f;
     plane.color = glm::vec3(0.8f);
     Scene by_area = s.scene;
-    by_area.triangle_lights_by_area = true;
+    by_area.triangle_light_sampling = Scene::TriangleLightSampling::Area;
     test::CaseRender how;
     how.spp = 1024;
     const RenderResult area = test::render_case(api, by_area, kSize, how);
@@ -134,27 +134,34 @@ Scene cornell_two_sided() {
 // agree: both are exact where the plane test says so). Never above area sampling's by more
 // than its noise (8% on these images), and below it where receivers see the light at grazing
 // angles close by (measured at 128 x 128, max depth 8: 0.84 on the two-sided box; 0.94 here).
+// And a rectangle's halves as one spherical rectangle against each half on its own
+// (--triangle-light-sampling triangles): never above it either.
 TEST(TriangleLightVariance, NeverAboveAreaSampling) {
+    using Tls = Scene::TriangleLightSampling;
     const struct {
         const char* what;
         Scene scene;
-        double at_most;  // solid angle / area
-    } cases[] = {{"Cornell box", make_builtin_scene("cornell"), 1.08},
-                 {"plane beside a close quad", plane_under_lights(1.f).scene, 1.08},
-                 {"Cornell box, light two-sided", cornell_two_sided(), 1.02}};
+        double at_most;       // solid angle / area
+        double rect_at_most;  // rectangles / triangles
+    } cases[] = {{"Cornell box", make_builtin_scene("cornell"), 1.08, 1.08},
+                 {"plane beside a close quad", plane_under_lights(1.f).scene, 1.08, 1.08},
+                 {"Cornell box, light two-sided", cornell_two_sided(), 1.02, 1.02}};
     for (const auto& c : cases) {
-        double variance[2];
-        for (const bool by_area : {false, true}) {
+        double variance[3];
+        for (const Tls how_sampled : {Tls::SolidAngle, Tls::Triangles, Tls::Area}) {
             Scene scene = c.scene;
-            scene.triangle_lights_by_area = by_area;
+            scene.triangle_light_sampling = how_sampled;
             test::CaseRender how;
             how.spp = 128;
             how.max_depth = 3;
-            variance[by_area] = test::mean_sample_variance(test::render_case("opencl", scene, 32, how));
+            variance[int(how_sampled)] =
+                test::mean_sample_variance(test::render_case("opencl", scene, 32, how));
         }
-        std::printf("%s: variance per sample, solid angle / area: %.3f\n", c.what,
-                    variance[0] / variance[1]);
-        EXPECT_LT(variance[0], c.at_most * variance[1]) << c.what;
+        std::printf(
+            "%s: variance per sample, solid angle / area: %.3f; rectangles / triangles: %.3f\n",
+            c.what, variance[0] / variance[2], variance[0] / variance[1]);
+        EXPECT_LT(variance[0], c.at_most * variance[2]) << c.what;
+        EXPECT_LT(variance[0], c.rect_at_most * variance[1]) << c.what;
     }
 }
 

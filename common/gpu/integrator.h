@@ -8,6 +8,7 @@
 #include "bsdf.h"
 #include "light_tree.h"
 #include "lights.h"
+#include "rect_light.h"
 #include "sampler.h"
 #include "traverse.h"
 #include "triangle_light.h"
@@ -223,38 +224,54 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 rn, vec3 u) {
         ls.pdf = by_tree ? sphere_cone_pdf(sph, x, pmf)
                          : sphere_light_pdf(SCENE_ARGS_ prim & ~LIGHT_SPHERE_BIT, x, rn);
         ls.valid = ls.pdf > 0.0f;
-    } else if (HAS_FEATURE(FEATURE_TRIANGLE_LIGHTS) && (prim & ~LIGHT_INDEX_MASK) == 0u) {
-        // Triangle: a point by solid angle (else by area); emission from the front, or both
-        // faces.
+    } else if ((HAS_FEATURE(FEATURE_TRIANGLE_LIGHTS) || HAS_FEATURE(FEATURE_RECT_LIGHTS)) &&
+               (prim & ~LIGHT_INDEX_MASK) == 0u) {
+        // Triangle, or the rectangle it is half of: a point by solid angle (else by area);
+        // emission from the front, or both faces.
         GpuTriangle tri = TRIANGLE(prim);
         vec3 v0 = tri_v0(tri), v1 = tri_v1(tri), v2 = tri_v2(tri);
-        float omega = triangle_solid_angle(SCENE_ARGS_ v0, v1, v2, x);
-        vec2 b = sample_triangle_light(v0, v1, v2, x, omega, V2(u.y, u.z));
-        float b0 = 1.0f - b.x - b.y;
-        vec3 p0 = v0 * b0, p1 = v1 * b.x, p2 = v2 * b.y;
-        ls.p = p0 + p1 + p2;
-        ls.p_error = (VABS(p0) + VABS(p1) + VABS(p2)) * gamma_bound(6.0f);
+        GpuMaterial m = MATERIAL(tri.material);
+        bool rect = is_rect_light(m);
+        float omega, area;
+        vec2 b = V2(0.0f, 0.0f);
+        if (rect) {
+            RectLight r = rect_of_triangle(v0, v1, v2);
+            omega = rect_solid_angle(SCENE_ARGS_ r, x);
+            area = rect_area(r);
+            vec2 st = sample_rect_light(r, x, omega, V2(u.y, u.z));
+            vec3 ps = r.ex * st.x, pt = r.ey * st.y;
+            ls.p = r.c + ps + pt;
+            ls.p_error = (VABS(r.c) + VABS(ps) + VABS(pt)) * gamma_bound(6.0f);
+        } else {
+            omega = triangle_solid_angle(SCENE_ARGS_ v0, v1, v2, x);
+            area = triangle_area(tri);
+            b = sample_triangle_light(v0, v1, v2, x, omega, V2(u.y, u.z));
+            vec3 p0 = v0 * (1.0f - b.x - b.y), p1 = v1 * b.x, p2 = v2 * b.y;
+            ls.p = p0 + p1 + p2;
+            ls.p_error = (VABS(p0) + VABS(p1) + VABS(p2)) * gamma_bound(6.0f);
+        }
         ls.n = normalize(cross(v1 - v0, v2 - v0));
         vec3 to_l = ls.p - x;
         float dist2 = dot(to_l, to_l);
         ls.wi = to_l * inversesqrt(dist2);
         float cos_l = -dot(ls.n, ls.wi);
-        if (cos_l < 0.0f && emits_from_back(MATERIAL(tri.material))) cos_l = -cos_l;
+        if (cos_l < 0.0f && emits_from_back(m)) cos_l = -cos_l;
         if (cos_l <= 0.0f || dist2 <= 0.0f) return ls;
-        GpuMaterial m = MATERIAL(tri.material);
         ls.le = material_emission(m);
-        if (HAS_FEATURE(FEATURE_TEXTURES) && m.tex_emission != NO_TEXTURE) {
-            // Emission texture at the point (the pdf stays the factor's, as for hits).
+        if (HAS_FEATURE(FEATURE_TEXTURES) && m.tex_emission != NO_TEXTURE && !rect) {
+            // Emission texture at the point (the pdf stays the factor's, as for hits; the host
+            // pairs no rectangle of a textured emission).
             vec2 uv = V2(0.0f, 0.0f);
             if ((PARAM(scene_flags) & SCENE_VERTEX_DATA) != 0u) {
                 GpuTriangleAttributes a = ATTRIBUTES(prim);
-                uv = V2(a.u0, a.v0) * b0 + V2(a.u1, a.v1) * b.x + V2(a.u2, a.v2) * b.y;
+                uv = V2(a.u0, a.v0) * (1.0f - b.x - b.y) + V2(a.u1, a.v1) * b.x +
+                     V2(a.u2, a.v2) * b.y;
             }
             vec4 t = sample_texture(SCENE_ARGS_ m.tex_emission, uv);
             ls.le = ls.le * V3(t.x, t.y, t.z);
         }
         // (pmf: the pick's probability; a BSDF-sampled hit recomputes it, triangle_pick_pmf.)
-        ls.pdf = triangle_light_pdf(pmf, omega, triangle_area(tri), dist2, cos_l);
+        ls.pdf = triangle_light_pdf(pmf, omega, area, dist2, cos_l);
         ls.valid = true;
     }
     return ls;
@@ -269,9 +286,18 @@ MCPT_FN float emitter_hit_pdf(SCENE_PARAMS_ vec3 x, vec3 rn, Ray ray, Hit hit, S
     float cos_l = ABSF(dot(s.ng, ray.d));  // the front, or a two-sided emitter's back
     vec3 to_l = s.p - x;
     GpuTriangle tri = TRIANGLE(hit.prim);
-    float omega = triangle_solid_angle(SCENE_ARGS_ tri_v0(tri), tri_v1(tri), tri_v2(tri), x);
-    float area = triangle_area(tri);
-    float pick = triangle_pick_pmf(SCENE_ARGS_ hit.prim, x, rn, MATERIAL(s.material), area);
+    GpuMaterial m = MATERIAL(s.material);
+    vec3 v0 = tri_v0(tri), v1 = tri_v1(tri), v2 = tri_v2(tri);
+    float omega, area;
+    if (is_rect_light(m)) {
+        RectLight r = rect_of_triangle(v0, v1, v2);
+        omega = rect_solid_angle(SCENE_ARGS_ r, x);
+        area = rect_area(r);
+    } else {
+        omega = triangle_solid_angle(SCENE_ARGS_ v0, v1, v2, x);
+        area = triangle_area(tri);
+    }
+    float pick = triangle_pick_pmf(SCENE_ARGS_ hit.prim, x, rn, m, area);
     return triangle_light_pdf(pick, omega, area, dot(to_l, to_l), cos_l);
 }
 

@@ -152,7 +152,7 @@ MCPT_FN float light_tree_pmf(SCENE_PARAMS_ vec3 x, vec3 rn, uint trail) {
 // The trail of the light whose prim (LIGHT_* bits, shared_types.h) is `prim`: a binary search
 // of the (prim, trail) pairs; NO_HIT if it is none of the tree's.
 MCPT_FN uint light_tree_trail(SCENE_PARAMS_ uint prim) {
-    uint lo = 0u, hi = PARAM(num_tree_lights);
+    uint lo = 0u, hi = PARAM(num_light_trails);
     while (lo < hi) {
         uint mid = (lo + hi) / 2u;
         uint p = SCENE_WORD(PARAM(light_trails_word) + 2u * mid);

@@ -22,6 +22,9 @@ MCPT_NAMESPACE_BEGIN
 // largest channel and `specular`'s bits the three channels over it in 10-bit steps
 // (material_sigma in bsdf.h; pack_material on the host).
 #define MAT_VOLUME 0x200u
+// An emissive triangle that is half of a rectangle, the other half emissive too: next-event
+// estimation samples the whole rectangle by solid angle (rect_light.h).
+#define MAT_RECT_LIGHT 0x400u
 
 // Light kinds (GpuLight.prim high bits): a triangle index, a sphere index | LIGHT_SPHERE_BIT,
 // a punctual light index | LIGHT_PUNCTUAL_BIT, or LIGHT_ENVIRONMENT (the one environment).
@@ -42,7 +45,7 @@ MCPT_NAMESPACE_BEGIN
 #define FEATURE_DIFFUSE 4u          // Lambertian surfaces (and next-event estimation)
 #define FEATURE_MIRROR 8u           // perfect mirrors
 #define FEATURE_GLASS 16u           // dielectrics (Fresnel, refraction, total internal reflection)
-#define FEATURE_TRIANGLE_LIGHTS 32u // emissive triangles
+#define FEATURE_TRIANGLE_LIGHTS 32u // emissive triangles (each on its own: rectangles below)
 #define FEATURE_SPHERE_LIGHTS 64u   // emissive spheres
 #define FEATURE_KDTREE 128u         // k-d traversal with its stack (else: test every triangle)
 #define FEATURE_MICROFACET 256u     // GGX materials: metallic-roughness, rough glass (microfacet.h)
@@ -57,11 +60,12 @@ MCPT_NAMESPACE_BEGIN
 #define FEATURE_VOLUME 524288u      // absorbing glass (MAT_VOLUME): Beer-Lambert inside
 #define FEATURE_CLEARCOAT 1048576u  // a clear GGX coat over metallic-roughness (layers.h)
 #define FEATURE_SHEEN 2097152u      // a sheen layer over metallic-roughness (layers.h)
-#define FEATURE_ALL (16383u | 4128768u)  // bits 0-13 and 16-21: all but the two below
+#define FEATURE_RECT_LIGHTS 4194304u  // emissive rectangles of two triangles (rect_light.h)
+#define FEATURE_ALL (16383u | 8323072u)  // bits 0-13 and 16-22: all but the two below
 #define FEATURE_TEST_NAN 16384u     // tests only: poison samples of pixels 0 and 1 (never in ALL)
 #define FEATURE_INDEPENDENT_SAMPLER 32768u  // independent uniforms, not Sobol (A/B, never in ALL)
-#define FEATURE_BITS 4194303u               // every bit above
-#define FEATURE_COUNT 22
+#define FEATURE_BITS 8388607u               // every bit above
+#define FEATURE_COUNT 23
 
 // The smallest GGX alpha a MAT_PBR material keeps (roughness 0.01): below it the lobe's peak
 // exceeds float range in NEE; roughness 0 metals are MAT_MIRROR.
@@ -182,7 +186,7 @@ MCPT_STRUCT(GpuSphere) {
 
 MCPT_STRUCT(GpuMaterial) {
     float r, g, b;  // diffuse albedo, mirror tint, glass tint or metallic-roughness base color
-    uint type;      // MAT_* kind | MAT_TWO_SIDED
+    uint type;      // MAT_* kind | MAT_TWO_SIDED, MAT_VOLUME, MAT_RECT_LIGHT
     float er, eg, eb;  // emitted radiance (front side of triangles, or both; outside of spheres)
     float ior;         // index of refraction (glass; the dielectric Fresnel of MAT_PBR)
     float metallic;    // MAT_PBR: 0 dielectric over diffuse, 1 conductor
@@ -290,7 +294,7 @@ MCPT_STRUCT(GpuParams) {
     uint fold_sums, exact_vec4;
     // The light tree (FEATURE_LIGHT_TREE, light_tree.h), words after texels_word: its nodes
     // (GpuLightTreeNode each, 12 words, root first) and the (prim, trail) pairs of its lights sorted by
-    // prim; the probability that next-event estimation takes the tree (else the alias table
+    // prim (num_light_trails of them); the probability that next-event estimation takes the tree (else the alias table
     // of lights at infinity); the least squared distance its importance divides by.
     uint light_tree_word, light_trails_word;
     float light_tree_pmf, light_tree_eps2;
@@ -302,7 +306,10 @@ MCPT_STRUCT(GpuParams) {
     // pixels, writes its closest hit (t, prim, b1, b2 as bits) to the pixel's first sum vec4
     // and its any-hit prim and both statuses to the second, and traces nothing else.
     uint ray_cast;
-    uint pad_params2, pad_params3;  // std140: a multiple of 16 bytes
+    // The light tree's (prim, trail) pairs: num_tree_lights, and a rectangle's other half
+    // (rect_light.h) beside its head.
+    uint num_light_trails;
+    uint pad_params3;  // std140: a multiple of 16 bytes
 };
 // GpuParams.scene_flags: the triangle buffer holds GpuTriangleAttributes after the triangles;
 // some material has an alpha mask (the traversal reads materials only then).
@@ -348,7 +355,8 @@ MCPT_NAMESPACE_END
 #if defined(MCPT_CPP)
 static_assert(FEATURE_ALL ==
                   ((FEATURE_ENVIRONMENT * 2u - 1u) | FEATURE_LIGHT_TREE | FEATURE_BVH |
-                   FEATURE_LIGHT_CONTRIBUTION | FEATURE_VOLUME | FEATURE_CLEARCOAT | FEATURE_SHEEN),
+                   FEATURE_LIGHT_CONTRIBUTION | FEATURE_VOLUME | FEATURE_CLEARCOAT | FEATURE_SHEEN |
+                   FEATURE_RECT_LIGHTS),
               "FEATURE_ALL: every feature but the two for tests and A/B runs");
 static_assert(sizeof(mcpt::gpu::KdNode) == 8, "KdNode must be 8 bytes");
 static_assert(sizeof(mcpt::gpu::BvhNode) == BVH_NODE_UNITS * 8, "BvhNode must be 224 bytes");

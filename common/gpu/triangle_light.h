@@ -45,16 +45,21 @@ MCPT_FN float atan2_portable(float y, float x) {
     return x < 0.0f ? MCPT_PI - a : a;
 }
 
-// The solid angle triangle (v0, v1, v2) subtends at x, where float arithmetic holds it (within
-// the bounds above), else 0. Van Oosterom and Strackee's formula: tan(omega / 2) =
-// |a . (b x c)| / (1 + a.b + b.c + c.a) for the unit directions a, b, c.
-MCPT_FN float triangle_solid_angle_at(vec3 v0, vec3 v1, vec3 v2, vec3 x) {
+// The solid angle triangle (v0, v1, v2) subtends at x (0 where x is a vertex): Van Oosterom
+// and Strackee's formula, tan(omega / 2) = |a . (b x c)| / (1 + a.b + b.c + c.a) for the unit
+// directions a, b, c.
+MCPT_FN float spherical_triangle_area_at(vec3 v0, vec3 v1, vec3 v2, vec3 x) {
     vec3 a = v0 - x, b = v1 - x, c = v2 - x;
     float la = length(a), lb = length(b), lc = length(c);
     if (!(la > 0.0f && lb > 0.0f && lc > 0.0f)) return 0.0f;
     a = a * (1.0f / la), b = b * (1.0f / lb), c = c * (1.0f / lc);
-    float omega =
-        2.0f * atan2_portable(ABSF(dot(a, cross(b, c))), 1.0f + dot(a, b) + dot(b, c) + dot(c, a));
+    return 2.0f * atan2_portable(ABSF(dot(a, cross(b, c))), 1.0f + dot(a, b) + dot(b, c) + dot(c, a));
+}
+
+// The solid angle triangle (v0, v1, v2) subtends at x, where float arithmetic holds it (within
+// the bounds above), else 0.
+MCPT_FN float triangle_solid_angle_at(vec3 v0, vec3 v1, vec3 v2, vec3 x) {
+    float omega = spherical_triangle_area_at(v0, v1, v2, x);
     return omega >= MIN_TRIANGLE_SOLID_ANGLE && omega <= MAX_TRIANGLE_SOLID_ANGLE ? omega : 0.0f;
 }
 

@@ -9,6 +9,7 @@
 #include "common/error.h"
 #include "common/gpu/sheen_albedo_table.h"
 #include "common/render/light_tree.h"
+#include "common/render/rect_lights.h"
 #include "common/render/scene_features.h"
 #include "common/scene/environment.h"
 
@@ -173,8 +174,27 @@ void pack_punctual_and_environment(const Scene& scene, const std::vector<double>
 // the light table is rebuilt with the lights at infinity first (their alias table, pmf scaled
 // by the probability of taking them) and the local lights after them (slots the tree's leaves
 // name); the nodes and the (prim, trail) pairs sorted by prim follow the texels.
+// The rectangle lights (find_rect_lights), with scenes that sample by solid angle: each pair's
+// triangles get a copy of their material marked MAT_RECT_LIGHT (one copy per material).
+RectLights pair_rect_lights(const Scene& scene, GpuScene& g) {
+    if (scene.triangle_light_sampling != Scene::TriangleLightSampling::SolidAngle) return {};
+    const std::vector<RectPair> pairs = find_rect_lights(scene);
+    std::vector<uint32_t> marked(scene.materials.size(), kNoPartner);
+    for (const RectPair& p : pairs) {
+        const uint32_t m = scene.triangles[p.head].material;
+        if (marked[m] == kNoPartner) {
+            marked[m] = uint32_t(g.materials.size());
+            gpu::GpuMaterial copy = g.materials[m];
+            copy.type |= MAT_RECT_LIGHT;
+            g.materials.push_back(copy);
+        }
+        g.triangles[p.head].material = g.triangles[p.partner].material = marked[m];
+    }
+    return RectLights(pairs, scene.triangles.size());
+}
+
 void pack_light_tree(const Scene& scene, const std::vector<double>& weights,
-                     const std::vector<uint32_t>& prims, GpuScene& g) {
+                     const std::vector<uint32_t>& prims, const RectLights& rects, GpuScene& g) {
     const auto at_infinity = [&](uint32_t prim) {
         if (prim == LIGHT_ENVIRONMENT) return true;
         if ((prim & LIGHT_PUNCTUAL_BIT) == 0) return false;
@@ -215,9 +235,15 @@ void pack_light_tree(const Scene& scene, const std::vector<double>& weights,
         } else {
             // One-sided: the side of cross(v1 - v0, v2 - v0) (integrator.h), a hemisphere;
             // two-sided: every way.
+            // (A rectangle: both halves.)
             const Triangle& t = scene.triangles.at(prim);
             l.lo = glm::min(t.v0, glm::min(t.v1, t.v2)),
             l.hi = glm::max(t.v0, glm::max(t.v1, t.v2));
+            if (const uint32_t other = rects.partner_of(prim); other != kNoPartner) {
+                const Triangle& o = scene.triangles.at(other);
+                l.lo = glm::min(l.lo, glm::min(o.v0, glm::min(o.v1, o.v2)));
+                l.hi = glm::max(l.hi, glm::max(o.v0, glm::max(o.v1, o.v2)));
+            }
             const glm::dvec3 n = glm::cross(glm::dvec3(t.v1) - glm::dvec3(t.v0),
                                             glm::dvec3(t.v2) - glm::dvec3(t.v0));
             if (glm::length(n) > 0 && !scene.materials.at(t.material).two_sided)
@@ -253,9 +279,15 @@ void pack_light_tree(const Scene& scene, const std::vector<double>& weights,
         for (float f : {n.axis_x, n.axis_y, n.axis_z, n.cos_o}) g.texels.push_back(float_word(f));
     }
     std::vector<std::pair<uint32_t, uint32_t>> trails;
-    for (size_t i = 0; i < near_p.size(); ++i) trails.push_back({near_p[i], tree.trails[i]});
+    for (size_t i = 0; i < near_p.size(); ++i) {
+        trails.push_back({near_p[i], tree.trails[i]});
+        // A rectangle's other half: hits on it find the rectangle's leaf.
+        if (const uint32_t other = rects.partner_of(near_p[i]); other != kNoPartner)
+            trails.push_back({other, tree.trails[i]});
+    }
     std::sort(trails.begin(), trails.end());
     p.light_trails_word = uint32_t(g.texels.size());
+    p.num_light_trails = uint32_t(trails.size());
     for (const auto& [prim, trail] : trails) g.texels.push_back(prim), g.texels.push_back(trail);
     for (const gpu::GpuLight& l : g.lights)
         if (l.prim == LIGHT_ENVIRONMENT) p.env_pmf = l.pmf;
@@ -403,18 +435,27 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
         for (size_t i = 0; i + 1 < t.rgba.size(); i += 2)
             g.texels.push_back(uint32_t(t.rgba[i]) | (uint32_t(t.rgba[i + 1]) << 16));
     }
+    // Rectangles of two emissive triangles: one light (the lower index), their material
+    // marked MAT_RECT_LIGHT (a copy of it, where other triangles keep the original).
+    const RectLights rects = pair_rect_lights(scene, g);
     // Emitters weighted by power: area * mean(Le).
     std::vector<double> weights;
     std::vector<uint32_t> prims;
+    const auto triangle_area = [&](size_t i) {
+        const Triangle& t = scene.triangles[i];
+        const glm::dvec3 e1 = glm::dvec3(t.v1) - glm::dvec3(t.v0),
+                         e2 = glm::dvec3(t.v2) - glm::dvec3(t.v0);
+        return 0.5 * glm::length(glm::cross(e1, e2));
+    };
     for (size_t i = 0; i < scene.triangles.size(); ++i) {
         const Triangle& t = scene.triangles[i];
         const Material& m = scene.materials.at(t.material);
-        if (!m.is_emissive()) continue;
-        glm::dvec3 e1 = glm::dvec3(t.v1) - glm::dvec3(t.v0),
-                   e2 = glm::dvec3(t.v2) - glm::dvec3(t.v0);
+        if (!m.is_emissive() || rects.is_partner(uint32_t(i))) continue;
+        double area = triangle_area(i);
+        if (const uint32_t other = rects.partner_of(uint32_t(i)); other != kNoPartner)
+            area += triangle_area(other);
         // Power: area times mean radiance, per emitting face.
-        weights.push_back(0.5 * glm::length(glm::cross(e1, e2)) * mean_emission(m) *
-                          (m.two_sided ? 2.0 : 1.0));
+        weights.push_back(area * mean_emission(m) * (m.two_sided ? 2.0 : 1.0));
         prims.push_back(uint32_t(i));
     }
     for (size_t i = 0; i < scene.spheres.size(); ++i) {
@@ -468,7 +509,7 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
                     4u * p.num_textures;
     p.light_power_total = float(total);
     pack_punctual_and_environment(scene, env_weights, g);
-    if (scene.light_tree) pack_light_tree(scene, weights, prims, g);
+    if (scene.light_tree) pack_light_tree(scene, weights, prims, rects, g);
     // The sheen's albedo table, where a material has a sheen (GLSL reads it there: layers.h).
     for (const gpu::GpuMaterial& m : g.materials) {
         if (std::max({m.sheen_r, m.sheen_g, m.sheen_b}) <= 0.f) continue;
@@ -485,7 +526,8 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
                 std::to_string(LIGHT_CONTRIBUTION_MAX) + " of them, without the tree");
         p.scene_flags |= SCENE_LIGHT_CONTRIBUTION;
     }
-    if (scene.triangle_lights_by_area) p.scene_flags |= SCENE_TRIANGLE_LIGHTS_BY_AREA;
+    if (scene.triangle_light_sampling == Scene::TriangleLightSampling::Area)
+        p.scene_flags |= SCENE_TRIANGLE_LIGHTS_BY_AREA;
     p.scene_min_x = tree.bounds.min.x, p.scene_min_y = tree.bounds.min.y;
     p.scene_min_z = tree.bounds.min.z;
     p.scene_max_x = tree.bounds.max.x, p.scene_max_y = tree.bounds.max.y;

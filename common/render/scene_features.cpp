@@ -17,7 +17,8 @@ const char* const kFeatureNames[FEATURE_COUNT] = {
     "triangles",     "spheres",  "diffuse",           "mirror", "glass", "triangle lights",
     "sphere lights", "k-d tree", "microfacet", "shading normals", "textures", "alpha mask",
     "punctual lights", "environment", "test NaN injection", "independent sampler",
-    "light tree", "wide BVH", "lights by contribution", "volume", "clearcoat", "sheen"};
+    "light tree", "wide BVH", "lights by contribution", "volume", "clearcoat", "sheen",
+    "rectangle lights"};
 // clang-format on
 
 // The features of a material: its kind, then its textures and alpha mask.
@@ -65,7 +66,9 @@ uint32_t scene_features(const GpuScene& g) {
         f |= (l.prim & LIGHT_PUNCTUAL_BIT)  ? FEATURE_PUNCTUAL_LIGHTS
              : l.prim == LIGHT_ENVIRONMENT ? FEATURE_ENVIRONMENT
              : (l.prim & LIGHT_SPHERE_BIT) ? FEATURE_SPHERE_LIGHTS
-                                           : FEATURE_TRIANGLE_LIGHTS;
+             : (g.materials[g.triangles.at(l.prim).material].type & MAT_RECT_LIGHT)
+                 ? FEATURE_RECT_LIGHTS
+                 : FEATURE_TRIANGLE_LIGHTS;
     if (g.params.num_tree_lights > 0) f |= FEATURE_LIGHT_TREE;
     if (g.params.scene_flags & SCENE_LIGHT_CONTRIBUTION) f |= FEATURE_LIGHT_CONTRIBUTION;
     // The environment is seen by rays that escape, even when it is black.

@@ -143,9 +143,12 @@ struct Scene {
     // ... or, where true (and light_tree false), among a few lamps by each one's unshadowed
     // contribution at the shading point, the BSDF included (lamp_choice_possible()).
     bool light_by_contribution = false;
-    // Emissive triangles sampled by area rather than by the solid angle they subtend
-    // (common/gpu/triangle_light.h): what --triangle-light-sampling area measures against.
-    bool triangle_lights_by_area = false;
+    // How next-event estimation samples emissive triangles (--triangle-light-sampling):
+    // by solid angle, a rectangle's two halves as one (common/gpu/rect_light.h); each
+    // triangle on its own by solid angle (common/gpu/triangle_light.h); or by area. The last
+    // two are what the first is measured against.
+    enum class TriangleLightSampling { SolidAngle, Triangles, Area };
+    TriangleLightSampling triangle_light_sampling = TriangleLightSampling::SolidAngle;
     // Emissive triangles and spheres, point and spot lamps: what the light tree holds.
     size_t local_light_count() const;
     // Point and spot lamps.
