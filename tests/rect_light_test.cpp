@@ -62,8 +62,8 @@ double solid_angle_of(dvec3 x, double sa, double sb, double ta, double tb, int n
     double sum = 0;
     for (int i = 0; i < n; ++i)
         for (int j = 0; j < n; ++j) {
-            const dvec3 p = c + ex * (sa + (sb - sa) * (i + 0.5) / n) +
-                            ey * (ta + (tb - ta) * (j + 0.5) / n);
+            const dvec3 p =
+                c + ex * (sa + (sb - sa) * (i + 0.5) / n) + ey * (ta + (tb - ta) * (j + 0.5) / n);
             const dvec3 d = p - x;
             const double d2 = glm::dot(d, d);
             sum += std::abs(d.y) / (d2 * std::sqrt(d2));
@@ -165,8 +165,8 @@ TEST(RectLight, AreaSamplingTakesOverAtTheExtremes) {
         for (const vec2 u : {vec2(0.f, 0.f), vec2(0.5f, 0.5f), vec2(0.99999994f, 0.99999994f),
                              vec2(0.f, 0.99999994f), vec2(0.99999994f, 0.f)}) {
             const vec2 st = gpu::sample_rect_light(c.r, c.x, omega, u);
-            EXPECT_TRUE(std::isfinite(st.x) && std::isfinite(st.y) && st.x >= 0.f &&
-                        st.y >= 0.f && st.x <= 1.f && st.y <= 1.f)
+            EXPECT_TRUE(std::isfinite(st.x) && std::isfinite(st.y) && st.x >= 0.f && st.y >= 0.f &&
+                        st.x <= 1.f && st.y <= 1.f)
                 << c.what << ": " << st.x << ", " << st.y;
         }
     }

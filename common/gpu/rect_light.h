@@ -46,7 +46,9 @@ MCPT_FN RectLight rect_of_triangle(vec3 v0, vec3 v1, vec3 v2) {
     return r;
 }
 
-MCPT_FN float rect_area(RectLight r) { return length(cross(r.ex, r.ey)); }
+MCPT_FN float rect_area(RectLight r) {
+    return length(cross(r.ex, r.ey));
+}
 
 // The solid angle of the rectangle at x where next-event estimation samples it by solid angle,
 // else 0 (by area): the two halves' solid angles (Van Oosterom and Strackee, as
@@ -63,8 +65,9 @@ MCPT_FN float rect_solid_angle(SCENE_PARAMS_ RectLight r, vec3 x) {
     if (!(lc > 0.0f && la > 0.0f && lb > 0.0f && ld > 0.0f)) return 0.0f;
     c = c * (1.0f / lc), a = a * (1.0f / la), b = b * (1.0f / lb), d = d * (1.0f / ld);
     float cb = dot(c, b);
-    float omega = 2.0f * atan2_portable(ABSF(dot(c, cross(a, b))), 1.0f + dot(c, a) + dot(a, b) + cb) +
-                  2.0f * atan2_portable(ABSF(dot(c, cross(b, d))), 1.0f + cb + dot(b, d) + dot(d, c));
+    float omega =
+        2.0f * atan2_portable(ABSF(dot(c, cross(a, b))), 1.0f + dot(c, a) + dot(a, b) + cb) +
+        2.0f * atan2_portable(ABSF(dot(c, cross(b, d))), 1.0f + cb + dot(b, d) + dot(d, c));
     return omega >= MIN_TRIANGLE_SOLID_ANGLE && omega <= MAX_TRIANGLE_SOLID_ANGLE ? omega : 0.0f;
 }
 

@@ -45,7 +45,7 @@ MCPT_NAMESPACE_BEGIN
 #define FEATURE_DIFFUSE 4u          // Lambertian surfaces (and next-event estimation)
 #define FEATURE_MIRROR 8u           // perfect mirrors
 #define FEATURE_GLASS 16u           // dielectrics (Fresnel, refraction, total internal reflection)
-#define FEATURE_TRIANGLE_LIGHTS 32u // emissive triangles (each on its own: rectangles below)
+#define FEATURE_TRIANGLE_LIGHTS 32u  // emissive triangles (each on its own: rectangles below)
 #define FEATURE_SPHERE_LIGHTS 64u   // emissive spheres
 #define FEATURE_KDTREE 128u         // k-d traversal with its stack (else: test every triangle)
 #define FEATURE_MICROFACET 256u     // GGX materials: metallic-roughness, rough glass (microfacet.h)
@@ -60,7 +60,7 @@ MCPT_NAMESPACE_BEGIN
 #define FEATURE_VOLUME 524288u      // absorbing glass (MAT_VOLUME): Beer-Lambert inside
 #define FEATURE_CLEARCOAT 1048576u  // a clear GGX coat over metallic-roughness (layers.h)
 #define FEATURE_SHEEN 2097152u      // a sheen layer over metallic-roughness (layers.h)
-#define FEATURE_RECT_LIGHTS 4194304u  // emissive rectangles of two triangles (rect_light.h)
+#define FEATURE_RECT_LIGHTS 4194304u     // emissive rectangles of two triangles (rect_light.h)
 #define FEATURE_ALL (16383u | 8323072u)  // bits 0-13 and 16-22: all but the two below
 #define FEATURE_TEST_NAN 16384u     // tests only: poison samples of pixels 0 and 1 (never in ALL)
 #define FEATURE_INDEPENDENT_SAMPLER 32768u  // independent uniforms, not Sobol (A/B, never in ALL)
@@ -293,9 +293,10 @@ MCPT_STRUCT(GpuParams) {
     // one whole group, to (as) its exact sums and trace nothing; overflow sets the pending word.
     uint fold_sums, exact_vec4;
     // The light tree (FEATURE_LIGHT_TREE, light_tree.h), words after texels_word: its nodes
-    // (GpuLightTreeNode each, 12 words, root first) and the (prim, trail) pairs of its lights sorted by
-    // prim (num_light_trails of them); the probability that next-event estimation takes the tree (else the alias table
-    // of lights at infinity); the least squared distance its importance divides by.
+    // (GpuLightTreeNode each, 12 words, root first) and the (prim, trail) pairs of its lights
+    // sorted by prim (num_light_trails of them); the probability that next-event estimation takes
+    // the tree (else the alias table of lights at infinity); the least squared distance its
+    // importance divides by.
     uint light_tree_word, light_trails_word;
     float light_tree_pmf, light_tree_eps2;
     uint num_tree_lights;
@@ -353,10 +354,9 @@ MCPT_STRUCT(GpuParams) {
 MCPT_NAMESPACE_END
 
 #if defined(MCPT_CPP)
-static_assert(FEATURE_ALL ==
-                  ((FEATURE_ENVIRONMENT * 2u - 1u) | FEATURE_LIGHT_TREE | FEATURE_BVH |
-                   FEATURE_LIGHT_CONTRIBUTION | FEATURE_VOLUME | FEATURE_CLEARCOAT | FEATURE_SHEEN |
-                   FEATURE_RECT_LIGHTS),
+static_assert(FEATURE_ALL == ((FEATURE_ENVIRONMENT * 2u - 1u) | FEATURE_LIGHT_TREE | FEATURE_BVH |
+                              FEATURE_LIGHT_CONTRIBUTION | FEATURE_VOLUME | FEATURE_CLEARCOAT |
+                              FEATURE_SHEEN | FEATURE_RECT_LIGHTS),
               "FEATURE_ALL: every feature but the two for tests and A/B runs");
 static_assert(sizeof(mcpt::gpu::KdNode) == 8, "KdNode must be 8 bytes");
 static_assert(sizeof(mcpt::gpu::BvhNode) == BVH_NODE_UNITS * 8, "BvhNode must be 224 bytes");

@@ -53,7 +53,8 @@ MCPT_FN float spherical_triangle_area_at(vec3 v0, vec3 v1, vec3 v2, vec3 x) {
     float la = length(a), lb = length(b), lc = length(c);
     if (!(la > 0.0f && lb > 0.0f && lc > 0.0f)) return 0.0f;
     a = a * (1.0f / la), b = b * (1.0f / lb), c = c * (1.0f / lc);
-    return 2.0f * atan2_portable(ABSF(dot(a, cross(b, c))), 1.0f + dot(a, b) + dot(b, c) + dot(c, a));
+    return 2.0f *
+           atan2_portable(ABSF(dot(a, cross(b, c))), 1.0f + dot(a, b) + dot(b, c) + dot(c, a));
 }
 
 // The solid angle triangle (v0, v1, v2) subtends at x, where float arithmetic holds it (within

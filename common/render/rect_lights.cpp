@@ -47,7 +47,9 @@ std::tuple<uint32_t, uint32_t, uint32_t> bits_of(glm::vec3 v) {
     return {b[0], b[1], b[2]};
 }
 
-glm::vec3 vertex(const Triangle& t, int k) { return k == 0 ? t.v0 : k == 1 ? t.v1 : t.v2; }
+glm::vec3 vertex(const Triangle& t, int k) {
+    return k == 0 ? t.v0 : k == 1 ? t.v1 : t.v2;
+}
 
 }  // namespace
 

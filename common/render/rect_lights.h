@@ -27,7 +27,7 @@ constexpr uint32_t kNoPartner = 0xffffffffu;
 // The pairs looked up by triangle: a head's partner, and whether a triangle is a partner (not
 // in the light table: the head stands for both).
 class RectLights {
-public:
+  public:
     RectLights() = default;
     RectLights(const std::vector<RectPair>& pairs, size_t triangles);
     uint32_t partner_of(uint32_t triangle) const {
@@ -38,7 +38,7 @@ public:
     }
     size_t size() const { return count_; }
 
-private:
+  private:
     std::vector<uint32_t> partner_;  // by head
     std::vector<uint32_t> head_;     // by partner
     size_t count_ = 0;

@@ -63,7 +63,7 @@ uint32_t scene_features(const GpuScene& g) {
     if (g.vertex_normals) f |= FEATURE_SHADING_NORMALS;
     // Emitters.
     for (const gpu::GpuLight& l : g.lights)
-        f |= (l.prim & LIGHT_PUNCTUAL_BIT)  ? FEATURE_PUNCTUAL_LIGHTS
+        f |= (l.prim & LIGHT_PUNCTUAL_BIT) ? FEATURE_PUNCTUAL_LIGHTS
              : l.prim == LIGHT_ENVIRONMENT ? FEATURE_ENVIRONMENT
              : (l.prim & LIGHT_SPHERE_BIT) ? FEATURE_SPHERE_LIGHTS
              : (g.materials[g.triangles.at(l.prim).material].type & MAT_RECT_LIGHT)
