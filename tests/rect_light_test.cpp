@@ -13,12 +13,11 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
-#include <random>
 #include <string>
 #include <vector>
 
-#include "common/analysis/stats.h"
 #include "common/render/rect_lights.h"
+#include "solid_angle_chi_square.h"
 
 namespace mcpt {
 namespace {
@@ -87,32 +86,19 @@ TEST(RectLight, SampledDirectionsFollowTheSolidAnglePdf) {
     for (const Receiver& r : receivers()) {
         const float omega = gpu::rect_solid_angle(NO_SCENE light(), r.x);
         ASSERT_GT(omega, 0.f) << r.name;
-        // Expected counts per cell of (s, t): its solid angle over the whole.
-        std::vector<double> expected(kCells * kCells);
-        for (int i = 0; i < kCells; ++i)
-            for (int j = 0; j < kCells; ++j)
-                expected[size_t(i * kCells + j)] =
-                    kSamples *
-                    solid_angle_of(dvec3(r.x), double(i) / kCells, double(i + 1) / kCells,
-                                   double(j) / kCells, double(j + 1) / kCells, 24) /
-                    double(omega);
-        std::mt19937 rng(13);
-        std::uniform_real_distribution<float> uniform(0.f, 1.f);
-        const auto histogram = [&](bool by_area) {
-            std::vector<double> observed(kCells * kCells, 0.0);
-            for (int k = 0; k < kSamples; ++k) {
-                const vec2 u(uniform(rng), uniform(rng));
+        // Per cell of (s, t): its solid angle over the whole.
+        const auto [p, p_area] = test::solid_angle_chi_square(
+            kCells, kSamples, omega, 13,
+            [&](int i, int j) {
+                return solid_angle_of(dvec3(r.x), double(i) / kCells, double(i + 1) / kCells,
+                                      double(j) / kCells, double(j + 1) / kCells, 24);
+            },
+            [&](vec2 u, bool by_area) {
                 const vec2 st = gpu::sample_rect_light(light(), r.x, by_area ? 0.f : omega, u);
                 EXPECT_TRUE(std::isfinite(st.x) && std::isfinite(st.y) && st.x >= 0.f &&
                             st.y >= 0.f && st.x <= 1.f && st.y <= 1.f);
-                const int i = std::min(kCells - 1, int(st.x * kCells)),
-                          j = std::min(kCells - 1, int(st.y * kCells));
-                observed[size_t(i * kCells + j)] += 1;
-            }
-            return observed;
-        };
-        const double p = stats::chi_square_test(histogram(false), expected);
-        const double p_area = stats::chi_square_test(histogram(true), expected);
+                return st;
+            });
         std::printf("%-30s chi-square p = %.3f; control (by area): p = %.3g\n", r.name.c_str(), p,
                     p_area);
         EXPECT_GT(p, 1e-3) << r.name;

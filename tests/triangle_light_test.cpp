@@ -11,11 +11,10 @@
 
 #include <cmath>
 #include <cstdio>
-#include <random>
 #include <string>
 #include <vector>
 
-#include "common/analysis/stats.h"
+#include "solid_angle_chi_square.h"
 
 namespace mcpt {
 namespace {
@@ -91,34 +90,20 @@ TEST(TriangleLight, SampledDirectionsFollowTheSolidAnglePdf) {
     for (const Receiver& r : receivers()) {
         const float omega = gpu::triangle_solid_angle_at(kV0, kV1, kV2, r.x);
         ASSERT_GT(omega, 0.f) << r.name;
-        // Expected counts per canonical cell: its solid angle over the whole.
-        std::vector<double> expected(kCells * kCells);
-        for (int i = 0; i < kCells; ++i)
-            for (int j = 0; j < kCells; ++j)
-                expected[size_t(i * kCells + j)] =
-                    kSamples *
-                    solid_angle_of(dvec3(r.x), double(i) / kCells, double(i + 1) / kCells,
-                                   double(j) / kCells, double(j + 1) / kCells, 24) /
-                    double(omega);
-        std::mt19937 rng(11);
-        std::uniform_real_distribution<float> uniform(0.f, 1.f);
-        const auto histogram = [&](bool by_area) {
-            std::vector<double> observed(kCells * kCells, 0.0);
-            for (int k = 0; k < kSamples; ++k) {
-                const vec2 u(uniform(rng), uniform(rng));
+        // Per canonical cell: its solid angle over the whole.
+        const auto [p, p_area] = test::solid_angle_chi_square(
+            kCells, kSamples, omega, 11,
+            [&](int i, int j) {
+                return solid_angle_of(dvec3(r.x), double(i) / kCells, double(i + 1) / kCells,
+                                      double(j) / kCells, double(j + 1) / kCells, 24);
+            },
+            [&](vec2 u, bool by_area) {
                 const vec2 b =
                     gpu::sample_triangle_light(kV0, kV1, kV2, r.x, by_area ? 0.f : omega, u);
                 EXPECT_TRUE(std::isfinite(b.x) && std::isfinite(b.y) && b.x >= 0.f && b.y >= 0.f &&
                             b.x + b.y <= 1.f + 1e-6f);
-                const vec2 c = canonical(b);
-                const int i = std::min(kCells - 1, int(c.x * kCells)),
-                          j = std::min(kCells - 1, int(c.y * kCells));
-                observed[size_t(i * kCells + j)] += 1;
-            }
-            return observed;
-        };
-        const double p = stats::chi_square_test(histogram(false), expected);
-        const double p_area = stats::chi_square_test(histogram(true), expected);
+                return canonical(b);
+            });
         std::printf("%-30s chi-square p = %.3f; control (by area): p = %.3g\n", r.name.c_str(), p,
                     p_area);
         EXPECT_GT(p, 1e-3) << r.name;
