@@ -5,7 +5,8 @@
 // agrees with area sampling, and a pdf 1.5x in the MIS weight of BSDF-sampled hits alone
 // (next-event estimation unchanged) is rejected. And the variance per sample against
 // area sampling (--triangle-light-sampling area), on the Cornell box and on the plane beside
-// its large, close light: never more than noise above it.
+// its large, close light: never more than noise above it; nor a rectangle sampled whole
+// (rect_light.h) above its two halves sampled one by one (--triangle-light-sampling triangles).
 #include <gtest/gtest.h>
 
 #include <cmath>
