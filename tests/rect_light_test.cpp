@@ -26,12 +26,6 @@ using glm::dvec3;
 using glm::vec2;
 using glm::vec3;
 
-// The device functions' scene arguments: parameters (scene_flags 0: by solid angle) and no
-// buffers.
-gpu::GpuParams g_params{};
-#define NO_SCENE \
-    &g_params, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr,
-
 // A 1 x 0.6 light in the plane y = 1 (its corner at the origin's column), and receivers.
 const vec3 kC(0.f, 1.f, 0.f), kEx(1.f, 0.f, 0.f), kEy(0.f, 0.f, 0.6f);
 gpu::RectLight light() {

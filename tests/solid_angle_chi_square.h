@@ -1,7 +1,8 @@
-// The chi-square check of the light samplers' tests (triangle_light_test.cpp,
-// rect_light_test.cpp): the points a sampler draws, binned in the light's own coordinates on
-// a cells x cells grid, against expected counts from each cell's solid angle over the whole;
-// and the same for a control sampler that must fail it.
+// What the light samplers' tests share (triangle_light_test.cpp, rect_light_test.cpp): the
+// device functions' scene arguments without a scene, and the chi-square check of the points
+// a sampler draws, binned in the light's own coordinates on a cells x cells grid, against
+// expected counts from each cell's solid angle over the whole; and the same for a control
+// sampler that must fail it.
 #pragma once
 #include <algorithm>
 #include <functional>
@@ -10,8 +11,16 @@
 #include <vector>
 
 #include "common/analysis/stats.h"
+#include "common/gpu/shared_types.h"
 
 namespace mcpt::test {
+
+// The device functions' scene arguments: parameters (scene_flags 0: by solid angle) and no
+// buffers.
+inline gpu::GpuParams no_scene_params{};
+#define NO_SCENE                                                                                   \
+    &::mcpt::test::no_scene_params, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, \
+        nullptr, nullptr,
 
 struct ChiSquarePair {
     double p;          // the sampler under test

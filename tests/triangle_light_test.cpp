@@ -23,12 +23,6 @@ using glm::dvec3;
 using glm::vec2;
 using glm::vec3;
 
-// The device functions' scene arguments: parameters (scene_flags 0: by solid angle) and no
-// buffers.
-gpu::GpuParams g_params{};
-#define NO_SCENE \
-    &g_params, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr,
-
 struct Receiver {
     std::string name;
     vec3 x;
