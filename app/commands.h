@@ -38,7 +38,8 @@ struct LightingArgs {
     float env_rotate = 0.f, env_scale = 1.f;
     std::string env_sampling = "compensated";
     std::string light_sampling = "auto";  // auto | power | tree | contribution
-    std::string triangle_light_sampling = "solid-angle";  // solid-angle | triangles | area
+    // solid-angle | cosine | triangles | area
+    std::string triangle_light_sampling = "solid-angle";
     std::vector<float> background;
 };
 

@@ -50,6 +50,7 @@ void apply_light_sampling(Scene& scene, const LightingArgs& lighting) {
     const std::string& tls = lighting.triangle_light_sampling;
     scene.triangle_light_sampling = tls == "area"        ? Tls::Area
                                     : tls == "triangles" ? Tls::Triangles
+                                    : tls == "cosine"    ? Tls::Cosine
                                                          : Tls::SolidAngle;
     const std::string& how = lighting.light_sampling;
     if (how == "contribution" && !scene.lamp_choice_possible())

@@ -166,8 +166,9 @@ MCPT_FN float sphere_light_pdf(SCENE_PARAMS_ uint index, vec3 x, vec3 rn) {
 }
 
 // Choose a light by power (alias table) or by the tree (receiver normal rn, or 0), then a
-// point on it, a direction of it, seen from x. u: 3 uniforms.
-MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 rn, vec3 u) {
+// point on it, a direction of it, seen from x (shading normal ns: emissive triangles' samples
+// follow its cosine). u: 3 uniforms.
+MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 rn, vec3 ns, vec3 u) {
     LightSample ls = no_light_sample();
     // A local light by the tree, or (without one, or else) one from the alias table: of every
     // light, or with a tree of the lights at infinity.
@@ -234,18 +235,38 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 rn, vec3 u) {
         bool rect = is_rect_light(m);
         float omega, area;
         vec2 b = V2(0.0f, 0.0f);
+        // The uniforms warped toward the receiver's cosine at the corners (by solid angle
+        // only); the warp's density divides the sample's value below.
+        vec2 uw = V2(u.y, u.z);
+        float warp_pdf = 1.0f;
         if (rect) {
             RectLight r = rect_of_triangle(v0, v1, v2);
             omega = rect_solid_angle(SCENE_ARGS_ r, x);
             area = rect_area(r);
-            vec2 st = sample_rect_light(r, x, omega, V2(u.y, u.z));
+            if (cosine_warp_on(SCENE_ARGS_ omega)) {
+                vec3 c = r.c - x;
+                vec3 q =
+                    cosine_warp(uw, V4(cosine_warp_weight(ns, c), cosine_warp_weight(ns, c + r.ex),
+                                       cosine_warp_weight(ns, c + r.ey),
+                                       cosine_warp_weight(ns, c + r.ex + r.ey)));
+                uw = V2(q.x, q.y);
+                warp_pdf = q.z;
+            }
+            vec2 st = sample_rect_light(r, x, omega, uw);
             vec3 ps = r.ex * st.x, pt = r.ey * st.y;
             ls.p = r.c + ps + pt;
             ls.p_error = (VABS(r.c) + VABS(ps) + VABS(pt)) * gamma_bound(6.0f);
         } else {
             omega = triangle_solid_angle(SCENE_ARGS_ v0, v1, v2, x);
             area = triangle_area(tri);
-            b = sample_triangle_light(v0, v1, v2, x, omega, V2(u.y, u.z));
+            if (cosine_warp_on(SCENE_ARGS_ omega)) {
+                float w1 = cosine_warp_weight(ns, v1 - x);
+                vec3 q = cosine_warp(
+                    uw, V4(w1, w1, cosine_warp_weight(ns, v0 - x), cosine_warp_weight(ns, v2 - x)));
+                uw = V2(q.x, q.y);
+                warp_pdf = q.z;
+            }
+            b = sample_triangle_light(v0, v1, v2, x, omega, uw);
             vec3 p0 = v0 * (1.0f - b.x - b.y), p1 = v1 * b.x, p2 = v2 * b.y;
             ls.p = p0 + p1 + p2;
             ls.p_error = (VABS(p0) + VABS(p1) + VABS(p2)) * gamma_bound(6.0f);
@@ -271,7 +292,11 @@ MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 rn, vec3 u) {
             ls.le = ls.le * V3(t.x, t.y, t.z);
         }
         // (pmf: the pick's probability; a BSDF-sampled hit recomputes it, triangle_pick_pmf.)
+        // The pdf stays the unwarped one: the MIS weights of both strategies take it, as a
+        // BSDF-sampled hit computes it without the normal at the vertex before (weights that
+        // sum to one keep the sum unbiased); the warp's density divides the value alone.
         ls.pdf = triangle_light_pdf(pmf, omega, area, dist2, cos_l);
+        ls.le = ls.le * (1.0f / warp_pdf);
         ls.valid = true;
     }
     return ls;
@@ -557,7 +582,7 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
         if (LIGHT_CONTRIBUTION_ON)
             ls = sample_lamp_by_contribution(SCENE_ARGS_ m, s.p, n, ns, wo, front, ua.z);
         else
-            ls = sample_light(SCENE_ARGS_ s.p, rn, V3(ua.z, ua.x, ua.y));
+            ls = sample_light(SCENE_ARGS_ s.p, rn, ns, V3(ua.z, ua.x, ua.y));
         // The light must lie on the same side of the shading and the geometric surface
         // (else it would leak through), in front unless the material transmits. (Written out
         // here, not light_on_side(): NVIDIA's OpenCL ran the materials scene 7-9% slower so.)

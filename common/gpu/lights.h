@@ -17,7 +17,8 @@ MCPT_STRUCT(LightSample) {
     vec3 p;        // point on the light (unused for lights at infinity)
     vec3 p_error;  // its rounding-error bound
     vec3 n;        // light normal at p (emitting side)
-    vec3 le;       // emitted radiance toward the shading point (delta lights: their irradiance)
+    vec3 le;       // emitted radiance toward the shading point (delta lights: their irradiance;
+                   // emissive triangles: over the density of the warp toward the receiver's cosine)
     float pdf;     // solid-angle pdf of choosing this direction (delta lights: the pick's)
     bool valid;
     bool delta;        // a point, spot or directional light: no MIS, no BSDF hit can reach it

@@ -85,6 +85,28 @@ MCPT_FN vec3 sample_cone(float u1, float u2, float omc) {
     return V3(sin_t * COSF(phi), sin_t * SINF(phi), cos_t);
 }
 
+// x in [0, 1) with density proportional to (1 - x) a + x b (a, b >= 0, not both 0): the
+// inverse of its CDF, written so that it does not cancel where a or b is small (pbrt-v4).
+MCPT_FN float sample_linear(float u, float a, float b) {
+    float x = DIVF(u * (a + b), a + sqrt((1.0f - u) * a * a + u * b * b));
+    return x < 0.99999994f ? x : 0.99999994f;
+}
+
+// A point of [0, 1)^2 with density bilinear_pdf(p, w), the corners' weights w = (w00, w10,
+// w01, w11) > 0 (first index along x): y from its marginal, then x given y.
+MCPT_FN vec2 sample_bilinear(vec2 u, vec4 w) {
+    float y = sample_linear(u.y, w.x + w.y, w.z + w.w);
+    float x = sample_linear(u.x, w.x + (w.z - w.x) * y, w.y + (w.w - w.y) * y);
+    return V2(x, y);
+}
+
+// The density of sample_bilinear() at p.
+MCPT_FN float bilinear_pdf(vec2 p, vec4 w) {
+    float sx = 1.0f - p.x, sy = 1.0f - p.y;
+    return DIVF(4.0f * (sx * sy * w.x + p.x * sy * w.y + sx * p.y * w.z + p.x * p.y * w.w),
+                w.x + w.y + w.z + w.w);
+}
+
 // Power heuristic (beta = 2) for multiple importance sampling.
 MCPT_FN float power_heuristic(float pdf_a, float pdf_b) {
     float a = pdf_a * pdf_a;

@@ -328,6 +328,9 @@ MCPT_STRUCT(GpuParams) {
 // the scene's acceleration structures at BINDING_TLAS (traverse_rayquery.h); the tree buffer
 // holds no tree (--tree rayquery).
 #define SCENE_RAY_QUERY 64u
+// Emissive triangles and rectangles sampled by solid angle with the uniforms warped toward
+// the receiver's cosine (triangle_light.h; render --triangle-light-sampling cosine).
+#define SCENE_TRIANGLE_LIGHTS_COSINE 128u
 #define LIGHT_CONTRIBUTION_MAX 8u
 
 // Accumulation buffer: two vec4 per pixel (every pixel, or the window's state_slots pixels

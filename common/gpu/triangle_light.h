@@ -121,6 +121,36 @@ MCPT_FN vec2 sample_triangle_light(vec3 v0, vec3 v1, vec3 v2, vec3 x, float omeg
     return triangle_barycentrics_along(v0, v1, v2, x, sample_spherical_triangle(a, b, c, omega, u));
 }
 
+// The weight of one corner in the warp toward the receiver's cosine (pbrt-v4's bilinear warp
+// of the uniforms before a spherical triangle or rectangle maps them): |cos| between the
+// receiver's shading normal ns and the direction to the point that the unit square's corner
+// maps to, at least 0.01 (a corner below the horizon still gets samples: the warp is a
+// density, not a cut). The triangle's corners: (0, 0) and (1, 0) map to v1, (0, 1) to v0,
+// (1, 1) to v2 (sample_spherical_triangle: u.x = 0 leaves c' at a, u.y = 0 gives b).
+MCPT_FN float cosine_warp_weight(vec3 ns, vec3 to_corner) {
+    return MAXF(0.01f, ABSF(dot(ns, to_corner)) * inversesqrt(dot(to_corner, to_corner)));
+}
+
+// The uniforms u warped by the corners' weights w (sample_bilinear), and the warp's density
+// there: (u'.x, u'.y, density).
+MCPT_FN vec3 cosine_warp(vec2 u, vec4 w) {
+#ifdef MCPT_NEGATIVE_CONTROL_WARP  // tests: toward the wrong corners (mirrored: noisier)
+    w = V4(w.y, w.x, w.w, w.z);
+#endif
+    vec2 q = sample_bilinear(u, w);
+#ifdef MCPT_NEGATIVE_CONTROL_WARP_DENSITY  // tests: the warp's density forgotten (biased)
+    return V3(q.x, q.y, 1.0f);
+#else
+    return V3(q.x, q.y, bilinear_pdf(q, w));
+#endif
+}
+
+// Whether next-event estimation warps the uniforms toward the receiver's cosine: where the
+// scene asks for it and the light is sampled by solid angle (omega > 0).
+MCPT_FN bool cosine_warp_on(SCENE_PARAMS_ float omega) {
+    return (PARAM(scene_flags) & SCENE_TRIANGLE_LIGHTS_COSINE) != 0u && omega > 0.0f;
+}
+
 // The solid-angle pdf with which next-event estimation from x reaches a point of the triangle
 // at squared distance dist2, where the light's normal makes cos_l with the direction: the
 // pick's probability over the solid angle, or (omega 0) over the area, converted.

@@ -124,10 +124,12 @@ uint64_t scene_hash(const Scene& s) {
     // How lights are picked: each sample's value depends on it.
     const uint8_t tree = s.light_tree ? 1 : s.light_by_contribution ? 2 : 0;
     h = fnv1a(&tree, 1, h);
-    const uint8_t by_area = s.triangle_light_sampling == Scene::TriangleLightSampling::Area ? 1
-                            : s.triangle_light_sampling == Scene::TriangleLightSampling::Triangles
-                                ? 2
-                                : 0;
+    using Tls = Scene::TriangleLightSampling;
+    const Tls tls = s.triangle_light_sampling;
+    const uint8_t by_area = tls == Tls::Area        ? 1
+                            : tls == Tls::Triangles ? 2
+                            : tls == Tls::Cosine    ? 3
+                                                    : 0;
     h = fnv1a(&by_area, 1, h);
     h = fnv1a(&s.camera, sizeof s.camera, h);
     h = fnv1a(&s.has_camera, sizeof s.has_camera, h);

@@ -177,7 +177,10 @@ void pack_punctual_and_environment(const Scene& scene, const std::vector<double>
 // The rectangle lights (find_rect_lights), with scenes that sample by solid angle: each pair's
 // triangles get a copy of their material marked MAT_RECT_LIGHT (one copy per material).
 RectLights pair_rect_lights(const Scene& scene, GpuScene& g) {
-    if (scene.triangle_light_sampling != Scene::TriangleLightSampling::SolidAngle) return {};
+    using Tls = Scene::TriangleLightSampling;
+    if (scene.triangle_light_sampling != Tls::SolidAngle &&
+        scene.triangle_light_sampling != Tls::Cosine)
+        return {};
     const std::vector<RectPair> pairs = find_rect_lights(scene);
     std::vector<uint32_t> marked(scene.materials.size(), kNoPartner);
     for (const RectPair& p : pairs) {
@@ -528,6 +531,8 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
     }
     if (scene.triangle_light_sampling == Scene::TriangleLightSampling::Area)
         p.scene_flags |= SCENE_TRIANGLE_LIGHTS_BY_AREA;
+    if (scene.triangle_light_sampling == Scene::TriangleLightSampling::Cosine)
+        p.scene_flags |= SCENE_TRIANGLE_LIGHTS_COSINE;
     p.scene_min_x = tree.bounds.min.x, p.scene_min_y = tree.bounds.min.y;
     p.scene_min_z = tree.bounds.min.z;
     p.scene_max_x = tree.bounds.max.x, p.scene_max_y = tree.bounds.max.y;
