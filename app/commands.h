@@ -38,7 +38,7 @@ struct LightingArgs {
     float env_rotate = 0.f, env_scale = 1.f;
     std::string env_sampling = "compensated";
     std::string light_sampling = "auto";  // auto | power | tree | contribution
-    // solid-angle | cosine | triangles | area
+    // solid-angle | uniform | cosine | triangles | area
     std::string triangle_light_sampling = "solid-angle";
     std::vector<float> background;
 };

@@ -36,12 +36,12 @@ void add_lighting_options(CLI::App* sub, LightingArgs& a) {
         ->capture_default_str();
     sub->add_option("--triangle-light-sampling", a.triangle_light_sampling,
                     "How next-event estimation samples an emissive triangle: solid-angle "
-                    "(uniform over the solid angle it subtends, where that is stable, else by "
-                    "area; the two halves of a rectangle as one), cosine (the same, warped "
-                    "toward the receiver's cosine: less variance where direct light dominates, "
-                    "a few percent more time per sample), or, to measure against, triangles "
-                    "(each half on its own) or area (uniform over its area)")
-        ->check(CLI::IsMember({"solid-angle", "cosine", "triangles", "area"}))
+                    "(over the solid angle it subtends, where that is stable, else by area; the "
+                    "two halves of a rectangle as one; warped toward the receiver's cosine "
+                    "where the light spans 0.2 sr or more), or, to measure against, uniform "
+                    "(never warped), cosine (warped wherever sampled by solid angle), "
+                    "triangles (each half on its own) or area (uniform over its area)")
+        ->check(CLI::IsMember({"solid-angle", "uniform", "cosine", "triangles", "area"}))
         ->capture_default_str();
     sub->add_option("--background", a.background,
                     "Constant background radiance R,G,B lighting the scene (default: black)")

@@ -51,6 +51,7 @@ void apply_light_sampling(Scene& scene, const LightingArgs& lighting) {
     scene.triangle_light_sampling = tls == "area"        ? Tls::Area
                                     : tls == "triangles" ? Tls::Triangles
                                     : tls == "cosine"    ? Tls::Cosine
+                                    : tls == "uniform"   ? Tls::Uniform
                                                          : Tls::SolidAngle;
     const std::string& how = lighting.light_sampling;
     if (how == "contribution" && !scene.lamp_choice_possible())

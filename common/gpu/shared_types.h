@@ -329,8 +329,10 @@ MCPT_STRUCT(GpuParams) {
 // holds no tree (--tree rayquery).
 #define SCENE_RAY_QUERY 64u
 // Emissive triangles and rectangles sampled by solid angle with the uniforms warped toward
-// the receiver's cosine (triangle_light.h; render --triangle-light-sampling cosine).
+// the receiver's cosine wherever they are (triangle_light.h: cosine_warp_on; render
+// --triangle-light-sampling cosine), or nowhere (uniform); else where they span 0.2 sr or more.
 #define SCENE_TRIANGLE_LIGHTS_COSINE 128u
+#define SCENE_TRIANGLE_LIGHTS_UNIFORM 256u
 #define LIGHT_CONTRIBUTION_MAX 8u
 
 // Accumulation buffer: two vec4 per pixel (every pixel, or the window's state_slots pixels

@@ -145,10 +145,15 @@ MCPT_FN vec3 cosine_warp(vec2 u, vec4 w) {
 #endif
 }
 
-// Whether next-event estimation warps the uniforms toward the receiver's cosine: where the
-// scene asks for it and the light is sampled by solid angle (omega > 0).
+// Whether next-event estimation warps the uniforms toward the receiver's cosine, where the
+// light is sampled by solid angle (omega > 0): where it spans WARP_MIN_SOLID_ANGLE or more
+// (the warp's gain beside large lights at no cost elsewhere: docs/lights.md), everywhere, or
+// nowhere, as the scene asks.
+#define WARP_MIN_SOLID_ANGLE 0.2f  // sr, about 29 degrees across
 MCPT_FN bool cosine_warp_on(SCENE_PARAMS_ float omega) {
-    return (PARAM(scene_flags) & SCENE_TRIANGLE_LIGHTS_COSINE) != 0u && omega > 0.0f;
+    uint flags = PARAM(scene_flags);
+    if ((flags & SCENE_TRIANGLE_LIGHTS_COSINE) != 0u) return omega > 0.0f;
+    return omega >= WARP_MIN_SOLID_ANGLE && (flags & SCENE_TRIANGLE_LIGHTS_UNIFORM) == 0u;
 }
 
 // The solid-angle pdf with which next-event estimation from x reaches a point of the triangle

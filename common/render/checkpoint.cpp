@@ -128,7 +128,8 @@ uint64_t scene_hash(const Scene& s) {
     const Tls tls = s.triangle_light_sampling;
     const uint8_t by_area = tls == Tls::Area        ? 1
                             : tls == Tls::Triangles ? 2
-                            : tls == Tls::Cosine    ? 3
+                            : tls == Tls::Uniform   ? 3
+                            : tls == Tls::Cosine    ? 4
                                                     : 0;
     h = fnv1a(&by_area, 1, h);
     h = fnv1a(&s.camera, sizeof s.camera, h);

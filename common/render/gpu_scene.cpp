@@ -179,6 +179,7 @@ void pack_punctual_and_environment(const Scene& scene, const std::vector<double>
 RectLights pair_rect_lights(const Scene& scene, GpuScene& g) {
     using Tls = Scene::TriangleLightSampling;
     if (scene.triangle_light_sampling != Tls::SolidAngle &&
+        scene.triangle_light_sampling != Tls::Uniform &&
         scene.triangle_light_sampling != Tls::Cosine)
         return {};
     const std::vector<RectPair> pairs = find_rect_lights(scene);
@@ -533,6 +534,8 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
         p.scene_flags |= SCENE_TRIANGLE_LIGHTS_BY_AREA;
     if (scene.triangle_light_sampling == Scene::TriangleLightSampling::Cosine)
         p.scene_flags |= SCENE_TRIANGLE_LIGHTS_COSINE;
+    if (scene.triangle_light_sampling == Scene::TriangleLightSampling::Uniform)
+        p.scene_flags |= SCENE_TRIANGLE_LIGHTS_UNIFORM;
     p.scene_min_x = tree.bounds.min.x, p.scene_min_y = tree.bounds.min.y;
     p.scene_min_z = tree.bounds.min.z;
     p.scene_max_x = tree.bounds.max.x, p.scene_max_y = tree.bounds.max.y;

@@ -144,12 +144,12 @@ struct Scene {
     // contribution at the shading point, the BSDF included (lamp_choice_possible()).
     bool light_by_contribution = false;
     // How next-event estimation samples emissive triangles (--triangle-light-sampling):
-    // uniformly by solid angle, a rectangle's two halves as one (common/gpu/rect_light.h);
-    // the same, warped toward the receiver's cosine (pbrt-v4's bilinear warp: it pays where
-    // direct light dominates, not in a closed room); each triangle on its own by solid angle
-    // (common/gpu/triangle_light.h); or by area. The last two are what the first is measured
-    // against.
-    enum class TriangleLightSampling { SolidAngle, Cosine, Triangles, Area };
+    // by solid angle, a rectangle's two halves as one (common/gpu/rect_light.h), warped toward
+    // the receiver's cosine (pbrt-v4's bilinear warp) where the light spans 0.2 sr or more;
+    // the same, uniform over the solid angle everywhere; warped everywhere; each triangle on
+    // its own by solid angle (common/gpu/triangle_light.h); or by area. The last four are
+    // what the first is measured against.
+    enum class TriangleLightSampling { SolidAngle, Uniform, Cosine, Triangles, Area };
     TriangleLightSampling triangle_light_sampling = TriangleLightSampling::SolidAngle;
     // Emissive triangles and spheres, point and spot lamps: what the light tree holds.
     size_t local_light_count() const;
