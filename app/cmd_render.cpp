@@ -142,6 +142,23 @@ void run_render(const RenderArgs& a) {
                         ? "by contribution (each lamp's unshadowed light at the shading point, "
                           "the BSDF included)"
                         : "by power");
+    // How next-event estimation samples emissive triangles (--triangle-light-sampling).
+    if (g.features & (FEATURE_TRIANGLE_LIGHTS | FEATURE_RECT_LIGHTS)) {
+        using Tls = Scene::TriangleLightSampling;
+        const Tls tls = scene.triangle_light_sampling;
+        const char* how =
+            tls == Tls::Area        ? "by area"
+            : tls == Tls::Triangles ? "each by the solid angle it subtends, warped toward the "
+                                      "receiver's cosine where it spans 0.2 sr or more"
+            : tls == Tls::Uniform   ? "by solid angle, a rectangle's halves as one, uniformly"
+            : tls == Tls::Cosine    ? "by solid angle, a rectangle's halves as one, warped toward "
+                                      "the receiver's cosine"
+                                    : "by solid angle, a rectangle's halves as one, warped toward "
+                                      "the receiver's cosine where the light spans 0.2 sr or more";
+        std::printf(
+            "emissive triangles: %s%s\n", how,
+            tls == Tls::Area ? "" : " (near their plane, tiny or far for their size: by area)");
+    }
     if (a.verbose && !g.tree_choice.empty()) std::printf("%s\n", g.tree_choice.c_str());
     std::printf("tree: %s%s\n", a.tree == "auto" ? "auto, " : "", describe_tree(g).c_str());
 
