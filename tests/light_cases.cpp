@@ -118,25 +118,32 @@ int pixels_apart(const RenderResult& a, const RenderResult& b) {
     return apart;
 }
 
+double pixel_sample_variance(const RenderResult& r, size_t i) {
+    const double k = double(r.spp) - double(r.nonfinite[i]);
+    const double mean = r.sum[3 * i] / k;
+    return std::max(0.0, r.sum_sq[3 * i] / k - mean * mean) * k / (k - 1);
+}
+
 double mean_sample_variance(const RenderResult& r) {
     double v = 0;
     const size_t n = r.nonfinite.size();
-    for (size_t i = 0; i < n; ++i) {
-        const double k = double(r.spp) - double(r.nonfinite[i]);
-        const double mean = r.sum[3 * i] / k;
-        v += std::max(0.0, r.sum_sq[3 * i] / k - mean * mean) * k / (k - 1);
-    }
+    for (size_t i = 0; i < n; ++i) v += pixel_sample_variance(r, i);
     return v / double(n);
+}
+
+double mean_sample_deviation_squared(const RenderResult& r) {
+    double sum = 0;
+    const size_t n = r.nonfinite.size();
+    for (size_t i = 0; i < n; ++i) sum += std::sqrt(pixel_sample_variance(r, i));
+    return (sum / double(n)) * (sum / double(n));
 }
 
 double image_z(const RenderResult& r, const std::vector<double>& expected) {
     double diff = 0, var = 0;
     for (size_t i = 0; i < expected.size(); ++i) {
         const double n = double(r.spp) - double(r.nonfinite[i]);
-        const double mean = r.sum[3 * i] / n;
-        const double v = std::max(0.0, r.sum_sq[3 * i] / n - mean * mean) * n / (n - 1);
-        diff += mean - expected[i];
-        var += v / n + std::pow(5e-4 * expected[i], 2);
+        diff += r.sum[3 * i] / n - expected[i];
+        var += pixel_sample_variance(r, i) / n + std::pow(5e-4 * expected[i], 2);
     }
     return diff / std::sqrt(var);
 }

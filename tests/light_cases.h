@@ -51,8 +51,16 @@ int pixels_off(const RenderResult& r, const std::vector<double>& expected);
 // float rounding where light fades to zero.
 int pixels_apart(const RenderResult& a, const RenderResult& b);
 
+// Pixel i's sample variance (channel 0; its finite samples, unbiased).
+double pixel_sample_variance(const RenderResult& r, size_t i);
+
 // The mean over pixels of one sample's variance (channel 0).
 double mean_sample_variance(const RenderResult& r);
+
+// The mean over pixels of one sample's standard deviation (channel 0), squared: a variance
+// that a few pixels of huge variance (across a light's edge, where the camera's samples see
+// the light or not) do not swamp, as they do the mean of the variances.
+double mean_sample_deviation_squared(const RenderResult& r);
 
 // The image's mean difference from `expected` over its standard error (sample error, and
 // 0.05% for the expected value's integration): what a light 2% too bright cannot pass.

@@ -7,6 +7,8 @@
 // area sampling (--triangle-light-sampling area), on the Cornell box and on the plane beside
 // its large, close light: never more than noise above it; nor a rectangle sampled whole
 // (rect_light.h) above its two halves sampled one by one (--triangle-light-sampling triangles).
+// The warp toward the receiver's cosine: exact beside a standing light (a forgotten density
+// rejected), and lowering direct light's variance (a warp toward the wrong corners rejected).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -196,6 +198,18 @@ Scene cornell_two_sided() {
     return s;
 }
 
+// `scene` with its emissive triangles sampled as `how_sampled`, on PoCL, size x size, 128
+// spp, to max_depth (defines: a control's), for the variance tests below (same seeds).
+RenderResult render_sampled(Scene scene, Scene::TriangleLightSampling how_sampled, int size,
+                            int max_depth, const char* defines = "") {
+    scene.triangle_light_sampling = how_sampled;
+    test::CaseRender how;
+    how.spp = 128;
+    how.max_depth = max_depth;
+    how.defines = defines;
+    return test::render_case("opencl", scene, size, how);
+}
+
 // Solid angle against area, same seeds, on PoCL: the per-sample variance of each (the means
 // agree: both are exact where the plane test says so). Never above area sampling's by more
 // than its noise (8% on these images), and below it where receivers see the light at grazing
@@ -214,15 +228,9 @@ TEST(TriangleLightVariance, NeverAboveAreaSampling) {
                  {"Cornell box, light two-sided", cornell_two_sided(), 1.02, 1.02}};
     for (const auto& c : cases) {
         double variance[5] = {};
-        for (const Tls how_sampled : {Tls::SolidAngle, Tls::Triangles, Tls::Area}) {
-            Scene scene = c.scene;
-            scene.triangle_light_sampling = how_sampled;
-            test::CaseRender how;
-            how.spp = 128;
-            how.max_depth = 3;
+        for (const Tls how_sampled : {Tls::SolidAngle, Tls::Triangles, Tls::Area})
             variance[int(how_sampled)] =
-                test::mean_sample_variance(test::render_case("opencl", scene, 32, how));
-        }
+                test::mean_sample_variance(render_sampled(c.scene, how_sampled, 32, 3));
         const double by_area = variance[0] / variance[int(Tls::Area)],
                      by_triangles = variance[0] / variance[int(Tls::Triangles)];
         std::printf(
@@ -231,20 +239,6 @@ TEST(TriangleLightVariance, NeverAboveAreaSampling) {
         EXPECT_LT(by_area, c.at_most) << c.what;
         EXPECT_LT(by_triangles, c.rect_at_most) << c.what;
     }
-}
-
-// The mean over pixels of each one's standard deviation per sample (red), squared: a variance
-// that the pixels across the light's edge (whose camera samples see the light or not) do not
-// swamp, as they do the mean of the variances.
-double mean_deviation_squared(const RenderResult& r) {
-    double sum = 0;
-    const size_t n = r.nonfinite.size();
-    for (size_t i = 0; i < n; ++i) {
-        const double k = double(r.spp) - double(r.nonfinite[i]);
-        const double mean = r.sum[3 * i] / k;
-        sum += std::sqrt(std::max(0.0, r.sum_sq[3 * i] / k - mean * mean) * k / (k - 1));
-    }
-    return (sum / double(n)) * (sum / double(n));
 }
 
 // The warp toward the receiver's cosine against uniform samples over the solid angle
@@ -271,13 +265,8 @@ TEST(TriangleLightVariance, CosineWarpLowersDirectLightsVariance) {
         {"plane beside a standing light", plane_beside_a_wall_light(1.f, true).scene, 0.3, 0.3}};
     for (const auto& c : cases) {
         const auto variance = [&](Tls how_sampled, const char* defines) {
-            Scene scene = c.scene;
-            scene.triangle_light_sampling = how_sampled;
-            test::CaseRender how;
-            how.spp = 128;
-            how.max_depth = 1;
-            how.defines = defines;
-            return mean_deviation_squared(test::render_case("opencl", scene, 64, how));
+            return test::mean_sample_deviation_squared(
+                render_sampled(c.scene, how_sampled, 64, 1, defines));
         };
         const double uniform = variance(Tls::Uniform, ""), warped = variance(Tls::Cosine, ""),
                      by_default = variance(Tls::SolidAngle, "");

@@ -6,7 +6,8 @@
 // half is a right triangle, so the rectangle comes back from either: its corner at the right
 // angle, its edges to the other two vertices. The same bounds as for triangles decide where
 // area sampling takes over (triangle_light.h), and rect_solid_angle() decides for next-event
-// estimation and the MIS weight of BSDF-sampled hits alike.
+// estimation and the MIS weight of BSDF-sampled hits alike; the same warp toward the
+// receiver's cosine as for triangles applies (cosine_warp).
 #ifndef MCPT_GPU_RECT_LIGHT_H
 #define MCPT_GPU_RECT_LIGHT_H
 

@@ -7,7 +7,9 @@
 // area instead (pbrt-v4's bounds), and so it is where the light is far for its size, where
 // both sample alike and area sampling costs less. triangle_solid_angle() decides and
 // triangle_light_pdf() computes the pdf, for next-event estimation and for the MIS weight of
-// BSDF-sampled hits alike.
+// BSDF-sampled hits alike. Where the light spans 0.2 sr or more, the uniforms are first warped
+// toward the receiver's cosine (cosine_warp, pbrt-v4's bilinear warp; the MIS weights keep the
+// unwarped pdf).
 #ifndef MCPT_GPU_TRIANGLE_LIGHT_H
 #define MCPT_GPU_TRIANGLE_LIGHT_H
 
