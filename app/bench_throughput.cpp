@@ -45,7 +45,8 @@ struct ThroughputRow {
                tests_per_ray * kTestBytes;
     }
     double gbytes_per_s() const { return bytes_per_ray() * mrays * 1e-3; }
-    bool counted() const { return tree != "rayquery"; }  // work per ray counted on the CPU
+    // Work per ray counted on the CPU (not where the driver traces).
+    bool counted() const { return tree != "rayquery" && tree != "raypipeline"; }
 };
 
 std::vector<std::pair<std::string, Scene>> throughput_scenes(const ThroughputBenchArgs& a) {
@@ -250,8 +251,8 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
     const std::string table = markdown_table(rows);
     std::printf("\n%s", table.c_str());
     std::printf(
-        "\nnode visits and triangle tests per ray: full paths, counted on the CPU (ray queries: "
-        "the driver's, not counted); bytes/ray: "
+        "\nnode visits and triangle tests per ray: full paths, counted on the CPU (rayquery, "
+        "raypipeline: the driver's, not counted); bytes/ray: "
         "%.0f per k-d node visit, %.0f per BVH node visit, %.0f per triangle test (leaf index "
         "and triangle); GB/s: bytes/ray x rays/s, a lower bound on the traffic; Vulkan/OpenCL: "
         "rays/s against OpenCL on the same device, else on the same kind of device\n",

@@ -20,9 +20,10 @@ struct ExitStatus {
 
 // --tree's help, after what the option is for: the choices and what auto picks.
 inline constexpr const char* kTreeChoicesHelp =
-    "auto (per device: the wide BVH, or no tree where the cost model prefers; never ray "
-    "queries), sah, median, none, bvh (the wide BVH), rayquery (Vulkan devices with "
-    "VK_KHR_ray_query: the driver traces)";
+    "auto (per device: the wide BVH, or no tree where the cost model prefers; never the "
+    "driver's tracing), sah, median, none, bvh (the wide BVH), rayquery (Vulkan devices with "
+    "VK_KHR_ray_query: the driver traces), raypipeline (Vulkan devices with "
+    "VK_KHR_ray_tracing_pipeline: the driver traces from a ray-generation shader)";
 
 // Several devices: what each rendered of the session's image since its accumulation began,
 // a line each ("  device K: NAME: C chunks, S spp (P%), R spp/s").

@@ -76,7 +76,8 @@ void add_bench_command(CLI::App& app) {
             const std::vector<std::string> names = tree_kind_names();
             for (std::string t; std::getline(list, t, ',');)
                 if (std::find(names.begin(), names.end(), t) == names.end())
-                    return "unknown tree '" + t + "' (auto, sah, median, none, bvh, rayquery)";
+                    return "unknown tree '" + t +
+                           "' (auto, sah, median, none, bvh, rayquery, raypipeline)";
             return std::string();
         })
         ->capture_default_str();

@@ -2,25 +2,34 @@
 // which continues the pixel's path for at most bounce_budget bounces (step_slot), adds the
 // samples that ended to the pixel's sums in the accumulation buffer and keeps the path for the next dispatch.
 // Everything else is the shared device code in common/gpu/ (the OpenCL twin is
-// kernels/pathtrace.cl, with the same function names).
+// kernels/pathtrace.cl, with the same function names). Built with MCPT_RAY_PIPELINE, the same
+// entry point is a ray-tracing pipeline's ray-generation shader (one launch per pixel of the
+// range, the hit groups in trace_hits.glsl).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
 #if defined(MCPT_RAY_QUERY)
-#extension GL_EXT_ray_query : require  // the driver traces (traverse_rayquery.h)
+#extension GL_EXT_ray_query : require  // the driver traces (traverse_driver.h)
+#elif defined(MCPT_RAY_PIPELINE)
+#extension GL_EXT_ray_tracing : require  // the driver traces (traverse_driver.h)
 #endif
 #define MCPT_GLSL 1
 #include "../common/gpu/fold_sums.h"
 #include "../common/gpu/integrator.h"
 #include "../common/gpu/ray_cast.h"
 
+#if defined(MCPT_RAY_PIPELINE)
+#define INVOCATION_INDEX gl_LaunchIDEXT.x
+#else
 layout(local_size_x_id = 1) in;
+#define INVOCATION_INDEX gl_GlobalInvocationID.x
+#endif
 layout(std430, binding = BINDING_ACCUM) buffer AccumBlock { vec4 accum[]; };
 layout(std430, binding = BINDING_ACCUM) buffer ActiveBlock { uint accum_words[]; };
 layout(std430, binding = BINDING_ACCUM) buffer ExactBlock { uvec4 accum_exact[]; };
 
 void main() {
-    uint gid = gl_GlobalInvocationID.x;
+    uint gid = INVOCATION_INDEX;
     if (gid >= params.pixel_count) return;
     uint pixel = params.pixel_offset + gid;
     // The pixel's sums, path state and the pending word.

@@ -8,6 +8,7 @@
 
 #include "common/error.h"
 #include "common/io/host_memory.h"
+#include "vulkan/vk_ray_pipeline.h"
 
 namespace mcpt::vk {
 
@@ -21,8 +22,7 @@ constexpr VkBufferUsageFlags kBuildInput =
 void after_build(Device& dev) {
     dev.barrier(VK_PIPELINE_STAGE_ACCELERATION_STRUCTURE_BUILD_BIT_KHR,
                 VK_ACCESS_ACCELERATION_STRUCTURE_WRITE_BIT_KHR,
-                VK_PIPELINE_STAGE_ACCELERATION_STRUCTURE_BUILD_BIT_KHR |
-                    VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                VK_PIPELINE_STAGE_ACCELERATION_STRUCTURE_BUILD_BIT_KHR | dev.shader_stages(),
                 VK_ACCESS_ACCELERATION_STRUCTURE_READ_BIT_KHR);
 }
 
@@ -32,11 +32,12 @@ VkDeviceAddress SceneAccel::address_of(const Buffer& b) const {
     VkBufferDeviceAddressInfo ai{};
     ai.sType = VK_STRUCTURE_TYPE_BUFFER_DEVICE_ADDRESS_INFO;
     ai.buffer = b.buffer;
-    return dev_->rq()->vkGetBufferDeviceAddress(dev_->handle(), &ai);
+    return dev_->accel()->vkGetBufferDeviceAddress(dev_->handle(), &ai);
 }
 
 void SceneAccel::destroy(Accel& a) {
-    if (a.handle) dev_->rq()->vkDestroyAccelerationStructureKHR(dev_->handle(), a.handle, nullptr);
+    if (a.handle)
+        dev_->accel()->vkDestroyAccelerationStructureKHR(dev_->handle(), a.handle, nullptr);
     dev_->free_buffer(a.buffer);
     a = Accel{};
 }
@@ -50,7 +51,7 @@ void SceneAccel::release() {
 
 SceneAccel::Accel SceneAccel::build_one(const VkAccelerationStructureGeometryKHR& geometry,
                                         uint32_t count, VkAccelerationStructureTypeKHR type) {
-    const RayQueryFns& rq = *dev_->rq();
+    const AccelFns& rq = *dev_->accel();
     const VkDevice device = dev_->handle();
     // Sizes for this geometry, built for fast tracing and compactable.
     VkAccelerationStructureBuildGeometryInfoKHR bi{};
@@ -158,7 +159,7 @@ void SceneAccel::build(Device& dev, const PhysicalDevice& pd,
     const float box_scale = fault == "shrink" ? 0.5f : 1.0f + 1e-5f;
     if (!fault.empty() && drop == UINT64_MAX && fault != "shrink")
         throw Error("vulkan: unknown acceleration-structure fault '" + fault + "'");
-    if (!dev.rq()) throw Error("vulkan: " + pd.info.name + " has no ray queries");
+    if (!dev.accel()) throw Error("vulkan: " + pd.info.name + " has no acceleration structures");
     dev_ = &dev;
     pd_ = &pd;
     const auto t0 = std::chrono::steady_clock::now();
@@ -166,13 +167,16 @@ void SceneAccel::build(Device& dev, const PhysicalDevice& pd,
     if (tris.size() > max_primitives || spheres.size() > max_primitives) {
         throw Error("vulkan: " + std::to_string(std::max(tris.size(), spheres.size())) +
                     " primitives exceed " + pd.info.name + "'s maxPrimitiveCount (" +
-                    std::to_string(max_primitives) + ") for ray queries");
+                    std::to_string(max_primitives) + ") for the driver's tracing");
     }
     std::vector<VkAccelerationStructureInstanceKHR> instances;
-    auto instance_of = [&](const Accel& a) {
+    // An instance of each bottom-level structure, naming its hit group in the ray-tracing
+    // pipeline's binding table (ray queries ignore it).
+    auto instance_of = [&](const Accel& a, uint32_t hit_group) {
         VkAccelerationStructureInstanceKHR in{};
         in.transform.matrix[0][0] = in.transform.matrix[1][1] = in.transform.matrix[2][2] = 1.0f;
         in.mask = 0xff;
+        in.instanceShaderBindingTableRecordOffset = hit_group;
         in.flags = VK_GEOMETRY_INSTANCE_TRIANGLE_FACING_CULL_DISABLE_BIT_KHR;
         in.accelerationStructureReference = a.address;
         instances.push_back(in);
@@ -209,7 +213,7 @@ void SceneAccel::build(Device& dev, const PhysicalDevice& pd,
                 throw;
             }
             dev.free_buffer(input);
-            instance_of(triangles_);
+            instance_of(triangles_, kTriangleHitGroup);
         }
         // Spheres: a box each, a hair larger than the sphere (the shader's test decides).
         if (!spheres.empty()) {
@@ -236,7 +240,7 @@ void SceneAccel::build(Device& dev, const PhysicalDevice& pd,
                 throw;
             }
             dev.free_buffer(input);
-            instance_of(spheres_);
+            instance_of(spheres_, kSphereHitGroup);
         }
         // The top level: an instance of each, untransformed (none in an empty scene, whose
         // input buffer still holds one).
@@ -268,11 +272,11 @@ void SceneAccel::build(Device& dev, const PhysicalDevice& pd,
 
 std::string SceneAccel::describe() const {
     char buf[192];
-    std::snprintf(
-        buf, sizeof buf, "ray queries: %d bottom-level structure%s, %s%s, built in %.2f ms",
-        int(triangles_.handle != VK_NULL_HANDLE) + int(spheres_.handle != VK_NULL_HANDLE),
-        (triangles_.handle && spheres_.handle) ? "s" : "", human_bytes(stats_.bytes).c_str(),
-        stats_.compacted ? " (compacted)" : "", stats_.build_seconds * 1e3);
+    std::snprintf(buf, sizeof buf,
+                  "acceleration structures: %d bottom-level, %s%s, built in %.2f ms",
+                  int(triangles_.handle != VK_NULL_HANDLE) + int(spheres_.handle != VK_NULL_HANDLE),
+                  human_bytes(stats_.bytes).c_str(), stats_.compacted ? " (compacted)" : "",
+                  stats_.build_seconds * 1e3);
     return buf;
 }
 

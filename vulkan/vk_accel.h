@@ -1,4 +1,5 @@
-// The scene's acceleration structures for ray queries (private to vulkan/; --tree rayquery):
+// The scene's acceleration structures for the driver's tracing (private to vulkan/; --tree
+// rayquery and raypipeline):
 // one bottom-level structure over the triangles (primitive i is triangle i), one over a box
 // per sphere (procedural: the shader tests the sphere), and a top-level structure over both,
 // built on the device once per loaded scene, compacted, and never rebuilt per frame.
@@ -29,9 +30,9 @@ class SceneAccel {
     SceneAccel& operator=(const SceneAccel&) = delete;
 
     // Builds the structures of these triangles and spheres on `dev` (created with ray
-    // queries); triangles are opaque unless `opaque_triangles` is false (alpha masks: the
-    // shader decides each candidate). Replaces what an earlier build made. Throws mcpt::Error.
-    // `fault`: BackendOptions::accel_fault (tests).
+    // queries or the ray-tracing pipeline); triangles are opaque unless `opaque_triangles` is false
+    // (alpha masks: the shader decides each candidate). Replaces what an earlier build made. Throws
+    // mcpt::Error. `fault`: BackendOptions::accel_fault (tests).
     void build(Device& dev, const PhysicalDevice& pd, const std::vector<gpu::GpuTriangle>& tris,
                const std::vector<gpu::GpuSphere>& spheres, bool opaque_triangles,
                const std::string& fault = "");
@@ -39,7 +40,7 @@ class SceneAccel {
 
     VkAccelerationStructureKHR top() const { return top_.handle; }
     const AccelStats& stats() const { return stats_; }
-    // "ray queries: 2 bottom-level structures, 1.2 MB (compacted), built in 3.1 ms".
+    // "acceleration structures: 2 bottom-level, 1.2 MB (compacted), built in 3.1 ms".
     std::string describe() const;
 
   private:

@@ -16,6 +16,7 @@
 #include "vulkan/vk_context.h"
 #include "vulkan/vk_device.h"
 #include "vulkan/vk_limits_profile.h"
+#include "vulkan/vk_ray_pipeline.h"
 
 namespace mcpt {
 
@@ -39,15 +40,17 @@ struct VulkanBackend::Impl {
     VkPipelineLayout pipeline_layout = VK_NULL_HANDLE;
     VkDescriptorPool descriptor_pool = VK_NULL_HANDLE;
     VkDescriptorSet set = VK_NULL_HANDLE;
-    // Devices with ray queries: the module that traces through them, and its descriptor set
-    // (the eight bindings above and the top-level acceleration structure).
+    // Devices with ray queries: the module that traces through them. Those with either ray
+    // queries or the ray-tracing pipeline: the descriptor set of both (the eight bindings
+    // above and the top-level acceleration structure).
     VkShaderModule rq_module = VK_NULL_HANDLE;
-    VkDescriptorSetLayout rq_set_layout = VK_NULL_HANDLE;
-    VkPipelineLayout rq_pipeline_layout = VK_NULL_HANDLE;
-    VkDescriptorPool rq_pool = VK_NULL_HANDLE;
-    VkDescriptorSet rq_set = VK_NULL_HANDLE;
+    VkDescriptorSetLayout tlas_set_layout = VK_NULL_HANDLE;
+    VkPipelineLayout tlas_pipeline_layout = VK_NULL_HANDLE;
+    VkDescriptorPool tlas_pool = VK_NULL_HANDLE;
+    VkDescriptorSet tlas_set = VK_NULL_HANDLE;
     VkPipelineCache cache = VK_NULL_HANDLE;
-    VkPipeline pipeline = VK_NULL_HANDLE;
+    VkPipeline pipeline = VK_NULL_HANDLE;  // the compute pipeline (not with scene_rt)
+    vk::RayPipeline ray_pipeline;          // the ray-tracing pipeline (scene_rt)
     std::string cache_path;
     std::vector<char> cache_data;  // as last read or written
 
@@ -57,7 +60,8 @@ struct VulkanBackend::Impl {
                  shading_view = VK_NULL_HANDLE;
     bool scene_texels = false;  // the pipeline reads the views, not the storage buffers
     bool scene_rq = false;      // the pipeline traces through ray queries (SCENE_RAY_QUERY)
-    vk::SceneAccel accel;       // the scene's acceleration structures, where scene_rq
+    bool scene_rt = false;      // the ray-tracing pipeline traces (SCENE_RAY_PIPELINE)
+    vk::SceneAccel accel;       // the scene's acceleration structures, where either
     uint32_t pixels = 0;
     uint64_t counter_offset = 0;  // bytes: the active-slot counter in the accumulation buffer
     AccumLayout accum_shape;      // what the accumulation buffer holds
@@ -66,7 +70,7 @@ struct VulkanBackend::Impl {
     uint32_t local = WORKGROUP_SIZE;
     uint32_t max_groups = 1;
     uint32_t built_stack = 0, built_features = 0;
-    bool built_texels = false, built_rq = false;
+    bool built_texels = false, built_rq = false, built_rt = false;
     bool first_dispatch_logged = true;  // until a build
     std::string built_settings;  // the specialization constants, "NAME=value ..."
     BackendOptions options;
@@ -121,9 +125,10 @@ struct VulkanBackend::Impl {
 
         // The descriptor set: the params uniform buffer, storage buffers and texel buffers at
         // the BINDING_* slots.
-        make_descriptor_set(VK_BINDING_COUNT, set_layout, pipeline_layout, descriptor_pool, set);
+        make_descriptor_set(VK_BINDING_COUNT, VK_SHADER_STAGE_COMPUTE_BIT, set_layout,
+                            pipeline_layout, descriptor_pool, set);
 
-        if (pd.ray_query) init_ray_query();
+        if (pd.accel()) init_driver_tracing();
 
         // Pipeline cache, seeded from disk when the file matches this device and driver.
         cache_path = vk::pipeline_cache_path(pd.props);
@@ -140,11 +145,11 @@ struct VulkanBackend::Impl {
             uint32_t(vk::env_limit("MCPT_VULKAN_MAX_GROUP_COUNT", l.maxComputeWorkGroupCount[0]));
     }
 
-    // A descriptor set layout of `count` bindings (descriptor_type() of each slot), its
-    // pipeline layout, a pool for one set, and the set.
-    void make_descriptor_set(uint32_t count, VkDescriptorSetLayout& layout,
-                             VkPipelineLayout& pipeline_layout_out, VkDescriptorPool& pool,
-                             VkDescriptorSet& out) {
+    // A descriptor set layout of `count` bindings (descriptor_type() of each slot) for these
+    // stages, its pipeline layout, a pool for one set, and the set.
+    void make_descriptor_set(uint32_t count, VkShaderStageFlags stages,
+                             VkDescriptorSetLayout& layout, VkPipelineLayout& pipeline_layout_out,
+                             VkDescriptorPool& pool, VkDescriptorSet& out) {
         const vk::DeviceFns& f = dev->fn();
         const VkDevice device = dev->handle();
         VkDescriptorSetLayoutBinding bindings[VK_RAY_QUERY_BINDING_COUNT]{};
@@ -152,7 +157,7 @@ struct VulkanBackend::Impl {
             bindings[b].binding = b;
             bindings[b].descriptorType = descriptor_type(b);
             bindings[b].descriptorCount = 1;
-            bindings[b].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
+            bindings[b].stageFlags = stages;
         }
         VkDescriptorSetLayoutCreateInfo li{};
         li.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
@@ -172,7 +177,7 @@ struct VulkanBackend::Impl {
         VkDescriptorPoolCreateInfo dpi{};
         dpi.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
         dpi.maxSets = 1;
-        dpi.poolSizeCount = count > BINDING_TLAS ? 4 : 3;  // the structure: ray queries only
+        dpi.poolSizeCount = count > BINDING_TLAS ? 4 : 3;  // the structure: the driver's only
         dpi.pPoolSizes = sizes;
         VK_CHECK(f.vkCreateDescriptorPool, device, &dpi, nullptr, &pool);
         VkDescriptorSetAllocateInfo dsi{};
@@ -183,16 +188,25 @@ struct VulkanBackend::Impl {
         VK_CHECK(f.vkAllocateDescriptorSets, device, &dsi, &out);
     }
 
-    // The ray-query module and its descriptor set: the eight bindings of init() and the
-    // top-level acceleration structure at BINDING_TLAS.
-    void init_ray_query() {
-        VkShaderModuleCreateInfo si{};
-        si.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
-        si.codeSize = sizeof(kPathtraceRayQuerySpirv);
-        si.pCode = kPathtraceRayQuerySpirv;
-        VK_CHECK(dev->fn().vkCreateShaderModule, dev->handle(), &si, nullptr, &rq_module);
-        make_descriptor_set(VK_RAY_QUERY_BINDING_COUNT, rq_set_layout, rq_pipeline_layout, rq_pool,
-                            rq_set);
+    // The ray-query module, and the descriptor set of the driver's tracing: the eight
+    // bindings of init() and the top-level acceleration structure at BINDING_TLAS, for the
+    // compute stage and, where the device has the pipeline, its ray-tracing stages.
+    void init_driver_tracing() {
+        if (pd.ray_query) {
+            VkShaderModuleCreateInfo si{};
+            si.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
+            si.codeSize = sizeof(kPathtraceRayQuerySpirv);
+            si.pCode = kPathtraceRayQuerySpirv;
+            VK_CHECK(dev->fn().vkCreateShaderModule, dev->handle(), &si, nullptr, &rq_module);
+        }
+        VkShaderStageFlags stages = VK_SHADER_STAGE_COMPUTE_BIT;
+        if (pd.ray_pipeline) {
+            stages |= VK_SHADER_STAGE_RAYGEN_BIT_KHR | VK_SHADER_STAGE_MISS_BIT_KHR |
+                      VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR | VK_SHADER_STAGE_ANY_HIT_BIT_KHR |
+                      VK_SHADER_STAGE_INTERSECTION_BIT_KHR;
+        }
+        make_descriptor_set(VK_RAY_QUERY_BINDING_COUNT, stages, tlas_set_layout,
+                            tlas_pipeline_layout, tlas_pool, tlas_set);
     }
 
     void destroy() {
@@ -201,12 +215,14 @@ struct VulkanBackend::Impl {
             const VkDevice device = dev->handle();
             f.vkDeviceWaitIdle(device);
             release_scene();
+            ray_pipeline.release();
             if (pipeline) f.vkDestroyPipeline(device, pipeline, nullptr);
             if (cache) f.vkDestroyPipelineCache(device, cache, nullptr);
             if (descriptor_pool) f.vkDestroyDescriptorPool(device, descriptor_pool, nullptr);
-            if (rq_pool) f.vkDestroyDescriptorPool(device, rq_pool, nullptr);
-            if (rq_pipeline_layout) f.vkDestroyPipelineLayout(device, rq_pipeline_layout, nullptr);
-            if (rq_set_layout) f.vkDestroyDescriptorSetLayout(device, rq_set_layout, nullptr);
+            if (tlas_pool) f.vkDestroyDescriptorPool(device, tlas_pool, nullptr);
+            if (tlas_pipeline_layout)
+                f.vkDestroyPipelineLayout(device, tlas_pipeline_layout, nullptr);
+            if (tlas_set_layout) f.vkDestroyDescriptorSetLayout(device, tlas_set_layout, nullptr);
             if (rq_module) f.vkDestroyShaderModule(device, rq_module, nullptr);
             if (pipeline_layout) f.vkDestroyPipelineLayout(device, pipeline_layout, nullptr);
             if (set_layout) f.vkDestroyDescriptorSetLayout(device, set_layout, nullptr);
@@ -269,17 +285,19 @@ struct VulkanBackend::Impl {
         }
         for (Buffer* b : {&params, &tree, &tris, &shading, &accum, &readback}) dev->free_buffer(*b);
         accel.release();
-        scene_rq = false;
+        scene_rq = scene_rt = false;
         pixels = 0;
     }
 
-    void build(uint32_t stack_size, uint32_t features, bool texels, bool rq) {
-        if (pipeline && stack_size == built_stack && features == built_features &&
-            texels == built_texels && rq == built_rq)
+    void build(uint32_t stack_size, uint32_t features, bool texels, bool rq, bool rt) {
+        if ((pipeline || ray_pipeline.handle()) && stack_size == built_stack &&
+            features == built_features && texels == built_texels && rq == built_rq &&
+            rt == built_rt)
             return;
         const vk::DeviceFns& f = dev->fn();
         if (pipeline) f.vkDestroyPipeline(dev->handle(), pipeline, nullptr);
         pipeline = VK_NULL_HANDLE;
+        ray_pipeline.release();
         const auto t0 = std::chrono::steady_clock::now();
         // Specialization: id 0 = KD_STACK_SIZE, id 1 = local_size_x, id 2 = MCPT_FEATURES,
         // ids 3, 4 and 5 = KD_NODE_STEPS, KD_TRI_STEPS and KD_OVERLAP, id 6 = the environment
@@ -303,27 +321,33 @@ struct VulkanBackend::Impl {
         spec.pMapEntries = entries;
         spec.dataSize = sizeof(values);
         spec.pData = values;
-        VkComputePipelineCreateInfo ci{};
-        ci.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
-        ci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
-        ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-        ci.stage.module = rq ? rq_module : texels ? texel_module : module;
-        ci.stage.pName = "main";
-        ci.stage.pSpecializationInfo = &spec;
-        ci.layout = rq ? rq_pipeline_layout : pipeline_layout;
         // A cold build (compile nonce) bypasses the pipeline cache and leaves it as it is.
         const bool cold = options.compile_nonce != 0;
-        VK_CHECK(f.vkCreateComputePipelines, dev->handle(), cold ? VK_NULL_HANDLE : cache, 1, &ci,
-                 nullptr, &pipeline);
+        if (rt) {
+            ray_pipeline.build(*dev, pd, tlas_pipeline_layout, spec, cold ? VK_NULL_HANDLE : cache);
+        } else {
+            VkComputePipelineCreateInfo ci{};
+            ci.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
+            ci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+            ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+            ci.stage.module = rq ? rq_module : texels ? texel_module : module;
+            ci.stage.pName = "main";
+            ci.stage.pSpecializationInfo = &spec;
+            ci.layout = rq ? tlas_pipeline_layout : pipeline_layout;
+            VK_CHECK(f.vkCreateComputePipelines, dev->handle(), cold ? VK_NULL_HANDLE : cache, 1,
+                     &ci, nullptr, &pipeline);
+        }
         compile_seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         built_stack = stack_size;
         built_features = features;
         built_texels = texels;
         built_rq = rq;
+        built_rt = rt;
         first_dispatch_logged = false;
         log_compile("vulkan", compile_seconds,
-                    built_settings + (rq       ? " rayquery"
+                    built_settings + (rt       ? " raypipeline"
+                                      : rq     ? " rayquery"
                                       : texels ? " texels"
                                                : " storage"));
 
@@ -376,22 +400,29 @@ struct VulkanBackend::Impl {
         const bool fits = make_view(tree, tree_words.size(), tree_texel, tree_view) &
                           make_view(tris, tri_words.size(), 4, tris_view) &
                           make_view(shading, shading_words.size(), 4, shading_view);
-        // Ray queries: the scene's acceleration structures, read by the storage-buffer form.
+        // The driver's tracing: the scene's acceleration structures, read by the
+        // storage-buffer form.
         scene_rq = (scene.params.scene_flags & SCENE_RAY_QUERY) != 0u;
-        if (scene_rq) {
-            if (!pd.ray_query) {
-                throw Error(description() +
-                            ": --tree rayquery needs ray queries, and this "
-                            "device has " +
-                            pd.ray_query_note + "; use --tree auto or bvh");
-            }
+        scene_rt = (scene.params.scene_flags & SCENE_RAY_PIPELINE) != 0u;
+        if (scene_rq && !pd.ray_query) {
+            throw Error(description() +
+                        ": --tree rayquery needs ray queries, and this device has " +
+                        pd.ray_query_note + "; use --tree auto or bvh");
+        }
+        if (scene_rt && !pd.ray_pipeline) {
+            throw Error(description() +
+                        ": --tree raypipeline needs the ray-tracing pipeline, and this device "
+                        "has " +
+                        pd.ray_pipeline_note + "; use --tree auto or bvh");
+        }
+        if (scene_rq || scene_rt) {
             accel.build(*dev, pd, scene.triangles, scene.spheres,
                         (scene.params.scene_flags & SCENE_ALPHA_MASK) == 0u, options.accel_fault);
         }
-        scene_texels = !scene_rq && prefer_texels() && fits;
+        scene_texels = !scene_rq && !scene_rt && prefer_texels() && fits;
 
         // Pipeline for this scene's stack depth and features, and how it reads the scene.
-        build(scene.stack_size, compile_features(options, scene), scene_texels, scene_rq);
+        build(scene.stack_size, compile_features(options, scene), scene_texels, scene_rq, scene_rt);
         accum = dev->create_buffer(accum_bytes,
                                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
                                        VK_BUFFER_USAGE_TRANSFER_SRC_BIT |
@@ -409,7 +440,7 @@ struct VulkanBackend::Impl {
         dev->fn().vkCmdFillBuffer(dev->cmd(), accum.buffer, 0, VK_WHOLE_SIZE, 0);
         dev->barrier(
             VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
-            VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
+            dev->shader_stages() | VK_PIPELINE_STAGE_HOST_BIT,
             VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT);
         dev->submit_and_wait();
         pixels = uint32_t(npix);
@@ -429,7 +460,8 @@ struct VulkanBackend::Impl {
         views[BINDING_SHADING_TEXELS] = shading_view;
         VkDescriptorBufferInfo infos[BINDING_COUNT];
         VkWriteDescriptorSet writes[VK_RAY_QUERY_BINDING_COUNT]{};
-        const uint32_t count = scene_rq ? VK_RAY_QUERY_BINDING_COUNT : VK_BINDING_COUNT;
+        const bool tlas = scene_rq || scene_rt;
+        const uint32_t count = tlas ? VK_RAY_QUERY_BINDING_COUNT : VK_BINDING_COUNT;
         const VkAccelerationStructureKHR top = accel.top();
         VkWriteDescriptorSetAccelerationStructureKHR top_write{};
         top_write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET_ACCELERATION_STRUCTURE_KHR;
@@ -437,7 +469,7 @@ struct VulkanBackend::Impl {
         top_write.pAccelerationStructures = &top;
         for (uint32_t b = 0; b < count; ++b) {
             writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-            writes[b].dstSet = scene_rq ? rq_set : set;
+            writes[b].dstSet = tlas ? tlas_set : set;
             writes[b].dstBinding = b;
             writes[b].descriptorCount = 1;
             writes[b].descriptorType = descriptor_type(b);
@@ -454,16 +486,19 @@ struct VulkanBackend::Impl {
     }
 
     uint32_t dispatch(const gpu::GpuParams& p) {
-        if (!pipeline || pixels == 0) throw Error("vulkan: dispatch() before load()");
+        if ((!pipeline && !ray_pipeline.handle()) || pixels == 0)
+            throw Error("vulkan: dispatch() before load()");
         if (uint64_t(p.pixel_offset) + p.pixel_count > pixels) {
             throw Error("vulkan: dispatch of pixels [" + std::to_string(p.pixel_offset) + ", " +
                         std::to_string(uint64_t(p.pixel_offset) + p.pixel_count) +
                         ") outside the " + std::to_string(pixels) + " loaded");
         }
         if (p.pixel_count == 0) return 0;
-        // More workgroups than the device allows in one dispatch: consecutive dispatches
-        // over pixel ranges (vkCmdDispatchBase gave wrong pixels on NVIDIA's driver).
-        const uint64_t max_pixels = uint64_t(max_groups) * local;
+        // More workgroups (or launches) than the device allows in one dispatch: consecutive
+        // dispatches over pixel ranges (vkCmdDispatchBase gave wrong pixels on NVIDIA's driver).
+        const uint64_t max_pixels = scene_rt ? std::min<uint64_t>(vk::RayPipeline::max_launch(pd),
+                                                                  uint64_t(max_groups) * local)
+                                             : uint64_t(max_groups) * local;
         if (p.pixel_count > max_pixels) {
             uint32_t active = 0;
             for (uint64_t done = 0; done < p.pixel_count; done += max_pixels) {
@@ -483,21 +518,25 @@ struct VulkanBackend::Impl {
         dev->begin_commands();
         // The active-slot counter (after the sums and the path state) starts at zero.
         f.vkCmdFillBuffer(cmd, accum.buffer, counter_offset, 16, 0);
-        dev->barrier(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+        dev->barrier(dev->shader_stages() | VK_PIPELINE_STAGE_TRANSFER_BIT,
                      VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
-                     VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                     VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+                     dev->shader_stages(), VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
         if (timer) {
             f.vkCmdResetQueryPool(cmd, timer, 0, 2);
             f.vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, timer, 0);
         }
-        f.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
-        f.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
-                                  scene_rq ? rq_pipeline_layout : pipeline_layout, 0, 1,
-                                  scene_rq ? &rq_set : &set, 0, nullptr);
-        f.vkCmdDispatch(cmd, (p.pixel_count + local - 1) / local, 1, 1);
+        const VkPipelineBindPoint point =
+            scene_rt ? VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR : VK_PIPELINE_BIND_POINT_COMPUTE;
+        const bool tlas = scene_rq || scene_rt;
+        f.vkCmdBindPipeline(cmd, point, scene_rt ? ray_pipeline.handle() : pipeline);
+        f.vkCmdBindDescriptorSets(cmd, point, tlas ? tlas_pipeline_layout : pipeline_layout, 0, 1,
+                                  tlas ? &tlas_set : &set, 0, nullptr);
+        if (scene_rt)
+            ray_pipeline.trace(p.pixel_count);
+        else
+            f.vkCmdDispatch(cmd, (p.pixel_count + local - 1) / local, 1, 1);
         if (timer) f.vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timer, 1);
-        dev->barrier(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+        dev->barrier(dev->shader_stages(), VK_ACCESS_SHADER_WRITE_BIT,
                      VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
                      VK_ACCESS_HOST_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT);
         if (!accum.mapped) {
@@ -547,7 +586,7 @@ struct VulkanBackend::Impl {
         const VkBufferCopy region{0, accum_shape.plan_offset(), bytes};
         dev->fn().vkCmdCopyBuffer(dev->cmd(), readback.buffer, accum.buffer, 1, &region);
         dev->barrier(VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
-                     VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
+                     dev->shader_stages(), VK_ACCESS_SHADER_READ_BIT);
         dev->submit_and_wait();
     }
 
@@ -663,7 +702,8 @@ std::string VulkanBackend::build_settings() const {
 std::string VulkanBackend::layout() const {
     return vk::layout_line(impl_->pd.props.limits) +
            (impl_->scene_texels ? ", scene read as texel buffers" : "") +
-           (impl_->scene_rq ? ", " + impl_->accel.describe() : "") +
+           (impl_->scene_rq ? ", ray queries, " + impl_->accel.describe() : "") +
+           (impl_->scene_rt ? ", ray-tracing pipeline, " + impl_->accel.describe() : "") +
            window_note(impl_->accum_shape);
 }
 uint32_t VulkanBackend::local_size() const {

@@ -296,36 +296,56 @@ VKAPI_ATTR VkBool32 VKAPI_CALL Instance::on_message(
     return VK_FALSE;
 }
 
-// Whether ray queries are usable on d (PhysicalDevice::ray_query, with the reason if not).
-void Instance::probe_ray_query(PhysicalDevice& d, bool extensions) const {
+// Whether ray queries and the ray-tracing pipeline are usable on d (PhysicalDevice::ray_query
+// and ray_pipeline, with the reason where not), from its extensions and features.
+void Instance::probe_driver_tracing(PhysicalDevice& d,
+                                    const std::vector<std::string>& extensions) const {
     if (d.props.apiVersion < VK_API_VERSION_1_2) {
-        d.ray_query_note = "no (Vulkan " + version_string(d.props.apiVersion) + ", 1.2 needed)";
+        d.ray_query_note = d.ray_pipeline_note =
+            "no (Vulkan " + version_string(d.props.apiVersion) + ", 1.2 needed)";
         return;
     }
-    if (!extensions) {
-        d.ray_query_note = "no (VK_KHR_ray_query or VK_KHR_acceleration_structure absent)";
-        return;
-    }
+    const auto has = [&](const char* e) {
+        return std::find(extensions.begin(), extensions.end(), e) != extensions.end();
+    };
+    bool accel = true;
+    for (const char* e : kAccelExtensions) accel = accel && has(e);
+    VkPhysicalDeviceRayTracingPipelineFeaturesKHR rt{};
+    rt.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR;
     VkPhysicalDeviceRayQueryFeaturesKHR rq{};
     rq.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR;
+    rq.pNext = has(kRayPipelineExtension) ? &rt : nullptr;
     VkPhysicalDeviceAccelerationStructureFeaturesKHR as{};
     as.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR;
-    as.pNext = &rq;
+    as.pNext = has(kRayQueryExtension) ? static_cast<void*>(&rq) : rq.pNext;
     VkPhysicalDeviceVulkan12Features v12{};
     v12.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES;
-    v12.pNext = &as;
+    v12.pNext = accel ? &as : nullptr;
     VkPhysicalDeviceFeatures2 f2{};
     f2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
     f2.pNext = &v12;
     fn_.vkGetPhysicalDeviceFeatures2(d.handle, &f2);
-    d.ray_query = rq.rayQuery && as.accelerationStructure && v12.bufferDeviceAddress;
+    const bool base = accel && as.accelerationStructure && v12.bufferDeviceAddress;
+    const auto note = [&](bool extension, bool feature, const char* name) {
+        if (!accel || !extension)
+            return std::string("no (") + name + " or VK_KHR_acceleration_structure absent)";
+        return std::string(base && feature ? "yes (" : "no (features not supported: ") + name + ")";
+    };
+    d.ray_query = base && has(kRayQueryExtension) && rq.rayQuery;
+    d.ray_query_note = note(has(kRayQueryExtension), rq.rayQuery, kRayQueryExtension);
+    d.ray_pipeline = base && has(kRayPipelineExtension) && rt.rayTracingPipeline;
+    d.ray_pipeline_note =
+        note(has(kRayPipelineExtension), rt.rayTracingPipeline, kRayPipelineExtension);
+    if (!d.accel()) return;
     d.accel_props.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_PROPERTIES_KHR;
+    d.rt_props.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_PROPERTIES_KHR;
+    d.accel_props.pNext = d.ray_pipeline ? &d.rt_props : nullptr;
     VkPhysicalDeviceProperties2 p2{};
     p2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
     p2.pNext = &d.accel_props;
     fn_.vkGetPhysicalDeviceProperties2(d.handle, &p2);
     d.accel_props.pNext = nullptr;
-    d.ray_query_note = d.ray_query ? "yes (VK_KHR_ray_query)" : "no (features not supported)";
+    d.rt_props.pNext = nullptr;
 }
 
 std::vector<PhysicalDevice> Instance::devices(const std::string& profile_request) const {
@@ -350,16 +370,12 @@ std::vector<PhysicalDevice> Instance::devices(const std::string& profile_request
             VK_CHECK(fn_.vkEnumerateDeviceExtensionProperties, h, nullptr, &next, nullptr);
             std::vector<VkExtensionProperties> exts(next);
             VK_CHECK(fn_.vkEnumerateDeviceExtensionProperties, h, nullptr, &next, exts.data());
-            bool has_driver_props = false;
-            size_t rq_extensions = 0;
-            for (uint32_t i = 0; i < next; ++i) {
-                if (std::strcmp(exts[i].extensionName, VK_KHR_DRIVER_PROPERTIES_EXTENSION_NAME) ==
-                    0)
-                    has_driver_props = true;
-                for (const char* e : kRayQueryExtensions)
-                    rq_extensions += std::strcmp(exts[i].extensionName, e) == 0;
-            }
-            probe_ray_query(d, rq_extensions == std::size(kRayQueryExtensions));
+            std::vector<std::string> names;
+            for (uint32_t i = 0; i < next; ++i) names.emplace_back(exts[i].extensionName);
+            const bool has_driver_props =
+                std::find(names.begin(), names.end(), VK_KHR_DRIVER_PROPERTIES_EXTENSION_NAME) !=
+                names.end();
+            probe_driver_tracing(d, names);
             VkPhysicalDeviceDriverPropertiesKHR drv{};
             drv.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES_KHR;
             VkPhysicalDeviceMaintenance3Properties m3{};
@@ -436,8 +452,12 @@ std::vector<PhysicalDevice> Instance::devices(const std::string& profile_request
                     ((heap.flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) ? ", device-local" : ""));
         }
         i.ray_queries = d.ray_query;
+        i.ray_pipelines = d.ray_pipeline;
         i.limits.emplace_back("ray queries",
                               d.ray_query_note.empty() ? "no (Vulkan 1.0)" : d.ray_query_note);
+        i.limits.emplace_back("ray-tracing pipeline", d.ray_pipeline_note.empty()
+                                                          ? "no (Vulkan 1.0)"
+                                                          : d.ray_pipeline_note);
         i.limits.emplace_back("timestamps", d.queue_family == UINT32_MAX ? "no compute queue"
                                             : d.timestamp_valid_bits == 0
                                                 ? "none"

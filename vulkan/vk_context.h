@@ -87,8 +87,8 @@ namespace mcpt::vk {
     X(vkQueueSubmit)
 
 // Buffer device addresses and acceleration structures: loaded only on a device created with
-// ray queries (PhysicalDevice::ray_query).
-#define MCPT_VK_RAY_QUERY_FUNCTIONS(X)               \
+// ray queries or the ray-tracing pipeline (PhysicalDevice::accel()).
+#define MCPT_VK_ACCEL_FUNCTIONS(X)                   \
     X(vkGetBufferDeviceAddress)                      \
     X(vkCreateAccelerationStructureKHR)              \
     X(vkDestroyAccelerationStructureKHR)             \
@@ -97,6 +97,11 @@ namespace mcpt::vk {
     X(vkGetAccelerationStructureDeviceAddressKHR)    \
     X(vkCmdWriteAccelerationStructuresPropertiesKHR) \
     X(vkCmdCopyAccelerationStructureKHR)
+// The ray-tracing pipeline's: loaded where PhysicalDevice::ray_pipeline.
+#define MCPT_VK_RAY_PIPELINE_FUNCTIONS(X)   \
+    X(vkCreateRayTracingPipelinesKHR)       \
+    X(vkGetRayTracingShaderGroupHandlesKHR) \
+    X(vkCmdTraceRaysKHR)
 
 #define MCPT_VK_DECLARE(name) PFN_##name name = nullptr;
 struct InstanceFns {
@@ -108,8 +113,11 @@ struct InstanceFns {
 struct DeviceFns {
     MCPT_VK_DEVICE_FUNCTIONS(MCPT_VK_DECLARE)
 };
-struct RayQueryFns {
-    MCPT_VK_RAY_QUERY_FUNCTIONS(MCPT_VK_DECLARE)
+struct AccelFns {
+    MCPT_VK_ACCEL_FUNCTIONS(MCPT_VK_DECLARE)
+};
+struct RayPipelineFns {
+    MCPT_VK_RAY_PIPELINE_FUNCTIONS(MCPT_VK_DECLARE)
 };
 #undef MCPT_VK_DECLARE
 
@@ -143,13 +151,24 @@ struct PhysicalDevice {
     // VK_KHR_ray_query and VK_KHR_deferred_host_operations, with their features and
     // bufferDeviceAddress; the device is then created with them.
     bool ray_query = false;
-    std::string ray_query_note;                                        // why not, or "yes"
-    VkPhysicalDeviceAccelerationStructurePropertiesKHR accel_props{};  // where ray_query
+    std::string ray_query_note;  // why not, or "yes"
+    // The ray-tracing pipeline usable (--tree raypipeline): the same with
+    // VK_KHR_ray_tracing_pipeline instead of VK_KHR_ray_query (NVIDIA's H100 driver has only
+    // this one).
+    bool ray_pipeline = false;
+    std::string ray_pipeline_note;
+    VkPhysicalDeviceAccelerationStructurePropertiesKHR accel_props{};  // where accel()
+    VkPhysicalDeviceRayTracingPipelinePropertiesKHR rt_props{};        // where ray_pipeline
+    // Acceleration structures: either way of tracing through them.
+    bool accel() const { return ray_query || ray_pipeline; }
 };
 
-// The device extensions ray queries take (besides Vulkan 1.2's buffer device addresses).
-inline constexpr const char* kRayQueryExtensions[] = {
-    "VK_KHR_acceleration_structure", "VK_KHR_ray_query", "VK_KHR_deferred_host_operations"};
+// The device extensions each way of tracing takes (besides Vulkan 1.2's buffer device
+// addresses).
+inline constexpr const char* kAccelExtensions[] = {"VK_KHR_acceleration_structure",
+                                                   "VK_KHR_deferred_host_operations"};
+inline constexpr const char* kRayQueryExtension = "VK_KHR_ray_query";
+inline constexpr const char* kRayPipelineExtension = "VK_KHR_ray_tracing_pipeline";
 
 // The buffer limits of a device for check_device_limits(), with MCPT_VULKAN_MAX_BUFFER_BYTES
 // applied as the environment says now.
@@ -174,7 +193,7 @@ class Instance {
     std::vector<PhysicalDevice> devices(const std::string& profile = "") const;
 
   private:
-    void probe_ray_query(PhysicalDevice& d, bool extensions) const;
+    void probe_driver_tracing(PhysicalDevice& d, const std::vector<std::string>& extensions) const;
     static VKAPI_ATTR VkBool32 VKAPI_CALL on_message(
         VkDebugUtilsMessageSeverityFlagBitsEXT severity, VkDebugUtilsMessageTypeFlagsEXT types,
         const VkDebugUtilsMessengerCallbackDataEXT* data, void* user);

@@ -16,7 +16,8 @@ namespace mcpt::vk {
 Device::Device(const Instance& instance, const PhysicalDevice& pd, std::string name)
     : memory_(pd.memory), name_(std::move(name)) {
     const InstanceFns& fi = instance.fn();
-    // Device with one compute queue; no features, no extensions, unless ray queries.
+    // Device with one compute queue; no features, no extensions, unless the driver traces
+    // (ray queries, the ray-tracing pipeline: each where the device has it).
     const float priority = 1.f;
     VkDeviceQueueCreateInfo qi{};
     qi.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO;
@@ -27,30 +28,44 @@ Device::Device(const Instance& instance, const PhysicalDevice& pd, std::string n
     di.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
     di.queueCreateInfoCount = 1;
     di.pQueueCreateInfos = &qi;
+    std::vector<const char*> extensions(std::begin(kAccelExtensions), std::end(kAccelExtensions));
+    VkPhysicalDeviceRayTracingPipelineFeaturesKHR rt{};
+    rt.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR;
+    rt.rayTracingPipeline = VK_TRUE;
     VkPhysicalDeviceRayQueryFeaturesKHR rq{};
     rq.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR;
     rq.rayQuery = VK_TRUE;
     VkPhysicalDeviceAccelerationStructureFeaturesKHR as{};
     as.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR;
     as.accelerationStructure = VK_TRUE;
-    as.pNext = &rq;
     VkPhysicalDeviceVulkan12Features v12{};
     v12.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES;
     v12.bufferDeviceAddress = VK_TRUE;
     v12.pNext = &as;
+    void** tail = &as.pNext;
     if (pd.ray_query) {
+        extensions.push_back(kRayQueryExtension);
+        *tail = &rq;
+        tail = &rq.pNext;
+    }
+    if (pd.ray_pipeline) {
+        extensions.push_back(kRayPipelineExtension);
+        *tail = &rt;
+    }
+    if (pd.accel()) {
         di.pNext = &v12;
-        di.enabledExtensionCount = uint32_t(std::size(kRayQueryExtensions));
-        di.ppEnabledExtensionNames = kRayQueryExtensions;
+        di.enabledExtensionCount = uint32_t(extensions.size());
+        di.ppEnabledExtensionNames = extensions.data();
     }
     VK_CHECK(fi.vkCreateDevice, pd.handle, &di, nullptr, &device_);
 
     // Device-level functions, all or none.
     DeviceFns loaded;
     const char* missing = nullptr;
-#define MCPT_VK_LOAD(name)                                                              \
-    loaded.name = reinterpret_cast<PFN_##name>(fi.vkGetDeviceProcAddr(device_, #name)); \
-    if (!loaded.name && !missing) missing = #name;
+#define MCPT_VK_LOAD_INTO(fns, name)                                                 \
+    fns.name = reinterpret_cast<PFN_##name>(fi.vkGetDeviceProcAddr(device_, #name)); \
+    if (!fns.name && !missing) missing = #name;
+#define MCPT_VK_LOAD(name) MCPT_VK_LOAD_INTO(loaded, name)
     MCPT_VK_DEVICE_FUNCTIONS(MCPT_VK_LOAD)
 #undef MCPT_VK_LOAD
     if (missing) {
@@ -58,18 +73,23 @@ Device::Device(const Instance& instance, const PhysicalDevice& pd, std::string n
         throw Error("the Vulkan driver of " + name_ + " has no " + missing);
     }
     f_ = loaded;
-    if (pd.ray_query) {
-#define MCPT_VK_LOAD(name)                                                               \
-    rq_fns_.name = reinterpret_cast<PFN_##name>(fi.vkGetDeviceProcAddr(device_, #name)); \
-    if (!rq_fns_.name && !missing) missing = #name;
-        MCPT_VK_RAY_QUERY_FUNCTIONS(MCPT_VK_LOAD)
-#undef MCPT_VK_LOAD
-        if (missing) {
-            f_.vkDestroyDevice(device_, nullptr);
-            throw Error("the Vulkan driver of " + name_ + " has no " + missing);
-        }
-        rq_ = true;
+#define MCPT_VK_LOAD(name) MCPT_VK_LOAD_INTO(accel_fns_, name)
+    if (pd.accel()) {
+        MCPT_VK_ACCEL_FUNCTIONS(MCPT_VK_LOAD)
     }
+#undef MCPT_VK_LOAD
+#define MCPT_VK_LOAD(name) MCPT_VK_LOAD_INTO(rt_fns_, name)
+    if (pd.ray_pipeline) {
+        MCPT_VK_RAY_PIPELINE_FUNCTIONS(MCPT_VK_LOAD)
+    }
+#undef MCPT_VK_LOAD
+#undef MCPT_VK_LOAD_INTO
+    if (missing) {
+        f_.vkDestroyDevice(device_, nullptr);
+        throw Error("the Vulkan driver of " + name_ + " has no " + missing);
+    }
+    accel_ = pd.accel();
+    rt_ = pd.ray_pipeline;
     f_.vkGetDeviceQueue(device_, pd.queue_family, 0, &queue_);
 
     // Command pool, one reusable command buffer, a fence.
@@ -175,8 +195,10 @@ Buffer Device::upload(const void* data, size_t bytes, VkBufferUsageFlags more_us
         begin_commands();
         const VkBufferCopy region{0, 0, bytes};
         f_.vkCmdCopyBuffer(cmd_, staging.buffer, b.buffer, 1, &region);
-        barrier(VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
-                VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
+        barrier(
+            VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+            shader_stages() | (accel_ ? VK_PIPELINE_STAGE_ACCELERATION_STRUCTURE_BUILD_BIT_KHR : 0),
+            VK_ACCESS_SHADER_READ_BIT);
         submit_and_wait();
     } catch (...) {
         free_buffer(staging);

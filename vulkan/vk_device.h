@@ -1,7 +1,7 @@
 // A logical device for compute (private to vulkan/): one queue, one reusable command buffer
 // with a fence, buffers with their own allocations (with device addresses where asked), the
-// acceleration-structure functions where the device has ray queries, and the on-disk pipeline
-// cache file.
+// acceleration-structure and ray-tracing-pipeline functions where the device has them, and the
+// on-disk pipeline cache file.
 #pragma once
 #include <string>
 #include <vector>
@@ -24,18 +24,27 @@ struct Buffer {
 
 class Device {
   public:
-    // Creates the device with one queue of pd.queue_family, and with ray queries where
-    // pd.ray_query; `name` goes into error messages.
+    // Creates the device with one queue of pd.queue_family, and with ray queries and the
+    // ray-tracing pipeline where pd has them; `name` goes into error messages.
     Device(const Instance& instance, const PhysicalDevice& pd, std::string name);
     ~Device();
     Device(const Device&) = delete;
     Device& operator=(const Device&) = delete;
 
     const DeviceFns& fn() const { return f_; }
-    // The acceleration-structure functions; null on a device without ray queries.
-    const RayQueryFns* rq() const { return rq_ ? &rq_fns_ : nullptr; }
+    // The acceleration-structure functions; null on a device without ray queries or the
+    // ray-tracing pipeline.
+    const AccelFns* accel() const { return accel_ ? &accel_fns_ : nullptr; }
+    // The ray-tracing pipeline's functions; null on a device without it.
+    const RayPipelineFns* rt() const { return rt_ ? &rt_fns_ : nullptr; }
     VkDevice handle() const { return device_; }
     VkCommandBuffer cmd() const { return cmd_; }
+    // The pipeline stages shaders read and write the scene in: compute, and ray tracing where
+    // the device was created with the pipeline (barriers name only stages a device has).
+    VkPipelineStageFlags shader_stages() const {
+        return VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT |
+               (rt_ ? VK_PIPELINE_STAGE_RAY_TRACING_SHADER_BIT_KHR : 0);
+    }
 
     // A buffer in the first memory type with required | preferred flags, else required (with
     // a device address where usage asks for one).
@@ -60,8 +69,9 @@ class Device {
     VkPhysicalDeviceMemoryProperties memory_;
     std::string name_;
     DeviceFns f_;
-    bool rq_ = false;
-    RayQueryFns rq_fns_;
+    bool accel_ = false, rt_ = false;
+    AccelFns accel_fns_;
+    RayPipelineFns rt_fns_;
     VkDevice device_ = VK_NULL_HANDLE;
     VkQueue queue_ = VK_NULL_HANDLE;
     VkCommandPool pool_ = VK_NULL_HANDLE;

@@ -703,7 +703,9 @@ TreeKind parse_tree_kind(const std::string& name) {
     if (name == "auto") return TreeKind::Auto;
     if (name == "bvh") return TreeKind::Bvh;
     if (name == "rayquery") return TreeKind::RayQuery;
-    throw Error("unknown tree kind '" + name + "' (valid: auto, sah, median, none, bvh, rayquery)");
+    if (name == "raypipeline") return TreeKind::RayPipeline;
+    throw Error("unknown tree kind '" + name +
+                "' (valid: auto, sah, median, none, bvh, rayquery, raypipeline)");
 }
 
 const char* tree_kind_name(TreeKind kind) {
@@ -720,12 +722,14 @@ const char* tree_kind_name(TreeKind kind) {
             return "bvh";
         case TreeKind::RayQuery:
             return "rayquery";
+        case TreeKind::RayPipeline:
+            return "raypipeline";
     }
     return "unknown";
 }
 
 std::vector<std::string> tree_kind_names() {
-    return {"auto", "sah", "median", "none", "bvh", "rayquery"};
+    return {"auto", "sah", "median", "none", "bvh", "rayquery", "raypipeline"};
 }
 
 KdTree build_kdtree(const std::vector<Triangle>& triangles, const TreeOptions& options) {
@@ -770,7 +774,7 @@ KdTree build_kdtree(const std::vector<Triangle>& triangles, const TreeOptions& o
     }
     const size_t n = triangles.size();
     int threads = 1;
-    if (options.kind == TreeKind::None || options.kind == TreeKind::RayQuery || n == 0) {
+    if (options.kind == TreeKind::None || traced_by_driver(options.kind) || n == 0) {
         // One leaf holding every triangle (or none).
         tree.leaf_indices.resize(n);
         for (size_t i = 0; i < n; ++i) tree.leaf_indices[i] = uint32_t(i);

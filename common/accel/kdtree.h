@@ -13,11 +13,16 @@ namespace mcpt {
 // Auto: the BVH, or none where the cost model says testing every triangle is cheaper (the
 // BVH ran faster than the SAH k-d tree on every device measured: docs/traversal.md).
 // Bvh: the 8-wide BVH (wide_bvh.h), which travels in the same struct.
-// RayQuery: no tree on the host (one leaf, as None); the Vulkan device builds acceleration
-// structures and its driver traces (VK_KHR_ray_query).
-enum class TreeKind { Sah, Median, None, Auto, Bvh, RayQuery };
+// RayQuery, RayPipeline: no tree on the host (one leaf, as None); the Vulkan device builds
+// acceleration structures and its driver traces, through ray queries (VK_KHR_ray_query) or
+// the ray-tracing pipeline (VK_KHR_ray_tracing_pipeline).
+enum class TreeKind { Sah, Median, None, Auto, Bvh, RayQuery, RayPipeline };
+inline bool traced_by_driver(TreeKind k) {
+    return k == TreeKind::RayQuery || k == TreeKind::RayPipeline;
+}
 
-// "sah" | "median" | "none" | "auto" | "bvh" | "rayquery"; throws mcpt::Error otherwise.
+// "sah" | "median" | "none" | "auto" | "bvh" | "rayquery" | "raypipeline"; throws mcpt::Error
+// otherwise.
 TreeKind parse_tree_kind(const std::string& name);
 const char* tree_kind_name(TreeKind kind);
 // Every name parse_tree_kind() takes, "auto" first (the commands' --tree choices).

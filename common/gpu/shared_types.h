@@ -98,8 +98,8 @@ MCPT_NAMESPACE_BEGIN
 #define BINDING_TRIANGLE_TEXELS 6
 #define BINDING_SHADING_TEXELS 7
 #define VK_BINDING_COUNT 8
-// Vulkan with ray queries only (the module built with MCPT_RAY_QUERY): the scene's top-level
-// acceleration structure, one more descriptor after the eight above.
+// Vulkan with ray queries or the ray-tracing pipeline only (MCPT_RAY_QUERY, MCPT_RAY_PIPELINE):
+// the scene's top-level acceleration structure, one more descriptor after the eight above.
 #define BINDING_TLAS 8
 #define VK_RAY_QUERY_BINDING_COUNT 9
 #define MATERIAL_WORDS 24u
@@ -324,10 +324,12 @@ MCPT_STRUCT(GpuParams) {
 // Emissive triangles sampled by area, not by solid angle (triangle_light.h; render
 // --triangle-light-sampling area, to measure against).
 #define SCENE_TRIANGLE_LIGHTS_BY_AREA 32u
-// Vulkan only: rays are traced by the driver through ray queries (VK_KHR_ray_query) against
-// the scene's acceleration structures at BINDING_TLAS (traverse_rayquery.h); the tree buffer
-// holds no tree (--tree rayquery).
+// Vulkan only: rays are traced by the driver against the scene's acceleration structures at
+// BINDING_TLAS (traverse_driver.h), through ray queries (VK_KHR_ray_query; --tree rayquery) or
+// the ray-tracing pipeline (VK_KHR_ray_tracing_pipeline; --tree raypipeline); the tree buffer
+// holds no tree.
 #define SCENE_RAY_QUERY 64u
+#define SCENE_RAY_PIPELINE 512u
 // Emissive triangles and rectangles sampled by solid angle with the uniforms warped toward
 // the receiver's cosine wherever they are (triangle_light.h: cosine_warp_on; render
 // --triangle-light-sampling cosine), or nowhere (uniform); else where they span 0.2 sr or more.

@@ -131,9 +131,9 @@ MCPT_FN Hit no_hit(float tmax) {
     return h;
 }
 
-#if defined(MCPT_RAY_QUERY)
+#if defined(MCPT_RAY_QUERY) || defined(MCPT_RAY_PIPELINE)
 MCPT_NAMESPACE_END
-#include "traverse_rayquery.h"
+#include "traverse_driver.h"
 MCPT_NAMESPACE_BEGIN
 #else
 // Nearest hit with t < ray.tmax, ignoring triangle `skip`; with any_hit, the first hit found.
@@ -348,7 +348,7 @@ MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
     return cut;
 }
 
-#endif  // MCPT_RAY_QUERY
+#endif  // MCPT_RAY_QUERY || MCPT_RAY_PIPELINE
 
 MCPT_NAMESPACE_END
 

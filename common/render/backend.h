@@ -29,6 +29,7 @@ struct DeviceInfo {
     std::vector<std::pair<std::string, std::string>> limits;  // name, value (for display)
     bool phone_limits = false;  // held to the phone's limits (Vulkan limits=phone)
     bool ray_queries = false;   // the driver traces rays for us (Vulkan VK_KHR_ray_query)
+    bool ray_pipelines = false;  // the same through VK_KHR_ray_tracing_pipeline
     MemoryLimits memory;
     // "opencl: NVIDIA H100": the device in messages and checkpoints.
     std::string label() const { return backend + ": " + name; }
@@ -52,7 +53,8 @@ struct BackendOptions {
     // Fault injection for tests: the device reports itself lost at this dispatch (counted from
     // 1; 0 = never); open_device() takes $MCPT_LOSE_DEVICE_AFTER when 0.
     uint32_t lose_device_after = 0;
-    // Fault injection for tests of ray queries (--tree rayquery): "drop:N" leaves triangle N
+    // Fault injection for tests of the driver's tracing (--tree rayquery, raypipeline):
+    // "drop:N" leaves triangle N
     // out of the acceleration structure, "shrink" makes every sphere's box half its size.
     std::string accel_fault;
     // Tests: a largest buffer smaller than the device's (0 = the device's), so that large

@@ -507,6 +507,7 @@ GpuScene pack_scene(const Scene& scene, const KdTree& tree) {
     p.scene_flags = g.attributes.empty() ? 0u : SCENE_VERTEX_DATA;
     if (tree.kind == TreeKind::Bvh) p.scene_flags |= SCENE_BVH;
     if (tree.kind == TreeKind::RayQuery) p.scene_flags |= SCENE_RAY_QUERY;
+    if (tree.kind == TreeKind::RayPipeline) p.scene_flags |= SCENE_RAY_PIPELINE;
     for (const gpu::GpuMaterial& m : g.materials)
         if (m.alpha_cutoff > 0.f) p.scene_flags |= SCENE_ALPHA_MASK;
     p.texels_word = SHADING_LIGHTS_WORD(p.num_spheres, p.num_materials) + 4u * p.num_lights +

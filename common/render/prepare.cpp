@@ -24,11 +24,19 @@ GpuScene prepare_scene(const Scene& scene, const DeviceInfo& device, TreeOptions
     if (width <= 0 || height <= 0 || width > 16384 || height > 16384)
         throw Error("image size must be between 1x1 and 16384x16384");
     tree.auto_model = tree_cost_model(device);
-    // Ray queries: Vulkan devices whose driver has them; auto does not pick them (yet).
+    // The driver's tracing: Vulkan devices whose driver has it; auto does not pick it (yet).
     if (tree.kind == TreeKind::RayQuery && !device.ray_queries) {
         throw Error(device.label() + ": --tree rayquery needs a Vulkan device with ray queries (" +
                     (device.backend == "vulkan" ? "VK_KHR_ray_query; `mcpt devices` lists them"
                                                 : "OpenCL has none") +
+                    "); use --tree auto or bvh");
+    }
+    if (tree.kind == TreeKind::RayPipeline && !device.ray_pipelines) {
+        throw Error(device.label() +
+                    ": --tree raypipeline needs a Vulkan device with the ray-tracing pipeline (" +
+                    (device.backend == "vulkan"
+                         ? "VK_KHR_ray_tracing_pipeline; `mcpt devices` lists it"
+                         : "OpenCL has none") +
                     "); use --tree auto or bvh");
     }
     const KdTree kd = build_kdtree(scene.triangles, tree);
@@ -59,10 +67,12 @@ GpuScene prepare_scene(const Scene& scene, const DeviceInfo& device, TreeOptions
                 std::to_string(fitted.environment.height) + " (mean radiance kept)");
         }
     }
-    if (tree.kind == TreeKind::Auto && device.ray_queries) {
-        g.tree_choice +=
-            "; ray queries not picked (auto never picks them: on lavapipe the "
-            "BVH traces faster; --tree rayquery to use them)";
+    if (tree.kind == TreeKind::Auto && (device.ray_queries || device.ray_pipelines)) {
+        g.tree_choice += device.ray_queries
+                             ? "; ray queries not picked (auto never picks them: on lavapipe the "
+                               "BVH traces faster; --tree rayquery to use them)"
+                             : "; the ray-tracing pipeline not picked (auto never picks it: "
+                               "--tree raypipeline to use it)";
     }
     check_device_limits(g, width, height, device, device.label());
     return g;
