@@ -1,18 +1,20 @@
-// Ray queries on Vulkan (--tree rayquery: the driver traces against acceleration structures
-// built on the device). ctest runs the RayQuery suite on Mesa 25's lavapipe, which has them
-// (MCPT_TEST_RAY_QUERIES=1: their absence fails), and the RayQueryAbsent suite on Debian 12's
-// own, which has none.
+// The driver's tracing on Vulkan, in both forms: ray queries (--tree rayquery) and the
+// ray-tracing pipeline (--tree raypipeline), each against acceleration structures built on
+// the device; every test runs for each form the device has. ctest runs the RayQuery suite on
+// Mesa 25's lavapipe, which has both (MCPT_TEST_RAY_QUERIES=1: the absence of either fails),
+// and the RayQueryAbsent suite on Debian 12's own, which has neither.
 //  - The oracle: rays cast one by one on the device (GpuParams.ray_cast) against brute force
 //    on the CPU (the same rays, cpu_cast_ray): the same closest triangle or sphere, t and the
 //    barycentrics within bounds, or a tie (two primitives at one distance); any-hit answers
 //    agree with the closest. Planted faults: a triangle left out of the structure, sphere
-//    boxes shrunk to half: both caught.
+//    boxes shrunk to half: both caught, in each form.
 //  - Images: the BVH and ray queries agree statistically on the device (glass and mirror
 //    spheres, a mesh, a textured scene with cut-outs and lamps), and the test rejects a light
 //    2% brighter on one side; `mcpt compare` A/Bs the two trace modes by per-side options.
 //  - The furnace exact, the textured scene unchanged at every scale and position, and
 //    --reproducible one file from one device, two, or two parts merged.
-//  - Without ray queries: --tree rayquery is a clear error, and auto never picks them.
+//  - Without them: --tree rayquery and raypipeline are clear errors, and auto never picks
+//    them.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -40,12 +42,21 @@ bool ray_queries_expected() {
     return e && std::string(e) == "1";
 }
 
-// The Vulkan device under test, which must have ray queries where ray_queries_expected().
+// The forms of the driver's tracing that the device has: "rayquery", "raypipeline".
+std::vector<std::string> driver_modes(const DeviceInfo& d) {
+    std::vector<std::string> m;
+    if (d.ray_queries) m.push_back("rayquery");
+    if (d.ray_pipelines) m.push_back("raypipeline");
+    return m;
+}
+
+// The Vulkan device under test, which must have both forms where ray_queries_expected().
 #define VULKAN_WITH_RAY_QUERIES(backend, options)                                              \
     auto backend = test::test_backend("vulkan", options);                                      \
-    if (!backend->device().ray_queries) {                                                      \
-        if (ray_queries_expected()) FAIL() << backend->description() << " has no ray queries"; \
-        GTEST_SKIP() << backend->description() << " has no ray queries";                       \
+    if (driver_modes(backend->device()).size() < (ray_queries_expected() ? 2u : 1u)) {         \
+        if (ray_queries_expected())                                                            \
+            FAIL() << backend->description() << " lacks ray queries or the pipeline";          \
+        GTEST_SKIP() << backend->description() << " has neither ray queries nor the pipeline"; \
     }
 
 struct NamedScene {
@@ -110,11 +121,17 @@ bool close_t(float a, float b) {
     return std::abs(a - b) <= 1e-4f * std::max(1.f, std::abs(b));
 }
 
-OracleCounts check_against_brute_force(const GpuScene& g, const DeviceCast& d) {
+// The oracle's closest hits for rays 0 .. n-1 (brute force on the CPU).
+std::vector<gpu::Hit> brute_force(const GpuScene& g, uint32_t n) {
+    std::vector<gpu::Hit> want;
+    for (uint32_t i = 0; i < n; ++i) want.push_back(cpu_trace(g, cpu_cast_ray(g, i), false));
+    return want;
+}
+
+OracleCounts check_against_brute_force(const std::vector<gpu::Hit>& oracle, const DeviceCast& d) {
     OracleCounts c;
     for (uint32_t i = 0; i < d.closest.size(); ++i) {
-        const gpu::Ray ray = cpu_cast_ray(g, i);
-        const gpu::Hit want = cpu_trace(g, ray, false);
+        const gpu::Hit& want = oracle[i];
         const gpu::Hit& got = d.closest[i];
         c.rays += 1;
         c.hits += want.prim != NO_HIT;
@@ -149,19 +166,25 @@ constexpr uint32_t kRays = 16384;
 TEST(RayQuery, HitsAreBruteForces) {
     VULKAN_WITH_RAY_QUERIES(backend, BackendOptions{});
     for (const NamedScene& s : oracle_scenes()) {
-        const GpuScene g =
-            prepare_scene(s.scene, backend->device(), tree_options("rayquery"), int(kRays), 1);
-        ASSERT_NE(g.params.scene_flags & SCENE_RAY_QUERY, 0u);
-        const OracleCounts c = check_against_brute_force(g, cast_on_device(*backend, g, kRays));
-        std::printf("%s: %u rays, %u hits; %u the same, %u ties, %u differ, %u any-hit wrong\n",
-                    s.name.c_str(), c.rays, c.hits, c.same, c.ties, c.differ, c.any_wrong);
-        EXPECT_GT(c.hits, kRays / 3) << s.name << ": the rays must mostly hit";
-        // At most 1 in 2,000 rays may part (a ray through a shared edge or vertex, where the
-        // two triangle tests round differently), and ties at most 1 in 100.
-        EXPECT_LE(c.differ, kRays / 2000) << s.name << ": " << c.first_difference;
-        EXPECT_LE(c.ties, kRays / 100) << s.name;
-        EXPECT_LE(c.any_wrong, c.differ + c.ties) << s.name;
-        EXPECT_EQ(c.incomplete, 0u) << s.name;
+        std::vector<gpu::Hit> oracle;
+        for (const std::string& mode : driver_modes(backend->device())) {
+            const std::string name = s.name + ", " + mode;
+            const GpuScene g =
+                prepare_scene(s.scene, backend->device(), tree_options(mode), int(kRays), 1);
+            ASSERT_NE(g.params.scene_flags & (SCENE_RAY_QUERY | SCENE_RAY_PIPELINE), 0u);
+            if (oracle.empty()) oracle = brute_force(g, kRays);
+            const OracleCounts c =
+                check_against_brute_force(oracle, cast_on_device(*backend, g, kRays));
+            std::printf("%s: %u rays, %u hits; %u the same, %u ties, %u differ, %u any-hit wrong\n",
+                        name.c_str(), c.rays, c.hits, c.same, c.ties, c.differ, c.any_wrong);
+            EXPECT_GT(c.hits, kRays / 3) << name << ": the rays must mostly hit";
+            // At most 1 in 2,000 rays may part (a ray through a shared edge or vertex, where the
+            // two triangle tests round differently), and ties at most 1 in 100.
+            EXPECT_LE(c.differ, kRays / 2000) << name << ": " << c.first_difference;
+            EXPECT_LE(c.ties, kRays / 100) << name;
+            EXPECT_LE(c.any_wrong, c.differ + c.ties) << name;
+            EXPECT_EQ(c.incomplete, 0u) << name;
+        }
     }
 }
 
@@ -178,23 +201,27 @@ TEST(RayQuery, BuildAndTraceUnderValidationWithoutMessages) {
         throw;
     }
     unsetenv("MCPT_VULKAN_VALIDATION");
-    if (!backend->device().ray_queries) {
-        if (ray_queries_expected()) FAIL() << backend->description() << " has no ray queries";
-        GTEST_SKIP() << backend->description() << " has no ray queries";
+    if (driver_modes(backend->device()).size() < (ray_queries_expected() ? 2u : 1u)) {
+        if (ray_queries_expected())
+            FAIL() << backend->description() << " lacks ray queries or the pipeline";
+        GTEST_SKIP() << backend->description() << " has neither ray queries nor the pipeline";
     }
     auto* vk = dynamic_cast<VulkanBackend*>(backend.get());
     ASSERT_NE(vk, nullptr);
-    for (const NamedScene& s : oracle_scenes()) {
-        const GpuScene g =
-            prepare_scene(s.scene, backend->device(), tree_options("rayquery"), 1024, 1);
-        const DeviceCast d = cast_on_device(*backend, g, 1024);
-        EXPECT_EQ(d.closest.size(), 1024u);
-        RenderOptions o;
-        o.width = o.height = 16;
-        o.spp = 2;
-        const RenderResult r = render(*backend, g, s.scene.camera, o);
-        EXPECT_GT(r.mean_radiance(), 0) << s.name;
-        EXPECT_EQ(vk->validation_messages(), 0u) << s.name << ": see the messages on stderr";
+    for (const std::string& mode : driver_modes(backend->device())) {
+        for (const NamedScene& s : oracle_scenes()) {
+            const GpuScene g =
+                prepare_scene(s.scene, backend->device(), tree_options(mode), 1024, 1);
+            const DeviceCast d = cast_on_device(*backend, g, 1024);
+            EXPECT_EQ(d.closest.size(), 1024u);
+            RenderOptions o;
+            o.width = o.height = 16;
+            o.spp = 2;
+            const RenderResult r = render(*backend, g, s.scene.camera, o);
+            EXPECT_GT(r.mean_radiance(), 0) << s.name << ", " << mode;
+            EXPECT_EQ(vk->validation_messages(), 0u)
+                << s.name << ", " << mode << ": see the messages on stderr";
+        }
     }
 }
 
@@ -203,24 +230,26 @@ TEST(RayQuery, BuildAndTraceUnderValidationWithoutMessages) {
 TEST(RayQuery, OracleCatchesADroppedTriangleAndShrunkSphereBoxes) {
     VULKAN_WITH_RAY_QUERIES(probe, BackendOptions{});
     const Scene scene = oracle_scenes()[0].scene;  // cornell: walls and two spheres
-    const GpuScene g =
-        prepare_scene(scene, probe->device(), tree_options("rayquery"), int(kRays), 1);
-    // The triangle hit first most often (brute force).
-    std::vector<uint32_t> first_hits(g.triangles.size());
-    for (uint32_t i = 0; i < kRays; ++i) {
-        const gpu::Hit h = cpu_trace(g, cpu_cast_ray(g, i), false);
-        if (h.prim != NO_HIT && (h.prim & SPHERE_BIT) == 0u) first_hits[h.prim] += 1;
-    }
-    const uint32_t most =
-        uint32_t(std::max_element(first_hits.begin(), first_hits.end()) - first_hits.begin());
-    for (const std::string& fault : {"drop:" + std::to_string(most), std::string("shrink")}) {
-        BackendOptions o;
-        o.accel_fault = fault;
-        auto faulty = test::test_backend("vulkan", o);
-        const OracleCounts c = check_against_brute_force(g, cast_on_device(*faulty, g, kRays));
-        std::printf("fault %s: %u differ (the test allows %u)\n", fault.c_str(), c.differ,
-                    kRays / 2000);
-        EXPECT_GT(c.differ, kRays / 2000) << fault << ": the oracle must see the fault";
+    for (const std::string& mode : driver_modes(probe->device())) {
+        const GpuScene g = prepare_scene(scene, probe->device(), tree_options(mode), int(kRays), 1);
+        const std::vector<gpu::Hit> oracle = brute_force(g, kRays);
+        // The triangle hit first most often.
+        std::vector<uint32_t> first_hits(g.triangles.size());
+        for (const gpu::Hit& h : oracle)
+            if (h.prim != NO_HIT && (h.prim & SPHERE_BIT) == 0u) first_hits[h.prim] += 1;
+        const uint32_t most =
+            uint32_t(std::max_element(first_hits.begin(), first_hits.end()) - first_hits.begin());
+        for (const std::string& fault : {"drop:" + std::to_string(most), std::string("shrink")}) {
+            BackendOptions o;
+            o.accel_fault = fault;
+            auto faulty = test::test_backend("vulkan", o);
+            const OracleCounts c =
+                check_against_brute_force(oracle, cast_on_device(*faulty, g, kRays));
+            std::printf("%s, fault %s: %u differ (the test allows %u)\n", mode.c_str(),
+                        fault.c_str(), c.differ, kRays / 2000);
+            EXPECT_GT(c.differ, kRays / 2000)
+                << mode << ", " << fault << ": the oracle must see the fault";
+        }
     }
 }
 
@@ -229,13 +258,14 @@ TEST(RayQuery, AutoNamesThemAndKeepsTheBvh) {
     VULKAN_WITH_RAY_QUERIES(backend, BackendOptions{});
     const GpuScene g =
         prepare_scene(make_builtin_scene("cornell"), backend->device(), tree_options("auto"), 8, 8);
-    EXPECT_NE(g.tree_kind, TreeKind::RayQuery);
+    EXPECT_FALSE(traced_by_driver(g.tree_kind));
     EXPECT_NE(g.tree_choice.find("ray queries not picked"), std::string::npos) << g.tree_choice;
 }
 
-// A: scene `a` on the BVH; B: scene `b` (the same, or it moved) through ray queries, its
-// lights scaled by b_light_scale; same device, independent seeds.
-Agreement bvh_against_ray_queries(const Scene& a, const Scene& b, float b_light_scale = 1.f) {
+// A: scene `a` on the BVH; B: scene `b` (the same, or it moved) traced by the driver in this
+// form, its lights scaled by b_light_scale; same device, independent seeds.
+Agreement bvh_against_driver(const std::string& mode, const Scene& a, const Scene& b,
+                             float b_light_scale = 1.f) {
     auto device = test::test_backend("vulkan");
     RenderOptions o;
     o.width = o.height = 32;
@@ -246,30 +276,31 @@ Agreement bvh_against_ray_queries(const Scene& a, const Scene& b, float b_light_
     bo.seed_base = 100;
     const GpuScene ga = prepare_scene(a, device->device(), tree_options("bvh"), 32, 32);
     const BatchSet sa = render_batches(*device, ga, a.camera, o, bo);
-    const GpuScene gb = prepare_scene(b, device->device(), tree_options("rayquery"), 32, 32);
+    const GpuScene gb = prepare_scene(b, device->device(), tree_options(mode), 32, 32);
     o.light_scale = b_light_scale;
     bo.seed_base = 5000;
     const BatchSet sb = render_batches(*device, gb, b.camera, o, bo);
     const Agreement g = test_agreement(sa, sb, 0.01);
-    std::printf("%s\n", g.verdict().c_str());
+    std::printf("%s: %s\n", mode.c_str(), g.verdict().c_str());
     return g;
 }
 
 TEST(RayQuery, ImagesAgreeWithTheBvh) {
     VULKAN_WITH_RAY_QUERIES(probe, BackendOptions{});
     Scene lamps = load_gltf(std::string(MCPT_TEST_DATA_DIR) + "/textured.glb");
-    for (const NamedScene& s :
-         {NamedScene{"cornell", make_builtin_scene("cornell")}, NamedScene{"textured", lamps}}) {
-        Scene scene = s.scene;
-        validate_scene(scene);
-        const Agreement g = bvh_against_ray_queries(scene, scene);
-        EXPECT_TRUE(g.agree) << s.name << ": " << g.verdict();
-    }
-    // Control: a light 2% brighter through ray queries is rejected.
     Scene cornell = make_builtin_scene("cornell");
     validate_scene(cornell);
-    const Agreement control = bvh_against_ray_queries(cornell, cornell, 1.02f);
-    EXPECT_FALSE(control.agree) << "control: " << control.verdict();
+    validate_scene(lamps);
+    for (const std::string& mode : driver_modes(probe->device())) {
+        for (const NamedScene& s :
+             {NamedScene{"cornell", cornell}, NamedScene{"textured", lamps}}) {
+            const Agreement g = bvh_against_driver(mode, s.scene, s.scene);
+            EXPECT_TRUE(g.agree) << s.name << ", " << mode << ": " << g.verdict();
+        }
+        // Control: a light 2% brighter through the driver is rejected.
+        const Agreement control = bvh_against_driver(mode, cornell, cornell, 1.02f);
+        EXPECT_FALSE(control.agree) << mode << ", control: " << control.verdict();
+    }
 }
 
 // The furnace (every surface, the sphere included, emits 1 and reflects half: L = 2 exactly,
@@ -279,19 +310,22 @@ TEST(RayQuery, FurnaceIsExact) {
     VULKAN_WITH_RAY_QUERIES(device, BackendOptions{});
     Scene furnace = make_furnace_scene(0.5f, 1.0f);
     validate_scene(furnace);
-    const GpuScene g = prepare_scene(furnace, device->device(), tree_options("rayquery"), 32, 32);
-    const double exact = 2.0, z_limit = 4.5;
-    RenderOptions o;
-    o.width = o.height = 32;
-    o.spp = 256;
-    o.seed = 7;
-    o.max_depth = uint32_t(furnace.max_depth_hint);
-    const test::MeanEstimate e = test::pooled_mean(render(*device, g, furnace.camera, o));
-    EXPECT_LT(std::abs(e.z(exact)), z_limit) << "mean " << e.mean << " std error " << e.std_error;
-    EXPECT_LT(e.std_error / exact, 0.02 / (2 * z_limit));
-    o.light_scale = 1.02f;
-    const test::MeanEstimate bright = test::pooled_mean(render(*device, g, furnace.camera, o));
-    EXPECT_GT(bright.z(exact), z_limit) << "a 2% brighter light went unnoticed";
+    for (const std::string& mode : driver_modes(device->device())) {
+        const GpuScene g = prepare_scene(furnace, device->device(), tree_options(mode), 32, 32);
+        const double exact = 2.0, z_limit = 4.5;
+        RenderOptions o;
+        o.width = o.height = 32;
+        o.spp = 256;
+        o.seed = 7;
+        o.max_depth = uint32_t(furnace.max_depth_hint);
+        const test::MeanEstimate e = test::pooled_mean(render(*device, g, furnace.camera, o));
+        EXPECT_LT(std::abs(e.z(exact)), z_limit)
+            << mode << ": mean " << e.mean << " std error " << e.std_error;
+        EXPECT_LT(e.std_error / exact, 0.02 / (2 * z_limit));
+        o.light_scale = 1.02f;
+        const test::MeanEstimate bright = test::pooled_mean(render(*device, g, furnace.camera, o));
+        EXPECT_GT(bright.z(exact), z_limit) << mode << ": a 2% brighter light went unnoticed";
+    }
 }
 
 // Self-intersection at every scale and position the stability suite covers: a scene of
@@ -310,8 +344,11 @@ TEST_P(RayQueryPlacement, ImageUnchanged) {
                                         glm::dvec3(pl.offset, -0.5 * pl.offset, 0.25 * pl.offset));
     validate_scene(unit);
     validate_scene(moved);
-    const Agreement g = bvh_against_ray_queries(unit, moved);
-    EXPECT_TRUE(g.agree) << "scale " << pl.scale << " offset " << pl.offset << ": " << g.verdict();
+    for (const std::string& mode : driver_modes(device->device())) {
+        const Agreement g = bvh_against_driver(mode, unit, moved);
+        EXPECT_TRUE(g.agree) << mode << ", scale " << pl.scale << " offset " << pl.offset << ": "
+                             << g.verdict();
+    }
 }
 
 INSTANTIATE_TEST_SUITE_P(Placements, RayQueryPlacement,
@@ -330,14 +367,17 @@ INSTANTIATE_TEST_SUITE_P(Placements, RayQueryPlacement,
 // `mcpt compare` A/Bs trace modes on one device through per-side options.
 TEST(RayQuery, CompareTakesATraceModePerSide) {
     VULKAN_WITH_RAY_QUERIES(probe, BackendOptions{});
-    const std::string args =
-        "compare cornell --width 24 --height 16 --batches 16 --spp 8 --a vulkan,tree=bvh --b "
-        "vulkan,tree=rayquery";
-    const test::CliRun same = test::run_mcpt(args);
-    EXPECT_EQ(same.status, 0) << same.output;
-    EXPECT_NE(same.output.find("rayquery"), std::string::npos) << same.output;
-    const test::CliRun brighter = test::run_mcpt(args + " --b-light-scale 1.05");
-    EXPECT_EQ(brighter.status, 2) << brighter.output;
+    for (const std::string& mode : driver_modes(probe->device())) {
+        const std::string args =
+            "compare cornell --width 24 --height 16 --batches 16 --spp 8 --a vulkan,tree=bvh --b "
+            "vulkan,tree=" +
+            mode;
+        const test::CliRun same = test::run_mcpt(args);
+        EXPECT_EQ(same.status, 0) << same.output;
+        EXPECT_NE(same.output.find(mode), std::string::npos) << same.output;
+        const test::CliRun brighter = test::run_mcpt(args + " --b-light-scale 1.05");
+        EXPECT_EQ(brighter.status, 2) << brighter.output;
+    }
 }
 
 // --reproducible through ray queries: the driver's traversal is deterministic, so the file is
@@ -346,50 +386,62 @@ TEST(RayQuery, CompareTakesATraceModePerSide) {
 TEST(RayQuery, ReproducibleIsOneFileOnOneOrTwoDevices) {
     VULKAN_WITH_RAY_QUERIES(probe, BackendOptions{});
     const std::string dir = ::testing::TempDir();
-    const std::string job =
-        "render cornell --tree rayquery --width 48 --height 32 -q --spp 64 "
-        "--chunk-seconds 0.05 --reproducible --device vulkan:0";
-    const test::CliRun one = test::run_mcpt(job + " -o " + dir + "/rq_one.exr");
-    ASSERT_EQ(one.status, 0) << one.output;
-    const std::string bytes = test::read_file(dir + "/rq_one.exr");
-    // Two devices taking chunks as they come (however the run splits them).
-    const test::CliRun two = test::run_mcpt(job + " --device vulkan:0 -o " + dir + "/rq_two.exr");
-    ASSERT_EQ(two.status, 0) << two.output;
-    EXPECT_TRUE(test::same_bytes(dir + "/rq_two.exr", bytes)) << two.output;
-    // A fixed split: halves of the samples rendered apart and merged.
-    std::string parts;
-    for (int i = 1; i <= 2; ++i) {
-        const std::string part = dir + "/rq_part" + std::to_string(i) + ".ckpt";
-        std::remove(part.c_str());
-        const test::CliRun r =
-            test::run_mcpt(job + " --part " + std::to_string(i) + "/2 --checkpoint " + part +
-                           " -o " + dir + "/rq_part.png");
-        ASSERT_EQ(r.status, 0) << r.output;
-        parts += " " + part;
+    for (const std::string& mode : driver_modes(probe->device())) {
+        const std::string job = "render cornell --tree " + mode +
+                                " --width 48 --height 32 -q --spp 64 "
+                                "--chunk-seconds 0.05 --reproducible --device vulkan:0";
+        const std::string stem = dir + "/" + mode;
+        const test::CliRun one = test::run_mcpt(job + " -o " + stem + "_one.exr");
+        ASSERT_EQ(one.status, 0) << one.output;
+        const std::string bytes = test::read_file(stem + "_one.exr");
+        // Two devices taking chunks as they come (however the run splits them).
+        const test::CliRun two = test::run_mcpt(job + " --device vulkan:0 -o " + stem + "_two.exr");
+        ASSERT_EQ(two.status, 0) << two.output;
+        EXPECT_TRUE(test::same_bytes(stem + "_two.exr", bytes)) << mode << ": " << two.output;
+        // A fixed split: halves of the samples rendered apart and merged.
+        std::string parts;
+        for (int i = 1; i <= 2; ++i) {
+            const std::string part = stem + "_part" + std::to_string(i) + ".ckpt";
+            std::remove(part.c_str());
+            const test::CliRun r =
+                test::run_mcpt(job + " --part " + std::to_string(i) + "/2 --checkpoint " + part +
+                               " -o " + stem + "_part.png");
+            ASSERT_EQ(r.status, 0) << r.output;
+            parts += " " + part;
+        }
+        const test::CliRun m = test::run_mcpt("merge" + parts + " -o " + stem + "_merged.exr");
+        ASSERT_EQ(m.status, 0) << m.output;
+        EXPECT_TRUE(test::same_bytes(stem + "_merged.exr", bytes)) << mode << ": " << m.output;
     }
-    const test::CliRun m = test::run_mcpt("merge" + parts + " -o " + dir + "/rq_merged.exr");
-    ASSERT_EQ(m.status, 0) << m.output;
-    EXPECT_TRUE(test::same_bytes(dir + "/rq_merged.exr", bytes)) << m.output;
 }
 
-// Debian 12's lavapipe (Mesa 22.3) has no ray queries: asking for them is a clear error,
-// and auto never picks them.
+// Debian 12's lavapipe (Mesa 22.3) has neither ray queries nor the pipeline: asking for either
+// is a clear error, and auto never picks them.
 TEST(RayQueryAbsent, RayQueryIsAClearErrorAndAutoKeepsTheBvh) {
     auto backend = test::test_backend("vulkan");
-    if (backend->device().ray_queries) GTEST_SKIP() << "this Vulkan device has ray queries";
+    if (!driver_modes(backend->device()).empty())
+        GTEST_SKIP() << "this Vulkan device has ray queries or the pipeline";
     const std::string out =
         " --width 8 --height 8 --spp 1 -o " + ::testing::TempDir() + "/ray_query_absent.png";
     const test::CliRun r = test::run_mcpt("render cornell --backend vulkan --tree rayquery" + out);
     EXPECT_NE(r.status, 0) << r.output;
     EXPECT_NE(r.output.find("needs a Vulkan device with ray queries"), std::string::npos)
         << r.output;
-    const test::CliRun cl =
-        test::run_mcpt("render cornell " + test::device_args("opencl") + " --tree rayquery" + out);
-    EXPECT_NE(cl.status, 0) << cl.output;
-    EXPECT_NE(cl.output.find("OpenCL has none"), std::string::npos) << cl.output;
+    const test::CliRun p =
+        test::run_mcpt("render cornell --backend vulkan --tree raypipeline" + out);
+    EXPECT_NE(p.status, 0) << p.output;
+    EXPECT_NE(p.output.find("needs a Vulkan device with the ray-tracing pipeline"),
+              std::string::npos)
+        << p.output;
+    for (const char* mode : {"rayquery", "raypipeline"}) {
+        const test::CliRun cl = test::run_mcpt("render cornell " + test::device_args("opencl") +
+                                               " --tree " + mode + out);
+        EXPECT_NE(cl.status, 0) << cl.output;
+        EXPECT_NE(cl.output.find("OpenCL has none"), std::string::npos) << cl.output;
+    }
     const GpuScene g =
         prepare_scene(make_builtin_scene("cornell"), backend->device(), tree_options("auto"), 8, 8);
-    EXPECT_NE(g.tree_kind, TreeKind::RayQuery);
+    EXPECT_FALSE(traced_by_driver(g.tree_kind));
 }
 
 }  // namespace
