@@ -37,6 +37,10 @@ struct ThroughputRow {
     double speedup = 0;  // several devices: rays/s over the one-device row's (same API); 0: none
     double seconds = 0, msamples = 0, mrays = 0;
     double visits_per_ray = 0, tests_per_ray = 0;
+    // The structure traced: built in build_ms (ours on the host, the driver's on the device),
+    // bytes per triangle (ours: nodes, leaf indices and the 36 bytes of a triangle's corners;
+    // the driver's: its structures, which hold the corners).
+    double build_ms = 0, bytes_per_triangle = 0;
     // Vulkan rows: rays/s over the OpenCL rays/s of the same device, else of the same kind of
     // device (a CPU driver against a CPU driver); 0: none.
     double ratio = 0;
@@ -78,8 +82,9 @@ std::vector<std::pair<std::string, Scene>> throughput_scenes(const ThroughputBen
 std::string markdown_table(const std::vector<ThroughputRow>& rows) {
     std::string t =
         "| scene | triangles | tree | backend/device | devices | M samples/s | M rays/s | "
-        "speed-up | Vulkan/OpenCL | node visits/ray | tri tests/ray | bytes/ray | GB/s |\n"
-        "|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+        "speed-up | Vulkan/OpenCL | node visits/ray | tri tests/ray | bytes/ray | GB/s | build "
+        "ms | bytes/triangle |\n"
+        "|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const ThroughputRow& r : rows) {
         t += "| " + r.scene + " | " + std::to_string(r.triangles) + " | " + r.tree + " | " +
              r.backend + ": " + r.device + " | " + std::to_string(r.devices) + " | " +
@@ -90,7 +95,7 @@ std::string markdown_table(const std::vector<ThroughputRow>& rows) {
                   ? fmt("%.1f", r.visits_per_ray) + " | " + fmt("%.1f", r.tests_per_ray) + " | " +
                         fmt("%.0f", r.bytes_per_ray()) + " | " + fmt("%.1f", r.gbytes_per_s())
                   : std::string("driver's | driver's | | ")) +
-             " |\n";
+             " | " + fmt("%.1f", r.build_ms) + " | " + fmt("%.1f", r.bytes_per_triangle) + " |\n";
     }
     return t;
 }
@@ -99,7 +104,7 @@ void write_csv(const std::string& path, const std::vector<ThroughputRow>& rows, 
     std::ostringstream f;
     f << "scene,triangles,tree,backend,device,width,height,seconds,msamples_per_s,mrays_per_s,"
          "vulkan_over_opencl,node_visits_per_ray,tri_tests_per_ray,bytes_per_ray,gbytes_per_s,"
-         "devices,speedup\n";
+         "devices,speedup,build_ms,bytes_per_triangle\n";
     for (const ThroughputRow& r : rows) {
         f << r.scene << "," << r.triangles << "," << r.tree << "," << r.backend << ",\"" << r.device
           << "\"," << w << "," << h << "," << fmt("%.3f", r.seconds) << ","
@@ -109,7 +114,8 @@ void write_csv(const std::string& path, const std::vector<ThroughputRow>& rows, 
                   ? fmt("%.3f", r.visits_per_ray) + "," + fmt("%.3f", r.tests_per_ray) + "," +
                         fmt("%.1f", r.bytes_per_ray()) + "," + fmt("%.3f", r.gbytes_per_s())
                   : std::string(",,,"))
-          << "," << r.devices << "," << fmt("%.3f", r.speedup) << "\n";
+          << "," << r.devices << "," << fmt("%.3f", r.speedup) << "," << fmt("%.3f", r.build_ms)
+          << "," << fmt("%.2f", r.bytes_per_triangle) << "\n";
     }
     write_text_atomically(path, f.str());
 }
@@ -186,6 +192,16 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
             const size_t k = run % sessions.size();
             Session& s = *sessions[k];
             Backend& backend = s.backend();
+            // The driver's tracing only where the device has it (OpenCL never).
+            const TreeKind kind = parse_tree_kind(trees[run / sessions.size()]);
+            const DeviceInfo& d = backend.device();
+            if ((kind == TreeKind::RayQuery && !d.ray_queries) ||
+                (kind == TreeKind::RayPipeline && !d.ray_pipelines)) {
+                if (&scene == &scenes.front().second)
+                    std::printf("note: %s: no %s here: no rows\n", d.label().c_str(),
+                                tree_kind_name(kind));
+                continue;
+            }
             s.set_scene(scene);
             s.settings().width = a.width, s.settings().height = a.height;
             s.settings().tree = trees[run / sessions.size()];
@@ -213,7 +229,17 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
             row.seconds = r.seconds;
             row.msamples = double(r.spp) * a.width * a.height / r.seconds * 1e-6;
             row.mrays = r.rays / r.seconds * 1e-6;
-            // Ray queries: the driver's traversal, whose work the CPU cannot count.
+            if (traced_by_driver(g.tree_kind)) {
+                const Backend::DeviceBuild b = backend.device_build();
+                row.build_ms = b.seconds * 1e3;
+                row.bytes_per_triangle =
+                    double(b.bytes) / double(std::max<size_t>(1, row.triangles));
+            } else {
+                row.build_ms = g.tree_stats.build_seconds * 1e3;
+                row.bytes_per_triangle = double(g.tree_stats.bytes + 36 * row.triangles) /
+                                         double(std::max<size_t>(1, row.triangles));
+            }
+            // The driver's traversal, whose work the CPU cannot count.
             if (row.counted()) {
                 const Counts c = count_work(g, scene, ro, row.tree);
                 row.visits_per_ray = c.paths.visits_per_ray();
@@ -255,7 +281,9 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
         "raypipeline: the driver's, not counted); bytes/ray: "
         "%.0f per k-d node visit, %.0f per BVH node visit, %.0f per triangle test (leaf index "
         "and triangle); GB/s: bytes/ray x rays/s, a lower bound on the traffic; Vulkan/OpenCL: "
-        "rays/s against OpenCL on the same device, else on the same kind of device\n",
+        "rays/s against OpenCL on the same device, else on the same kind of device; build ms: "
+        "ours on the host, the driver's on the device; bytes/triangle: ours the tree and 36 "
+        "bytes of corners, the driver's its structures\n",
         kNodeBytes, kBvhNodeBytes, kTestBytes);
     write_text_atomically(a.output + ".md", table);
     write_csv(a.output + ".csv", rows, a.width, a.height);

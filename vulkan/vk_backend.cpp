@@ -699,6 +699,10 @@ size_t VulkanBackend::validation_messages() const {
 std::string VulkanBackend::build_settings() const {
     return impl_->built_settings;
 }
+Backend::DeviceBuild VulkanBackend::device_build() const {
+    const vk::AccelStats& s = impl_->accel.stats();
+    return {s.build_seconds, s.bytes};
+}
 std::string VulkanBackend::layout() const {
     return vk::layout_line(impl_->pd.props.limits) +
            (impl_->scene_texels ? ", scene read as texel buffers" : "") +

@@ -54,6 +54,7 @@ class VulkanBackend final : public Backend {
     uint32_t max_bounces_per_dispatch() const override;
     std::string layout() const override;
     std::string build_settings() const override;
+    DeviceBuild device_build() const override;
 
     // Whether the queue has timestamps (timestampValidBits > 0); gpu_seconds() is 0 if not.
     bool has_gpu_timer() const;

@@ -137,6 +137,13 @@ class Backend {
     // What the loaded program was compiled with, as the compiler got it: OpenCL's build
     // options; Vulkan's specialization constants ("KD_NODE_STEPS=3 ..."). Empty before load().
     virtual std::string build_settings() const = 0;
+    // What the device built for the loaded scene itself (the driver's acceleration
+    // structures: --tree rayquery, raypipeline): seconds and bytes kept; zeros where nothing.
+    struct DeviceBuild {
+        double seconds = 0;
+        uint64_t bytes = 0;
+    };
+    virtual DeviceBuild device_build() const { return {}; }
 };
 
 }  // namespace mcpt
