@@ -76,7 +76,7 @@ INSTANTIATE_TEST_SUITE_P(Backends, TraceSites, ::testing::ValuesIn(test::test_ap
                          [](const auto& info) { return info.param; });
 
 // One site where it was measured faster: NVIDIA's Vulkan driver, scenes with textures or a
-// k-d tree.
+// k-d tree, and its ray-tracing pipeline.
 TEST(TraceSitesChoice, OneForNvidiaVulkanWithTexturesOrKdTree) {
     unsetenv("MCPT_TRACE_SITES");
     DeviceInfo nv_vk;
@@ -95,6 +95,10 @@ TEST(TraceSitesChoice, OneForNvidiaVulkanWithTexturesOrKdTree) {
     EXPECT_EQ(trace_sites(nv_cl, mesh | FEATURE_KDTREE), 2u);
     EXPECT_EQ(trace_sites(nv_cl, FEATURE_ALL), 2u);
     EXPECT_EQ(trace_sites(lavapipe, FEATURE_ALL), 2u);
+    // The ray-tracing pipeline: one on NVIDIA's driver for every scene, two on lavapipe.
+    EXPECT_EQ(trace_sites(nv_vk, mesh | FEATURE_BVH, true), 1u);
+    EXPECT_EQ(trace_sites(nv_vk, mesh, true), 1u);
+    EXPECT_EQ(trace_sites(lavapipe, mesh, true), 2u);
 }
 
 }  // namespace

@@ -304,9 +304,14 @@ struct VulkanBackend::Impl {
         // strategy (tests), id 7 = MCPT_TRACE_SITES.
         const KdSteps steps = kd_steps(pd.info);
         constexpr uint32_t kSpecs = 8;
-        const uint32_t values[kSpecs] = {stack_size,      local,         features,
-                                         steps.nodes,     steps.triangles, steps.overlap,
-                                         options.env_strategy, trace_sites(pd.info, features)};
+        const uint32_t values[kSpecs] = {stack_size,
+                                         local,
+                                         features,
+                                         steps.nodes,
+                                         steps.triangles,
+                                         steps.overlap,
+                                         options.env_strategy,
+                                         trace_sites(pd.info, features, rt)};
         static const char* const names[kSpecs] = {
             "KD_STACK_SIZE", "local_size_x", "MCPT_FEATURES",     "KD_NODE_STEPS",
             "KD_TRI_STEPS",  "KD_OVERLAP",   "MCPT_ENV_STRATEGY", "MCPT_TRACE_SITES"};

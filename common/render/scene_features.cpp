@@ -144,7 +144,7 @@ KdSteps kd_steps(const DeviceInfo&) {
     return s;
 }
 
-uint32_t trace_sites(const DeviceInfo& device, uint32_t features) {
+uint32_t trace_sites(const DeviceInfo& device, uint32_t features, bool ray_pipeline) {
     if (const char* e = std::getenv("MCPT_TRACE_SITES")) {
         const std::string v = e;
         if (v != "1" && v != "2") throw Error("MCPT_TRACE_SITES must be 1 or 2, not '" + v + "'");
@@ -155,10 +155,12 @@ uint32_t trace_sites(const DeviceInfo& device, uint32_t features) {
     // register cap), PoCL and lavapipe 18-63% slower. Through the k-d tree (H200, 2026-11-28)
     // NVIDIA's Vulkan gained with one site on every scene: the meshes +4 to +6%, the Cornell
     // box +29%, the materials scene +15%; through the BVH the meshes -8 to +1%, no tree -7 to
-    // -9% (docs/traversal.md).
+    // -9% (docs/traversal.md). Through the ray-tracing pipeline (H100, 1024², 2026-12-07):
+    // the Cornell box 908 -> 2,776 M rays/s, the 871k dragon 657 -> 1,167; lavapipe's 10%
+    // slower with one (the textured scene).
     const bool nvidia = device.platform.find("NVIDIA") != std::string::npos ||
                         device.name.find("NVIDIA") != std::string::npos;
-    const bool one = (features & (FEATURE_TEXTURES | FEATURE_KDTREE)) != 0;
+    const bool one = (features & (FEATURE_TEXTURES | FEATURE_KDTREE)) != 0 || ray_pipeline;
     return device.backend == "vulkan" && nvidia && one ? 1u : 2u;
 }
 
