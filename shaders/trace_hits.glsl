@@ -24,7 +24,7 @@ hitAttributeEXT vec2 hit_barycentrics;  // a triangle's (v1, v2); unused by sphe
 void main() {
 #if defined(MCPT_STAGE_CLOSEST_HIT)
     // Triangles report the hit kinds 0xFE and 0xFF (front or back face), spheres 0.
-    uint prim = uint(gl_PrimitiveID);
+    uint prim = uint(gl_InstanceCustomIndexEXT + gl_PrimitiveID);  // driver_prim()
     if (gl_HitKindEXT < gl_HitKindFrontFacingTriangleEXT)
         trace_payload = vec4(gl_HitTEXT, uint_as_float(prim | SPHERE_BIT), 0.0f, 0.0f);
     else
@@ -33,7 +33,7 @@ void main() {
 #elif defined(MCPT_STAGE_MISS)
     trace_payload.y = uint_as_float(NO_HIT);
 #elif defined(MCPT_STAGE_ANY_HIT)
-    uint prim = uint(gl_PrimitiveID);
+    uint prim = uint(gl_InstanceCustomIndexEXT + gl_PrimitiveID);  // driver_prim()
     if (!opaque_at(TRIANGLE(prim).material, prim, hit_barycentrics.x, hit_barycentrics.y))
         ignoreIntersectionEXT;
 #elif defined(MCPT_STAGE_SPHERE)

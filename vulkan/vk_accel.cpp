@@ -28,6 +28,22 @@ void after_build(Device& dev) {
 
 }  // namespace
 
+std::vector<TriangleRun> triangle_runs(const std::vector<bool>& cut_out, size_t count) {
+    // Runs of equal cut_out; too many of them (or a first index beyond an instance's 24-bit
+    // custom index), and one run of all, cut out if any is.
+    std::vector<TriangleRun> runs;
+    bool any = false;
+    for (size_t i = 0; i < count; ++i) {
+        const bool c = i < cut_out.size() && cut_out[i];
+        any = any || c;
+        if (runs.empty() || runs.back().cut_out != c) runs.push_back({uint32_t(i), 0, c});
+        runs.back().count += 1;
+    }
+    if (runs.size() > kMaxTriangleRuns || runs.back().first >= (1u << 24))
+        runs = {{0, uint32_t(count), any}};
+    return runs;
+}
+
 VkDeviceAddress SceneAccel::address_of(const Buffer& b) const {
     VkBufferDeviceAddressInfo ai{};
     ai.sType = VK_STRUCTURE_TYPE_BUFFER_DEVICE_ADDRESS_INFO;
@@ -44,7 +60,9 @@ void SceneAccel::destroy(Accel& a) {
 
 void SceneAccel::release() {
     if (!dev_) return;
-    for (Accel* a : {&top_, &triangles_, &spheres_}) destroy(*a);
+    for (Accel* a : {&top_, &spheres_}) destroy(*a);
+    for (Accel& a : triangle_runs_) destroy(a);
+    triangle_runs_.clear();
     stats_ = AccelStats{};
     dev_ = nullptr;
 }
@@ -149,7 +167,7 @@ SceneAccel::Accel SceneAccel::build_one(const VkAccelerationStructureGeometryKHR
 
 void SceneAccel::build(Device& dev, const PhysicalDevice& pd,
                        const std::vector<gpu::GpuTriangle>& tris,
-                       const std::vector<gpu::GpuSphere>& spheres, bool opaque_triangles,
+                       const std::vector<gpu::GpuSphere>& spheres, const std::vector<bool>& cut_out,
                        const std::string& fault) {
     release();
     // Planted faults (tests): a triangle left out (NaN corners make it inactive), boxes
@@ -171,10 +189,12 @@ void SceneAccel::build(Device& dev, const PhysicalDevice& pd,
     }
     std::vector<VkAccelerationStructureInstanceKHR> instances;
     // An instance of each bottom-level structure, naming its hit group in the ray-tracing
-    // pipeline's binding table (ray queries ignore it).
-    auto instance_of = [&](const Accel& a, uint32_t hit_group) {
+    // pipeline's binding table (ray queries ignore it) and, as its custom index, its first
+    // primitive's index (traverse_driver.h adds the primitive's index within it).
+    auto instance_of = [&](const Accel& a, uint32_t hit_group, uint32_t first) {
         VkAccelerationStructureInstanceKHR in{};
         in.transform.matrix[0][0] = in.transform.matrix[1][1] = in.transform.matrix[2][2] = 1.0f;
+        in.instanceCustomIndex = first;
         in.mask = 0xff;
         in.instanceShaderBindingTableRecordOffset = hit_group;
         in.flags = VK_GEOMETRY_INSTANCE_TRIANGLE_FACING_CULL_DISABLE_BIT_KHR;
@@ -183,7 +203,9 @@ void SceneAccel::build(Device& dev, const PhysicalDevice& pd,
     };
     try {
         // Triangles: three positions each, no index buffer (vertex 3i + k is vertex k of
-        // triangle i), released after the build.
+        // triangle i), released after the build; one structure per run of triangles that are
+        // all opaque or all cut out where they may be (alpha masks), so that only the latter
+        // call on the shader's cut-out test.
         if (!tris.empty()) {
             std::vector<float> positions;
             positions.reserve(tris.size() * 9);
@@ -191,29 +213,32 @@ void SceneAccel::build(Device& dev, const PhysicalDevice& pd,
                 positions.insert(positions.end(),
                                  {t.v0x, t.v0y, t.v0z, t.v1x, t.v1y, t.v1z, t.v2x, t.v2y, t.v2z});
             if (drop < tris.size()) positions[9 * drop] = std::numeric_limits<float>::quiet_NaN();
+            const std::vector<TriangleRun> runs = triangle_runs(cut_out, tris.size());
             Buffer input = dev.upload(positions.data(), positions.size() * 4, kBuildInput);
             stats_.transient_bytes += input.size;
-            VkAccelerationStructureGeometryKHR g{};
-            g.sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_KHR;
-            g.geometryType = VK_GEOMETRY_TYPE_TRIANGLES_KHR;
-            g.flags = opaque_triangles ? VK_GEOMETRY_OPAQUE_BIT_KHR
-                                       : VK_GEOMETRY_NO_DUPLICATE_ANY_HIT_INVOCATION_BIT_KHR;
-            VkAccelerationStructureGeometryTrianglesDataKHR& td = g.geometry.triangles;
-            td.sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_TRIANGLES_DATA_KHR;
-            td.vertexFormat = VK_FORMAT_R32G32B32_SFLOAT;
-            td.vertexData.deviceAddress = address_of(input);
-            td.vertexStride = 12;
-            td.maxVertex = uint32_t(tris.size() * 3 - 1);
-            td.indexType = VK_INDEX_TYPE_NONE_KHR;
             try {
-                triangles_ = build_one(g, uint32_t(tris.size()),
-                                       VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR);
+                for (const TriangleRun& run : runs) {
+                    VkAccelerationStructureGeometryKHR g{};
+                    g.sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_KHR;
+                    g.geometryType = VK_GEOMETRY_TYPE_TRIANGLES_KHR;
+                    g.flags = run.cut_out ? VK_GEOMETRY_NO_DUPLICATE_ANY_HIT_INVOCATION_BIT_KHR
+                                          : VK_GEOMETRY_OPAQUE_BIT_KHR;
+                    VkAccelerationStructureGeometryTrianglesDataKHR& td = g.geometry.triangles;
+                    td.sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_TRIANGLES_DATA_KHR;
+                    td.vertexFormat = VK_FORMAT_R32G32B32_SFLOAT;
+                    td.vertexData.deviceAddress = address_of(input) + uint64_t(run.first) * 36;
+                    td.vertexStride = 12;
+                    td.maxVertex = run.count * 3 - 1;
+                    td.indexType = VK_INDEX_TYPE_NONE_KHR;
+                    triangle_runs_.push_back(
+                        build_one(g, run.count, VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR));
+                    instance_of(triangle_runs_.back(), kTriangleHitGroup, run.first);
+                }
             } catch (...) {
                 dev.free_buffer(input);
                 throw;
             }
             dev.free_buffer(input);
-            instance_of(triangles_, kTriangleHitGroup);
         }
         // Spheres: a box each, a hair larger than the sphere (the shader's test decides).
         if (!spheres.empty()) {
@@ -240,7 +265,7 @@ void SceneAccel::build(Device& dev, const PhysicalDevice& pd,
                 throw;
             }
             dev.free_buffer(input);
-            instance_of(spheres_, kSphereHitGroup);
+            instance_of(spheres_, kSphereHitGroup, 0);
         }
         // The top level: an instance of each, untransformed (none in an empty scene, whose
         // input buffer still holds one).
@@ -274,7 +299,7 @@ std::string SceneAccel::describe() const {
     char buf[192];
     std::snprintf(buf, sizeof buf,
                   "acceleration structures: %d bottom-level, %s%s, built in %.2f ms",
-                  int(triangles_.handle != VK_NULL_HANDLE) + int(spheres_.handle != VK_NULL_HANDLE),
+                  int(triangle_runs_.size()) + int(spheres_.handle != VK_NULL_HANDLE),
                   human_bytes(stats_.bytes).c_str(), stats_.compacted ? " (compacted)" : "",
                   stats_.build_seconds * 1e3);
     return buf;

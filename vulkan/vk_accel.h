@@ -22,6 +22,18 @@ struct AccelStats {
     bool compacted = false;
 };
 
+// Consecutive triangles that are all opaque, or all cut out where their material's alpha mask
+// says (each run a bottom-level structure of its own: only cut-out runs call on the shader).
+struct TriangleRun {
+    uint32_t first = 0, count = 0;
+    bool cut_out = false;
+};
+// At most kMaxTriangleRuns runs (instances in the top level); a scene that would need more,
+// or whose last run begins beyond an instance's 24-bit custom index, gets one run of every
+// triangle, cut out if any is.
+constexpr size_t kMaxTriangleRuns = 16;
+std::vector<TriangleRun> triangle_runs(const std::vector<bool>& cut_out, size_t count);
+
 class SceneAccel {
   public:
     SceneAccel() = default;
@@ -30,11 +42,11 @@ class SceneAccel {
     SceneAccel& operator=(const SceneAccel&) = delete;
 
     // Builds the structures of these triangles and spheres on `dev` (created with ray
-    // queries or the ray-tracing pipeline); triangles are opaque unless `opaque_triangles` is false
-    // (alpha masks: the shader decides each candidate). Replaces what an earlier build made. Throws
-    // mcpt::Error. `fault`: BackendOptions::accel_fault (tests).
+    // queries or the ray-tracing pipeline); triangle i is opaque unless cut_out[i] (its
+    // material has an alpha mask: the shader decides each candidate). Replaces what an
+    // earlier build made. Throws mcpt::Error. `fault`: BackendOptions::accel_fault (tests).
     void build(Device& dev, const PhysicalDevice& pd, const std::vector<gpu::GpuTriangle>& tris,
-               const std::vector<gpu::GpuSphere>& spheres, bool opaque_triangles,
+               const std::vector<gpu::GpuSphere>& spheres, const std::vector<bool>& cut_out,
                const std::string& fault = "");
     void release();
 
@@ -56,7 +68,8 @@ class SceneAccel {
 
     Device* dev_ = nullptr;
     const PhysicalDevice* pd_ = nullptr;
-    Accel triangles_, spheres_, top_;
+    std::vector<Accel> triangle_runs_;  // triangle_runs()
+    Accel spheres_, top_;
     AccelStats stats_;
 };
 

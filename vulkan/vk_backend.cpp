@@ -421,8 +421,12 @@ struct VulkanBackend::Impl {
                         pd.ray_pipeline_note + "; use --tree auto or bvh");
         }
         if (scene_rq || scene_rt) {
-            accel.build(*dev, pd, scene.triangles, scene.spheres,
-                        (scene.params.scene_flags & SCENE_ALPHA_MASK) == 0u, options.accel_fault);
+            std::vector<bool> cut_out(scene.triangles.size());
+            for (size_t i = 0; i < cut_out.size(); ++i) {
+                const uint32_t m = scene.triangles[i].material;
+                cut_out[i] = m < scene.materials.size() && scene.materials[m].alpha_cutoff > 0.f;
+            }
+            accel.build(*dev, pd, scene.triangles, scene.spheres, cut_out, options.accel_fault);
         }
         scene_texels = !scene_rq && !scene_rt && prefer_texels() && fits;
 

@@ -7,9 +7,10 @@
 //    shader with MCPT_RAY_PIPELINE; --tree raypipeline): traceRayEXT, with the hit-group
 //    shaders of shaders/trace_hits.glsl filling the payload, deciding cut-outs (any-hit) and
 //    testing spheres (intersection).
-// The host builds one top-level structure over two bottom-level ones (vk_accel.cpp): the
-// triangles in index order (primitive i is triangle i; opaque, or non-opaque where some
-// material has an alpha mask), and one box per sphere (procedural, our sphere test). Ties
+// The host builds one top-level structure over bottom-level ones (vk_accel.cpp): the triangles
+// in index order, in runs that are all opaque or all non-opaque (a material with an alpha
+// mask), each instance's custom index its first triangle; and one box per sphere (procedural,
+// our sphere test). Ties
 // between triangles at one distance resolve as the driver orders them, not by index as the
 // software traversals do.
 #ifndef MCPT_GPU_TRAVERSE_DRIVER_H
@@ -24,6 +25,12 @@ MCPT_NAMESPACE_BEGIN
 #endif
 
 layout(binding = BINDING_TLAS) uniform accelerationStructureEXT scene_tlas;
+
+// A primitive's index in the scene: its instance's first (the custom index: triangles come in
+// runs of opaque and cut-out ones, vk_accel.h) plus its index within the instance.
+MCPT_FN uint driver_prim(int first, int index) {
+    return uint(first + index);
+}
 
 // The ray's tmin in its own parameter (d need not be unit length).
 MCPT_FN float driver_tmin(Ray ray) {
@@ -64,7 +71,8 @@ MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
     rayQueryEXT q;
     rayQueryInitializeEXT(q, scene_tlas, flags, 0xffu, ray.o, driver_tmin(ray), ray.d, ray.tmax);
     while (rayQueryProceedEXT(q)) {
-        uint prim = uint(rayQueryGetIntersectionPrimitiveIndexEXT(q, false));
+        uint prim = driver_prim(rayQueryGetIntersectionInstanceCustomIndexEXT(q, false),
+                                rayQueryGetIntersectionPrimitiveIndexEXT(q, false));
         if (rayQueryGetIntersectionTypeEXT(q, false) == gl_RayQueryCandidateIntersectionAABBEXT) {
             // A sphere's box: the sphere test, up to the nearest hit committed so far.
             Ray r = ray;
@@ -86,7 +94,8 @@ MCPT_FN Hit trace_ray(SCENE_PARAMS_ Ray ray, bool any_hit) {
     uint kind = rayQueryGetIntersectionTypeEXT(q, true);
     if (kind == gl_RayQueryCommittedIntersectionNoneEXT) return hit;
     hit.t = rayQueryGetIntersectionTEXT(q, true);
-    uint prim = uint(rayQueryGetIntersectionPrimitiveIndexEXT(q, true));
+    uint prim = driver_prim(rayQueryGetIntersectionInstanceCustomIndexEXT(q, true),
+                            rayQueryGetIntersectionPrimitiveIndexEXT(q, true));
     if (kind == gl_RayQueryCommittedIntersectionGeneratedEXT) {
         hit.prim = prim | SPHERE_BIT;
     } else {
