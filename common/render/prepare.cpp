@@ -72,7 +72,8 @@ GpuScene prepare_scene(const Scene& scene, const DeviceInfo& device, TreeOptions
                              ? "; ray queries not picked (auto never picks them: on lavapipe the "
                                "BVH traces faster; --tree rayquery to use them)"
                              : "; the ray-tracing pipeline not picked (auto never picks it: "
-                               "--tree raypipeline to use it)";
+                               "on an H100, which has no RT cores, the BVH traces 1.3x to 3x "
+                               "faster; --tree raypipeline to use it)";
     }
     check_device_limits(g, width, height, device, device.label());
     return g;
