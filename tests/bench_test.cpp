@@ -2,11 +2,13 @@
 // every scene x tree x backend and writes the table, a CSV and a log-log SVG plot.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "common/io/svg_plot.h"
 #include "test_util.h"
@@ -22,6 +24,23 @@ std::string read_file(const std::filesystem::path& p) {
     std::stringstream s;
     s << f.rdbuf();
     return s.str();
+}
+
+// A CSV line's cells (a quoted cell may hold commas: a device's name).
+std::vector<std::string> csv_cells(const std::string& line) {
+    std::vector<std::string> cells;
+    std::string cell;
+    bool quoted = false;
+    for (char ch : line) {
+        if (ch == '"')
+            quoted = !quoted;
+        else if (ch == ',' && !quoted)
+            cells.push_back(cell), cell.clear();
+        else
+            cell += ch;
+    }
+    cells.push_back(cell);
+    return cells;
 }
 
 TEST(BenchCli, QuickTableHasEveryRow) {
@@ -113,11 +132,19 @@ TEST(BenchCli, ThroughputRowsPerDeviceCount) {
     std::istringstream lines(read_file(prefix + ".csv"));
     std::string line;
     std::getline(lines, line);
-    EXPECT_NE(line.find(",devices,speedup"), std::string::npos) << line;
+    EXPECT_NE(line.find(",devices,speedup,"), std::string::npos) << line;
+    // The devices and speed-up columns, found by the header's names.
+    const std::vector<std::string> header = csv_cells(line);
+    const auto column = [&](const char* name) {
+        return size_t(std::find(header.begin(), header.end(), name) - header.begin());
+    };
+    const size_t devices_at = column("devices"), speedup_at = column("speedup");
+    ASSERT_LT(speedup_at, header.size()) << line;
     std::vector<std::pair<int, double>> rows;  // devices, speed-up
     for (; std::getline(lines, line);) {
-        const size_t b = line.rfind(','), a = line.rfind(',', b - 1);
-        rows.emplace_back(std::stoi(line.substr(a + 1, b - a - 1)), std::stod(line.substr(b + 1)));
+        const std::vector<std::string> cells = csv_cells(line);
+        ASSERT_EQ(cells.size(), header.size()) << line;
+        rows.emplace_back(std::stoi(cells[devices_at]), std::stod(cells[speedup_at]));
     }
     ASSERT_EQ(rows.size(), 4u) << r.output;  // two scenes x (1, 2)
     for (size_t i = 0; i < rows.size(); i += 2) {
@@ -148,23 +175,15 @@ TEST(BenchCli, ThroughputTableHasRatios) {
     std::getline(lines, line);  // header
     std::vector<std::vector<std::string>> rows;
     for (; std::getline(lines, line);) {
-        std::vector<std::string> cells;
-        std::string cell;
-        bool quoted = false;
-        for (char ch : line) {
-            if (ch == '"')
-                quoted = !quoted;
-            else if (ch == ',' && !quoted)
-                cells.push_back(cell), cell.clear();
-            else
-                cell += ch;
-        }
-        cells.push_back(cell);
-        ASSERT_EQ(cells.size(), 17u) << line;
+        const std::vector<std::string> cells = csv_cells(line);
+        ASSERT_EQ(cells.size(), 19u) << line;
         EXPECT_EQ(cells[15], "1") << line;  // one device
         EXPECT_TRUE(cells[2] == "sah" || cells[2] == "bvh") << line;
         EXPECT_GT(std::stod(cells[9]), 0.0) << line;   // M rays/s
         EXPECT_GT(std::stod(cells[12]), 0.0) << line;  // triangle tests per ray
+        EXPECT_GE(std::stod(cells[17]), 0.0) << line;  // build ms
+        // Bytes per triangle: the tree's and the 36 of its corners.
+        EXPECT_GT(std::stod(cells[18]), 36.0) << line;
         rows.push_back(cells);
     }
     // Per scene, each tree's rows in turn.

@@ -22,6 +22,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
+#include <sstream>
 
 #include "common/accel/cpu_trace.h"
 #include "common/analysis/compare.h"
@@ -434,6 +436,41 @@ TEST(RayQuery, CompareTakesATraceModePerSide) {
         EXPECT_NE(same.output.find(mode), std::string::npos) << same.output;
         const test::CliRun brighter = test::run_mcpt(args + " --b-light-scale 1.05");
         EXPECT_EQ(brighter.status, 2) << brighter.output;
+    }
+}
+
+// bench --throughput rows for the driver's forms on Vulkan (none on OpenCL, with a note), with
+// the driver's build time and the bytes of its structures per triangle.
+TEST(RayQuery, BenchRowsNameTheDriversStructures) {
+    VULKAN_WITH_RAY_QUERIES(probe, BackendOptions{});
+    const std::string dir = ::testing::TempDir() + "/rq_bench";
+    std::filesystem::create_directories(dir + "/no-models");
+    std::string trees = "bvh";
+    for (const std::string& mode : driver_modes(probe->device())) trees += "," + mode;
+    const test::CliRun r = test::run_mcpt(
+        "bench --throughput --quick --time 0.2 --width 32 --height 32 --tree " + trees +
+        " --models " + dir + "/no-models --backend opencl:" + test::test_opencl_device() +
+        " --backend vulkan:0 -o " + dir + "/tp");
+    ASSERT_EQ(r.status, 0) << r.output;
+    for (const std::string& mode : driver_modes(probe->device())) {
+        EXPECT_NE(r.output.find("no " + mode + " here: no rows"), std::string::npos) << r.output;
+        // Each scene's row: the driver's build time and bytes per triangle filled in.
+        size_t rows = 0;
+        for (size_t at = r.output.find("| " + mode + " | vulkan: "); at != std::string::npos;
+             at = r.output.find("| " + mode + " | vulkan: ", at + 1)) {
+            const std::string line = r.output.substr(at, r.output.find('\n', at) - at);
+            std::vector<std::string> cells;
+            std::istringstream in(line);
+            for (std::string c; std::getline(in, c, '|');) cells.push_back(c);
+            ASSERT_GE(cells.size(), 2u) << line;
+            const double bytes = std::stod(cells[cells.size() - 1]);
+            const double build_ms = std::stod(cells[cells.size() - 2]);
+            EXPECT_GT(build_ms, 0.0) << line;
+            EXPECT_GT(bytes, 0.0) << line;
+            EXPECT_NE(line.find("driver's"), std::string::npos) << line;
+            rows += 1;
+        }
+        EXPECT_EQ(rows, 2u) << mode << ": a row per scene\n" << r.output;
     }
 }
 
