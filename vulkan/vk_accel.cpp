@@ -171,11 +171,12 @@ void SceneAccel::build(Device& dev, const PhysicalDevice& pd,
                        const std::string& fault) {
     release();
     // Planted faults (tests): a triangle left out (NaN corners make it inactive), boxes
-    // that miss the spheres' rims.
+    // that miss the spheres' rims, boxes moved off their spheres' centres (+z).
     uint64_t drop = UINT64_MAX;
     if (fault.rfind("drop:", 0) == 0) drop = std::stoull(fault.substr(5));
     const float box_scale = fault == "shrink" ? 0.5f : 1.0f + 1e-5f;
-    if (!fault.empty() && drop == UINT64_MAX && fault != "shrink")
+    const float box_shift = fault == "shift" ? 1.5f : 0.0f;  // in radii
+    if (!fault.empty() && drop == UINT64_MAX && fault != "shrink" && fault != "shift")
         throw Error("vulkan: unknown acceleration-structure fault '" + fault + "'");
     if (!dev.accel()) throw Error("vulkan: " + pd.info.name + " has no acceleration structures");
     dev_ = &dev;
@@ -244,8 +245,8 @@ void SceneAccel::build(Device& dev, const PhysicalDevice& pd,
         if (!spheres.empty()) {
             std::vector<VkAabbPositionsKHR> boxes;
             for (const gpu::GpuSphere& s : spheres) {
-                const float r = s.radius * box_scale;
-                boxes.push_back({s.cx - r, s.cy - r, s.cz - r, s.cx + r, s.cy + r, s.cz + r});
+                const float r = s.radius * box_scale, z = s.cz + s.radius * box_shift;
+                boxes.push_back({s.cx - r, s.cy - r, z - r, s.cx + r, s.cy + r, z + r});
             }
             Buffer input = dev.upload(boxes.data(), boxes.size() * sizeof(boxes[0]), kBuildInput);
             stats_.transient_bytes += input.size;

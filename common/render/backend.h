@@ -54,8 +54,8 @@ struct BackendOptions {
     // 1; 0 = never); open_device() takes $MCPT_LOSE_DEVICE_AFTER when 0.
     uint32_t lose_device_after = 0;
     // Fault injection for tests of the driver's tracing (--tree rayquery, raypipeline):
-    // "drop:N" leaves triangle N
-    // out of the acceleration structure, "shrink" makes every sphere's box half its size.
+    // "drop:N" leaves triangle N out of the acceleration structure, "shrink" makes every
+    // sphere's box half its size, "shift" moves every sphere's box by 1.5 radii along +z.
     std::string accel_fault;
     // Tests: a largest buffer smaller than the device's (0 = the device's), so that large
     // images take the windowed accumulation (gpu_scene.h) on any device.
