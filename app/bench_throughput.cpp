@@ -2,8 +2,9 @@
 // Cornell box and the seed meshes for every backend given, with the tree --tree picks for each
 // device (auto by default): samples/s and rays/s, the Vulkan/OpenCL ratio per scene and device,
 // node visits and triangle tests per ray (counted on the CPU), the node and triangle bytes that
-// implies per ray and the bandwidth at the measured rate. Writes prefix.md, prefix.csv and
-// prefix.svg.
+// implies per ray and the bandwidth at the measured rate, and the structure's build time and
+// bytes per triangle (ours, or the driver's for rayquery and raypipeline). Writes prefix.md,
+// prefix.csv and prefix.svg.
 #include "app/bench_throughput.h"
 
 #include <algorithm>

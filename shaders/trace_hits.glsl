@@ -21,10 +21,18 @@ layout(location = 0) rayPayloadInEXT vec4 trace_payload;
 hitAttributeEXT vec2 hit_barycentrics;  // a triangle's (v1, v2); unused by spheres
 #endif
 
+#if defined(MCPT_STAGE_CLOSEST_HIT) || defined(MCPT_STAGE_ANY_HIT)
+// The triangle or sphere hit: its instance's first primitive plus its index within it (as
+// driver_prim() in traverse_driver.h, which these stages do not include).
+uint hit_prim() {
+    return uint(gl_InstanceCustomIndexEXT + gl_PrimitiveID);
+}
+#endif
+
 void main() {
 #if defined(MCPT_STAGE_CLOSEST_HIT)
     // Triangles report the hit kinds 0xFE and 0xFF (front or back face), spheres 0.
-    uint prim = uint(gl_InstanceCustomIndexEXT + gl_PrimitiveID);  // driver_prim()
+    uint prim = hit_prim();
     if (gl_HitKindEXT < gl_HitKindFrontFacingTriangleEXT)
         trace_payload = vec4(gl_HitTEXT, uint_as_float(prim | SPHERE_BIT), 0.0f, 0.0f);
     else
@@ -33,7 +41,7 @@ void main() {
 #elif defined(MCPT_STAGE_MISS)
     trace_payload.y = uint_as_float(NO_HIT);
 #elif defined(MCPT_STAGE_ANY_HIT)
-    uint prim = uint(gl_InstanceCustomIndexEXT + gl_PrimitiveID);  // driver_prim()
+    uint prim = hit_prim();
     if (!opaque_at(TRIANGLE(prim).material, prim, hit_barycentrics.x, hit_barycentrics.y))
         ignoreIntersectionEXT;
 #elif defined(MCPT_STAGE_SPHERE)

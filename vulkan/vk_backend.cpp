@@ -297,7 +297,7 @@ struct VulkanBackend::Impl {
         const vk::DeviceFns& f = dev->fn();
         if (pipeline) f.vkDestroyPipeline(dev->handle(), pipeline, nullptr);
         pipeline = VK_NULL_HANDLE;
-        ray_pipeline.release();
+        if (!rt) ray_pipeline.release();  // else build() replaces it, keeping its modules
         const auto t0 = std::chrono::steady_clock::now();
         // Specialization: id 0 = KD_STACK_SIZE, id 1 = local_size_x, id 2 = MCPT_FEATURES,
         // ids 3, 4 and 5 = KD_NODE_STEPS, KD_TRI_STEPS and KD_OVERLAP, id 6 = the environment

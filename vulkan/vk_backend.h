@@ -1,7 +1,8 @@
 // Vulkan backend (the port): device discovery, compute pipeline from the SPIR-V embedded at
 // build time, buffer upload, dispatch and read-back. Vulkan 1.1 core, and with --tree rayquery
-// Vulkan 1.2 with VK_KHR_ray_query (acceleration structures: vk_accel.h); the loader is
-// opened at run time, so mcpt runs (OpenCL only) where no Vulkan is installed.
+// or raypipeline Vulkan 1.2 with VK_KHR_ray_query or VK_KHR_ray_tracing_pipeline (acceleration
+// structures: vk_accel.h; the pipeline: vk_ray_pipeline.h); the loader is opened at run time,
+// so mcpt runs (OpenCL only) where no Vulkan is installed.
 //
 // Environment:
 //   MCPT_VULKAN_VALIDATION=1          enable VK_LAYER_KHRONOS_validation and count its

@@ -1,7 +1,7 @@
 // Vulkan plumbing shared by the backend and the device list (private to vulkan/): the loader
 // opened at run time, function tables, result checks, the instance with its optional
-// validation messenger, and physical-device discovery (limits, and whether ray queries are
-// usable).
+// validation messenger, and physical-device discovery (limits, and whether ray queries and the
+// ray-tracing pipeline are usable).
 #pragma once
 #ifndef VK_NO_PROTOTYPES
 #define VK_NO_PROTOTYPES
