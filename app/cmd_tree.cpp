@@ -88,6 +88,32 @@ void run_tree(const TreeArgs& a) {
                     "rays/path)\n",
                     a.warps, busy / a.warps, active / a.warps, visits / std::max(1.0, rays),
                     rays / (32.0 * a.warps));
+        // Each lane's stream of 8 samples (path regeneration): the walk's cost against
+        // lock-step for a shading step of 2, 4 or 8 node steps (docs/traversal.md).
+        const double shades[] = {2, 4, 8};
+        const uint32_t steps[] = {1, 2, 4, 6, 8};
+        double lock[3] = {}, walked[3][5] = {}, vote[3] = {};
+        for (int w = 0; w < a.warps; ++w) {
+            const uint32_t first = uint32_t((uint64_t(w) * 2654435761u) % warps_in_image) * 32u;
+            std::vector<std::vector<uint32_t>> lanes(32);
+            for (uint32_t i = 0; i < 32; ++i)
+                for (uint32_t k = 0; k < 8; ++k) {
+                    const auto v = cpu_path_visits(g, pp, first + i, uint32_t(w) * 8 + k);
+                    lanes[i].insert(lanes[i].end(), v.begin(), v.end());
+                }
+            for (int si = 0; si < 3; ++si) {
+                lock[si] += lockstep_cost(lanes, shades[si]);
+                for (int k = 0; k < 5; ++k) walked[si][k] += walked_cost(lanes, shades[si], steps[k]);
+                vote[si] += walked_cost(lanes, shades[si], 16, true);
+            }
+        }
+        std::printf("  walked (step_slot_walk) against lock-step, 8 samples a lane:\n"
+                    "    shading cost | walk steps 1     2     4     6     8 | vote at 16\n");
+        for (int si = 0; si < 3; ++si) {
+            std::printf("    %4.0f nodes   |          ", shades[si]);
+            for (int k = 0; k < 5; ++k) std::printf(" %5.3f", walked[si][k] / lock[si]);
+            std::printf(" | %5.3f\n", vote[si] / lock[si]);
+        }
     }
 }
 

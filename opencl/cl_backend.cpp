@@ -298,6 +298,8 @@ class OpenClBackend final : public Backend {
                     "u -DKD_TRI_STEPS=" + std::to_string(steps.triangles) + "u";
         if (steps.overlap == 0) opts += " -DKD_OVERLAP=0u";
         if (trace_sites(dev_.info, features) == 1) opts += " -DMCPT_TRACE_SITES=1u";
+        if (const uint32_t walk = walk_steps(dev_.info, features))
+            opts += " -DMCPT_WALK_STEPS=" + std::to_string(walk) + "u";
         if (options_.env_strategy != 0)
             opts += " -DMCPT_ENV_STRATEGY=" + std::to_string(options_.env_strategy) + "u";
         if (!options_.extra_defines.empty()) opts += " " + options_.extra_defines;

@@ -384,5 +384,27 @@ TEST(WarpModel, LanesAreTheWorkOverEachTracesLongestRay) {
     EXPECT_GT(rays, 2 * 43.0);  // paths of more than a camera ray
 }
 
+// The walk's model (step_slot_walk) against lock-step, worked by hand on two lanes whose rays
+// take 3 then 1 node steps and 1 then 1, shading costing 2 steps.
+TEST(WarpModel, WalkedCostAgainstLockStep) {
+    const std::vector<std::vector<uint32_t>> lanes = {{3, 1}, {1, 1}};
+    // Lock-step: (3 + 2) + (1 + 2).
+    EXPECT_DOUBLE_EQ(lockstep_cost(lanes, 2), 8.0);
+    // One step a pause: lane 1 shades after each step, lane 0 walks on: 4 steps and 4
+    // shadings (its first ray: 3 steps under 2 shadings, then one of its own; its second: 1).
+    EXPECT_DOUBLE_EQ(walked_cost(lanes, 2, 1), 12.0);
+    // Pauses no shorter than the longest ray: lock-step.
+    EXPECT_DOUBLE_EQ(walked_cost(lanes, 2, 4), 8.0);
+    // A vote for both lanes: walk until both rays ended, then shade.
+    EXPECT_DOUBLE_EQ(walked_cost(lanes, 2, 2, true), 8.0);
+    // The walk's gain: each lane's long ray at another place in its stream holds every
+    // lock-step iteration (4 x (8 + 2)); walked 2 steps at a time, each lane takes 4 + 3
+    // pauses of 2 + 2, side by side.
+    const std::vector<std::vector<uint32_t>> skewed = {
+        {8, 1, 1, 1}, {1, 8, 1, 1}, {1, 1, 8, 1}, {1, 1, 1, 8}};
+    EXPECT_DOUBLE_EQ(lockstep_cost(skewed, 2), 40.0);
+    EXPECT_DOUBLE_EQ(walked_cost(skewed, 2, 2), 28.0);
+}
+
 }  // namespace
 }  // namespace mcpt

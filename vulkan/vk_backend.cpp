@@ -301,9 +301,9 @@ struct VulkanBackend::Impl {
         const auto t0 = std::chrono::steady_clock::now();
         // Specialization: id 0 = KD_STACK_SIZE, id 1 = local_size_x, id 2 = MCPT_FEATURES,
         // ids 3, 4 and 5 = KD_NODE_STEPS, KD_TRI_STEPS and KD_OVERLAP, id 6 = the environment
-        // strategy (tests), id 7 = MCPT_TRACE_SITES.
+        // strategy (tests), id 7 = MCPT_TRACE_SITES, id 8 = MCPT_WALK_STEPS.
         const KdSteps steps = kd_steps(pd.info);
-        constexpr uint32_t kSpecs = 8;
+        constexpr uint32_t kSpecs = 9;
         const uint32_t values[kSpecs] = {stack_size,
                                          local,
                                          features,
@@ -311,10 +311,12 @@ struct VulkanBackend::Impl {
                                          steps.triangles,
                                          steps.overlap,
                                          options.env_strategy,
-                                         trace_sites(pd.info, features, rt)};
+                                         trace_sites(pd.info, features, rt),
+                                         walk_steps(pd.info, features, rt)};
         static const char* const names[kSpecs] = {
             "KD_STACK_SIZE", "local_size_x", "MCPT_FEATURES",     "KD_NODE_STEPS",
-            "KD_TRI_STEPS",  "KD_OVERLAP",   "MCPT_ENV_STRATEGY", "MCPT_TRACE_SITES"};
+            "KD_TRI_STEPS",  "KD_OVERLAP",   "MCPT_ENV_STRATEGY", "MCPT_TRACE_SITES",
+            "MCPT_WALK_STEPS"};
         VkSpecializationMapEntry entries[kSpecs];
         built_settings.clear();
         for (uint32_t i = 0; i < kSpecs; ++i) {

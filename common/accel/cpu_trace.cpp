@@ -109,3 +109,50 @@ WarpLanes warp_lanes(const std::vector<std::vector<uint32_t>>& lanes) {
 }
 
 }  // namespace mcpt
+
+namespace mcpt {
+
+double lockstep_cost(const std::vector<std::vector<uint32_t>>& lanes, double shade) {
+    // Iteration i: every lane's i-th ray, as long as the longest, then shading.
+    size_t iterations = 0;
+    for (const auto& l : lanes) iterations = std::max(iterations, l.size());
+    double cost = 0;
+    for (size_t i = 0; i < iterations; ++i) {
+        uint32_t longest = 0;
+        for (const auto& l : lanes) longest = std::max(longest, i < l.size() ? l[i] : 0u);
+        cost += longest + shade;
+    }
+    return cost;
+}
+
+double walked_cost(const std::vector<std::vector<uint32_t>>& lanes, double shade, uint32_t steps,
+                   bool vote) {
+    // Each lane's ray (at) and the node steps it has left; a lane past its stream is done.
+    const size_t n = lanes.size();
+    std::vector<size_t> at(n, 0);
+    std::vector<uint32_t> left(n, 0);
+    for (size_t l = 0; l < n; ++l) left[l] = lanes[l].empty() ? 0u : lanes[l][0];
+    double cost = 0;
+    while (true) {
+        uint32_t longest = 0, live = 0, waiting = 0;
+        for (size_t l = 0; l < n; ++l)
+            if (at[l] < lanes[l].size())
+                live += 1, waiting += left[l] == 0, longest = std::max(longest, left[l]);
+        if (live == 0) break;
+        // Fixed: up to `steps` node steps. Vote: one step at a time while fewer than `steps`
+        // lanes wait and some lane walks.
+        uint32_t k = std::min(longest, steps);
+        if (vote) k = waiting >= std::min(steps, live) ? 0u : std::min(longest, 1u);
+        cost += k;
+        for (size_t l = 0; l < n; ++l) left[l] -= std::min(left[l], k);
+        if (vote && k > 0) continue;
+        // The lanes whose ray ended shade and start their next.
+        cost += shade;
+        for (size_t l = 0; l < n; ++l)
+            if (at[l] < lanes[l].size() && left[l] == 0 && ++at[l] < lanes[l].size())
+                left[l] = lanes[l][at[l]];
+    }
+    return cost;
+}
+
+}  // namespace mcpt

@@ -55,4 +55,13 @@ struct WarpLanes {
 };
 WarpLanes warp_lanes(const std::vector<std::vector<uint32_t>>& lanes);
 
+// The warp's cost, in node steps, of tracing each lane's stream of rays (its paths one after
+// another, as path regeneration runs them), shading costing `shade` node steps: lock-step, as
+// step_slot runs (each iteration every lane's next ray, as long as the longest, then
+// shading), or walked, as step_slot_walk runs (up to `steps` node steps, then the lanes whose
+// ray ended shade; with `vote`, node steps until `steps` lanes wait, as a warp vote would).
+double lockstep_cost(const std::vector<std::vector<uint32_t>>& lanes, double shade);
+double walked_cost(const std::vector<std::vector<uint32_t>>& lanes, double shade, uint32_t steps,
+                   bool vote = false);
+
 }  // namespace mcpt

@@ -757,7 +757,127 @@ MCPT_STRUCT(SlotStep) {
 // samples were split into dispatches (the reproducible mode relies on it). One loop of one
 // bounce each: a lane whose path ended starts its next sample in the next iteration instead
 // of waiting for the longest path of its SIMD group or warp (path regeneration).
+// Node steps a ray's walk takes before the lanes whose rays ended shade (step_slot_walk; 0:
+// off). OpenCL: -DMCPT_WALK_STEPS; Vulkan: specialization constant 8 (scene_access.h).
+#ifndef MCPT_WALK_STEPS
+#define MCPT_WALK_STEPS 0u
+#endif
+
+// A sample that ended adds to the pixel's sums (non-finite ones counted, never added), and
+// the pixel's next sample starts if it owes one. (A macro: step_slot and step_slot_walk.)
+#define END_SAMPLE(ST, SUMS, PIXEL)                                                           \
+    {                                                                                         \
+        vec3 l = (ST).status == PATH_ENDED ? (ST).radiance : V3S(quiet_nan());                \
+        /* Tests: poison every 4th sample of pixel 0 (NaN) and of pixel 1 (+Inf). */          \
+        if (HAS_FEATURE(FEATURE_TEST_NAN) && (PIXEL) <= 1u && ((ST).sample_index & 3u) == 0u) \
+            l.x = (PIXEL) == 0u ? quiet_nan() : uint_as_float(0x7f800000u);                   \
+        (SUMS).sum_sq.w += F32((ST).rays);                                                    \
+        if (is_nonfinite3(l)) {                                                               \
+            (SUMS).sum.w += 1.0f;                                                             \
+        } else {                                                                              \
+            (SUMS).sum = (SUMS).sum + V4(l.x, l.y, l.z, 0.0f);                                \
+            (SUMS).sum_sq = (SUMS).sum_sq + V4(l.x * l.x, l.y * l.y, l.z * l.z, 0.0f);        \
+        }                                                                                     \
+        uint left = (ST).samples_left - 1u;                                                   \
+        uint next = (ST).sample_index + 1u;                                                   \
+        (ST) = start_path(SCENE_ARGS_ PIXEL, next);                                           \
+        (ST).samples_left = left;                                                             \
+    }
+
+#if defined(MCPT_CARRIED_SHADOW) && !defined(MCPT_RAY_QUERY) && !defined(MCPT_RAY_PIPELINE)
+// step_slot with the BVH walked a few node steps at a time (MCPT_WALK_STEPS): a lane whose
+// ray ended shades its vertex and starts its next ray while the others go on walking, so a
+// GPU warp waits at most MCPT_WALK_STEPS node steps for its longest ray instead of the whole
+// ray (issue 64; docs/traversal.md). Every ray (the shadow rays too: one trace site) goes
+// through the one walk below; each path's rays, hits and sums are step_slot's, bit for bit.
+// Scenes with a BVH and without cut-outs.
+MCPT_FN SlotStep step_slot_walk(SCENE_PARAMS_ PathState st, uint pixel, PixelSums sums) {
+    SlotStep step;
+    step.sums = sums;
+    uint budget = PARAM(bounce_budget);
+    uvec2 stack[KD_STACK_SIZE];
+    Ray ray;
+    ray.o = V3S(0.0f);
+    ray.d = V3S(1.0f);
+    ray.tmax = 0.0f;
+    bool shadow = false;
+    Hit hit = no_hit(0.0f);
+    WoopRay wr = woop_setup(ray.d);
+    BvhWalk w = bvh_walk_begin(ray.d);
+    w.done = true;
+    bool in_ray = false;
+    while (true) {
+        // The lane's next ray: a pending shadow ray, else the path's, while it owes samples.
+        if (!in_ray) {
+            if (!SHADOW_PENDING(st) && !(st.samples_left > 0u && budget > 0u)) break;
+            shadow = st.shadow_pending;
+            if (shadow) {
+                ray.o = st.shadow_o;
+                ray.d = st.shadow_d;
+                ray.tmax = st.shadow_tmax;
+            } else {
+                budget -= 1u;
+                ray.o = st.o;
+                ray.d = st.d;
+                ray.tmax = MCPT_FLT_MAX;
+            }
+            // Spheres first, one by one (trace_opaque), then the walk from the root.
+            hit = no_hit(ray.tmax);
+            uint num_spheres = HAS_FEATURE(FEATURE_SPHERES) ? PARAM(num_spheres) : 0u;
+            uint s = 0u;
+            for (; s < num_spheres; ++s) {
+                Ray r = ray;
+                r.tmax = hit.t;
+                float t = intersect_sphere(r, SPHERE(s));
+                if (t > 0.0f) {
+                    hit.t = t;
+                    hit.prim = s | SPHERE_BIT;
+                    if (shadow) break;
+                }
+            }
+            if (s < num_spheres && !(shadow && hit.prim != NO_HIT)) hit.status = TRACE_INCOMPLETE;
+            wr = woop_setup(ray.d);
+            w = bvh_walk_begin(ray.d);
+            w.done = (shadow && hit.prim != NO_HIT) || PARAM(num_triangles) == 0u;
+            in_ray = true;
+        }
+        // A few node steps of the walk.
+#ifdef MCPT_NEGATIVE_CONTROL_WALK
+        w.sp = 0u;  // tests: a walk that loses its stack each time it pauses
+#endif
+        for (uint k = 0u; k < MCPT_WALK_STEPS && !w.done; ++k)
+            BVH_WALK_ITERATION(w, stack, ray, wr, shadow, NO_HIT, hit)
+        if (!w.done) continue;
+        // The ray's hit: as step_path takes it.
+        in_ray = false;
+        st.rays += 1u;
+        if (shadow) {
+            st.shadow_pending = false;
+            if (hit.status != 0u)
+                st.status = PATH_INVALID;
+            else if (hit.prim == NO_HIT)
+                st.radiance += st.shadow_contribution;
+        } else if (hit.status != 0u) {
+            st.status = PATH_INVALID;
+        } else {
+            st = shade_vertex(SCENE_ARGS_ st, ray, hit, pixel);
+        }
+        if (st.status == PATH_RUNNING || SHADOW_PENDING(st)) continue;
+        END_SAMPLE(st, step.sums, pixel)
+    }
+    step.st = st;
+    return step;
+}
+#define WALK_ON                                                               \
+    (MCPT_WALK_STEPS > 0u && MCPT_TRACE_SITES == 1u && HAS_FEATURE(FEATURE_BVH) && \
+     (PARAM(scene_flags) & SCENE_BVH) != 0u &&                                 \
+     !(HAS_FEATURE(FEATURE_ALPHA_MASK) && (PARAM(scene_flags) & SCENE_ALPHA_MASK) != 0u))
+#endif
+
 MCPT_FN SlotStep step_slot(SCENE_PARAMS_ PathState st, uint pixel, PixelSums sums) {
+#ifdef WALK_ON
+    if (WALK_ON) return step_slot_walk(SCENE_ARGS_ st, pixel, sums);
+#endif
     SlotStep step;
     step.sums = sums;
     uint budget = PARAM(bounce_budget);
@@ -767,22 +887,7 @@ MCPT_FN SlotStep step_slot(SCENE_PARAMS_ PathState st, uint pixel, PixelSums sum
         if (!SHADOW_PENDING(st)) budget -= 1u;
         st = step_path(SCENE_ARGS_ st, pixel);
         if (st.status == PATH_RUNNING || SHADOW_PENDING(st)) continue;
-        vec3 l = st.status == PATH_ENDED ? st.radiance : V3S(quiet_nan());
-        // Tests: poison every 4th sample of pixel 0 (NaN) and of pixel 1 (+Inf).
-        if (HAS_FEATURE(FEATURE_TEST_NAN) && pixel <= 1u && (st.sample_index & 3u) == 0u)
-            l.x = pixel == 0u ? quiet_nan() : uint_as_float(0x7f800000u);
-        step.sums.sum_sq.w += F32(st.rays);
-        if (is_nonfinite3(l)) {
-            step.sums.sum.w += 1.0f;
-        } else {
-            step.sums.sum = step.sums.sum + V4(l.x, l.y, l.z, 0.0f);
-            step.sums.sum_sq = step.sums.sum_sq + V4(l.x * l.x, l.y * l.y, l.z * l.z, 0.0f);
-        }
-        // The pixel's next sample, if it owes one.
-        uint left = st.samples_left - 1u;
-        uint next = st.sample_index + 1u;
-        st = start_path(SCENE_ARGS_ pixel, next);
-        st.samples_left = left;
+        END_SAMPLE(st, step.sums, pixel)
     }
     step.st = st;
     return step;

@@ -114,6 +114,7 @@ layout(constant_id = 4) const uint KD_TRI_STEPS = 1u;
 layout(constant_id = 5) const uint KD_OVERLAP = 1u;  // traverse.h
 layout(constant_id = 6) const uint ENV_STRATEGY_SPEC = 0u;  // integrator.h (tests)
 layout(constant_id = 7) const uint MCPT_TRACE_SITES = 2u;   // integrator.h: step_path()
+layout(constant_id = 8) const uint MCPT_WALK_STEPS = 0u;    // integrator.h: step_slot_walk()
 #define MCPT_CARRIED_SHADOW 1  // the path can carry a shadow ray (with one trace site)
 #define MCPT_CARRIED_RECEIVER 1  // the path carries the receiver's normal (light tree)
 #define MCPT_CARRIED_MEDIUM 1    // ... and the absorbing glass it is inside (FEATURE_VOLUME)

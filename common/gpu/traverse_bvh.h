@@ -249,6 +249,79 @@ MCPT_FN Hit trace_bvh(SCENE_PARAMS_ Ray ray, WoopRay wr, bool any_hit, uint skip
     return hit;
 }
 
+// A ray's walk through the BVH that stops and resumes between iterations (integrator.h:
+// step_slot_walk): trace_bvh's loop state, its stack held by the caller. `done`: the hit is
+// final (or its status says why not).
+MCPT_STRUCT(BvhWalk) {
+    vec3 inv_d;
+    uint oct_inv;
+    uvec2 node_group, tri_group;
+    uint sp;
+    bool done;
+};
+
+// The walk of a ray with direction d from the root (trace_bvh's set-up).
+MCPT_FN BvhWalk bvh_walk_begin(vec3 d) {
+    d.x = ABSF(d.x) < BVH_MIN_DIR ? (d.x < 0.0f ? -BVH_MIN_DIR : BVH_MIN_DIR) : d.x;
+    d.y = ABSF(d.y) < BVH_MIN_DIR ? (d.y < 0.0f ? -BVH_MIN_DIR : BVH_MIN_DIR) : d.y;
+    d.z = ABSF(d.z) < BVH_MIN_DIR ? (d.z < 0.0f ? -BVH_MIN_DIR : BVH_MIN_DIR) : d.z;
+    BvhWalk w;
+    w.inv_d = V3(1.0f / d.x, 1.0f / d.y, 1.0f / d.z);
+    w.oct_inv = (d.x < 0.0f ? 0u : 4u) | (d.y < 0.0f ? 0u : 2u) | (d.z < 0.0f ? 0u : 1u);
+    w.node_group = UV2(0u, 0x80000000u);
+    w.tri_group = UV2(0u, 0u);
+    w.sp = 0u;
+    w.done = false;
+    return w;
+}
+
+// One iteration of trace_bvh's loop on walk W (its stack STACK): a node, the triangles of its
+// hit leaves, then the next group; W.done where trace_bvh would return. A macro: the stack is
+// an array of the caller's (no pointers in the shared dialect, GLSL copies array arguments).
+#define BVH_WALK_ITERATION(W, STACK, RAY, WR, ANY_HIT, SKIP, HIT)                               \
+    {                                                                                           \
+        if (((W).node_group.y & 0xff000000u) != 0u) {                                           \
+            uint bit = FIND_MSB((W).node_group.y);                                              \
+            uint slot = (bit - 24u) ^ (W).oct_inv;                                              \
+            uint below = (W).node_group.y & 0xffu & ~(0xffffffffu << slot);                     \
+            uint child = (W).node_group.x + BIT_COUNT(below);                                   \
+            (W).node_group.y &= ~(1u << bit);                                                   \
+            if (((W).node_group.y & 0xff000000u) != 0u) {                                       \
+                if ((W).sp >= KD_STACK_SIZE) {                                                  \
+                    (HIT).status = TRACE_STACK_OVERFLOW;                                        \
+                    (W).done = true;                                                            \
+                } else {                                                                        \
+                    STACK[(W).sp] = (W).node_group;                                             \
+                    (W).sp += 1u;                                                               \
+                }                                                                               \
+            }                                                                                   \
+            if (!(W).done) {                                                                    \
+                uint base = BVH_NODE_UNITS / 2u * child;                                        \
+                uvec4 q0 = BVH_QUAD(base), q1 = BVH_QUAD(base + 1u);                            \
+                uint hits = BVH_CHILD_HITS(SCENE_ARGS_ base, q0, q1, (RAY).o, (W).inv_d,        \
+                                           (W).oct_inv, (HIT).t);                               \
+                (W).node_group = UV2(q1.x, (hits & 0xff000000u) | (q0.w >> 24u));               \
+                (W).tri_group = UV2(q1.y, hits & 0x00ffffffu);                                  \
+            }                                                                                   \
+        }                                                                                       \
+        while (!(W).done && (W).tri_group.y != 0u) {                                            \
+            uint bit = FIND_MSB((W).tri_group.y);                                               \
+            (W).tri_group.y &= ~(1u << bit);                                                    \
+            float nearest = (HIT).t;                                                            \
+            (HIT) = closer_triangle_hit(SCENE_ARGS_ RAY, WR, LEAF_INDEX((W).tri_group.x + bit), \
+                                        SKIP, HIT);                                             \
+            if ((ANY_HIT) && (HIT).t < nearest) (W).done = true;                                \
+        }                                                                                       \
+        if (!(W).done && ((W).node_group.y & 0xff000000u) == 0u) {                              \
+            if ((W).sp == 0u) {                                                                 \
+                (W).done = true;                                                                \
+            } else {                                                                            \
+                (W).sp -= 1u;                                                                   \
+                (W).node_group = STACK[(W).sp];                                                 \
+            }                                                                                   \
+        }                                                                                       \
+    }
+
 MCPT_NAMESPACE_END
 
 #endif  // MCPT_GPU_TRAVERSE_BVH_H

@@ -96,6 +96,13 @@ KdSteps kd_steps(const DeviceInfo& device);
 // NVIDIA's compilers round the two programs differently (both APIs, docs/benchmarks.md).
 uint32_t trace_sites(const DeviceInfo& device, uint32_t features, bool ray_pipeline = false);
 
+// Node steps a ray's BVH walk takes before the lanes whose rays ended shade
+// (MCPT_WALK_STEPS, integrator.h: step_slot_walk; 0: every ray walked to its end where it is
+// traced). Nonzero only for scenes with the BVH (FEATURE_BVH) and without cut-outs, through
+// our own traversal, and then with one trace site (trace_sites). $MCPT_WALK_STEPS (0-32)
+// overrides.
+uint32_t walk_steps(const DeviceInfo& device, uint32_t features, bool driver_traced = false);
+
 class Backend {
   public:
     virtual ~Backend() = default;

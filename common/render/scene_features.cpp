@@ -144,7 +144,24 @@ KdSteps kd_steps(const DeviceInfo&) {
     return s;
 }
 
+uint32_t walk_steps(const DeviceInfo& device, uint32_t features, bool driver_traced) {
+    if (driver_traced || (features & FEATURE_BVH) == 0 || (features & FEATURE_ALPHA_MASK) != 0)
+        return 0;
+    (void)device;
+    uint32_t steps = 0;
+    if (const char* e = std::getenv("MCPT_WALK_STEPS")) {
+        const std::string v = e;
+        char* end = nullptr;
+        const long n = std::strtol(e, &end, 10);
+        if (v.empty() || *end != '\0' || n < 0 || n > 32)
+            throw Error("MCPT_WALK_STEPS must be 0 to 32, not '" + v + "'");
+        steps = uint32_t(n);
+    }
+    return steps;
+}
+
 uint32_t trace_sites(const DeviceInfo& device, uint32_t features, bool ray_pipeline) {
+    if (walk_steps(device, features, ray_pipeline) > 0) return 1u;
     if (const char* e = std::getenv("MCPT_TRACE_SITES")) {
         const std::string v = e;
         if (v != "1" && v != "2") throw Error("MCPT_TRACE_SITES must be 1 or 2, not '" + v + "'");

@@ -1,0 +1,111 @@
+// A BVH walk paused every few node steps (MCPT_WALK_STEPS: common/gpu/integrator.h,
+// step_slot_walk) changes when a lane shades, not what its rays hit or what its paths add:
+// the materials scene (spheres, glass, metal, the area light's shadow rays) and a deep mesh
+// render the same image bit for bit walked whole and paused after every node (the mesh also
+// every third), on both APIs. Control: a walk that loses its stack when it pauses (OpenCL: the
+// define reaches its kernel only) gives another image. The count reaches the compiler, a
+// count out of range is refused, and which scenes may walk.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+
+#include "common/error.h"
+#include "common/render/session.h"
+#include "common/scene/builtin_scenes.h"
+#include "test_util.h"
+
+namespace mcpt {
+namespace {
+
+class BvhWalk : public ::testing::TestWithParam<std::string> {};
+
+// `scene` through the BVH in reproducible mode, 16 samples; steps nullptr: the variable unset.
+std::vector<float> render_walked(const std::string& api, const Scene& scene, const char* steps,
+                                 const std::string& defines = "", std::string* settings = nullptr) {
+    if (steps)
+        setenv("MCPT_WALK_STEPS", steps, 1);
+    else
+        unsetenv("MCPT_WALK_STEPS");
+    std::vector<float> image;
+    try {
+        BackendOptions o;
+        o.extra_defines = defines;
+        Session s(test::test_backend(api, o));
+        s.set_scene(scene);
+        s.settings().width = 48, s.settings().height = 40;
+        s.settings().tree = "bvh";
+        s.settings().reproducible = true;
+        s.settings().seed = 3;
+        s.render(1e6, 0, 16);
+        if (settings) *settings = s.backend().build_settings();
+        image = s.image_rgba32f();
+    } catch (...) {
+        unsetenv("MCPT_WALK_STEPS");
+        throw;
+    }
+    unsetenv("MCPT_WALK_STEPS");
+    return image;
+}
+
+TEST_P(BvhWalk, PausedWalksGiveTheSameImage) {
+    const Scene materials = make_builtin_scene("materials");
+    EXPECT_EQ(render_walked(GetParam(), materials, "1"), render_walked(GetParam(), materials, "0"));
+    const Scene mesh = make_bumpy_sphere_scene(24);
+    const std::vector<float> whole = render_walked(GetParam(), mesh, "0");
+    EXPECT_EQ(render_walked(GetParam(), mesh, "1"), whole);
+    EXPECT_EQ(render_walked(GetParam(), mesh, "3"), whole);
+    // Negative control: a walk that forgets the subtrees it deferred. (The materials scene's
+    // BVH is a root of leaves: nothing is deferred there.)
+    if (GetParam() == "opencl")
+        EXPECT_NE(render_walked(GetParam(), mesh, "1", "-DMCPT_NEGATIVE_CONTROL_WALK"), whole);
+}
+
+// The count reaches the compiler, with the one trace site the walk needs: OpenCL's build
+// options, Vulkan's specialization constants.
+TEST_P(BvhWalk, StepsReachTheCompiler) {
+    const Scene scene = make_builtin_scene("materials");
+    std::string walked, whole;
+    render_walked(GetParam(), scene, "3", "", &walked);
+    render_walked(GetParam(), scene, "0", "", &whole);
+    const bool vk = GetParam() == "vulkan";
+    for (const char* want : {vk ? "MCPT_WALK_STEPS=3" : "-DMCPT_WALK_STEPS=3u",
+                             vk ? "MCPT_TRACE_SITES=1" : "-DMCPT_TRACE_SITES=1u"})
+        EXPECT_NE(walked.find(want), std::string::npos) << walked;
+    EXPECT_EQ(whole.find(vk ? "MCPT_WALK_STEPS=3" : "-DMCPT_WALK_STEPS"), std::string::npos)
+        << whole;
+}
+
+TEST_P(BvhWalk, OutOfRangeIsRefused) {
+    for (const char* bad : {"33", "-1", "4x", ""}) {
+        try {
+            render_walked(GetParam(), make_builtin_scene("materials"), bad);
+            ADD_FAILURE() << "MCPT_WALK_STEPS='" << bad << "' accepted";
+        } catch (const Error& e) {
+            EXPECT_NE(std::string(e.what()).find("MCPT_WALK_STEPS must be 0 to 32, not '" +
+                                                 std::string(bad) + "'"),
+                      std::string::npos)
+                << e.what();
+        }
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, BvhWalk, ::testing::ValuesIn(test::test_apis()),
+                         [](const auto& info) { return info.param; });
+
+// Only scenes through our BVH without cut-outs walk; the driver's tracing never does.
+TEST(BvhWalkChoice, OnlyTheBvhWithoutCutOuts) {
+    setenv("MCPT_WALK_STEPS", "4", 1);
+    DeviceInfo nv_vk;
+    nv_vk.backend = "vulkan", nv_vk.name = "NVIDIA H100 80GB HBM3", nv_vk.platform = "NVIDIA";
+    const uint32_t mesh = FEATURE_TRIANGLES | FEATURE_DIFFUSE | FEATURE_TRIANGLE_LIGHTS;
+    EXPECT_EQ(walk_steps(nv_vk, mesh | FEATURE_BVH), 4u);
+    EXPECT_EQ(trace_sites(nv_vk, mesh | FEATURE_BVH), 1u);
+    EXPECT_EQ(walk_steps(nv_vk, mesh | FEATURE_KDTREE), 0u);
+    EXPECT_EQ(walk_steps(nv_vk, mesh | FEATURE_BVH | FEATURE_ALPHA_MASK), 0u);
+    EXPECT_EQ(walk_steps(nv_vk, mesh | FEATURE_BVH, true), 0u);
+    EXPECT_EQ(trace_sites(nv_vk, mesh | FEATURE_BVH, true), 1u);
+    unsetenv("MCPT_WALK_STEPS");
+}
+
+}  // namespace
+}  // namespace mcpt
