@@ -1,7 +1,8 @@
 // A BVH walk paused every few node steps (MCPT_WALK_STEPS: common/gpu/integrator.h,
 // step_slot_walk) changes when a lane shades, not what its rays hit or what its paths add:
-// the materials scene (spheres, glass, metal, the area light's shadow rays) and a deep mesh
-// render the same image bit for bit walked whole and paused after every node (the mesh also
+// the materials scene (spheres, glass, metal, the area light's shadow rays), the textured one
+// (cut-outs the walk passes through, in shadow rays too) and a deep mesh render the same image
+// bit for bit walked whole and paused after every node (the mesh also
 // every third), on both APIs. Control: a walk that loses its stack when it pauses (OpenCL: the
 // define reaches its kernel only) gives another image. The count reaches the compiler, a
 // count out of range is refused, and which scenes may walk.
@@ -12,6 +13,7 @@
 #include "common/error.h"
 #include "common/render/session.h"
 #include "common/scene/builtin_scenes.h"
+#include "common/scene/gltf_loader.h"
 #include "test_util.h"
 
 namespace mcpt {
@@ -50,6 +52,8 @@ std::vector<float> render_walked(const std::string& api, const Scene& scene, con
 TEST_P(BvhWalk, PausedWalksGiveTheSameImage) {
     const Scene materials = make_builtin_scene("materials");
     EXPECT_EQ(render_walked(GetParam(), materials, "1"), render_walked(GetParam(), materials, "0"));
+    const Scene textured = load_gltf(std::string(MCPT_TEST_DATA_DIR) + "/textured.glb");
+    EXPECT_EQ(render_walked(GetParam(), textured, "1"), render_walked(GetParam(), textured, "0"));
     const Scene mesh = make_bumpy_sphere_scene(24);
     const std::vector<float> whole = render_walked(GetParam(), mesh, "0");
     EXPECT_EQ(render_walked(GetParam(), mesh, "1"), whole);
@@ -92,8 +96,8 @@ TEST_P(BvhWalk, OutOfRangeIsRefused) {
 INSTANTIATE_TEST_SUITE_P(Backends, BvhWalk, ::testing::ValuesIn(test::test_apis()),
                          [](const auto& info) { return info.param; });
 
-// Only scenes through our BVH without cut-outs walk; the driver's tracing never does.
-TEST(BvhWalkChoice, OnlyTheBvhWithoutCutOuts) {
+// Only scenes through our BVH walk; the driver's tracing never does.
+TEST(BvhWalkChoice, OnlyTheBvh) {
     setenv("MCPT_WALK_STEPS", "4", 1);
     DeviceInfo nv_vk;
     nv_vk.backend = "vulkan", nv_vk.name = "NVIDIA H100 80GB HBM3", nv_vk.platform = "NVIDIA";
@@ -101,7 +105,7 @@ TEST(BvhWalkChoice, OnlyTheBvhWithoutCutOuts) {
     EXPECT_EQ(walk_steps(nv_vk, mesh | FEATURE_BVH), 4u);
     EXPECT_EQ(trace_sites(nv_vk, mesh | FEATURE_BVH), 1u);
     EXPECT_EQ(walk_steps(nv_vk, mesh | FEATURE_KDTREE), 0u);
-    EXPECT_EQ(walk_steps(nv_vk, mesh | FEATURE_BVH | FEATURE_ALPHA_MASK), 0u);
+    EXPECT_EQ(walk_steps(nv_vk, mesh | FEATURE_BVH | FEATURE_ALPHA_MASK), 4u);
     EXPECT_EQ(walk_steps(nv_vk, mesh | FEATURE_BVH, true), 0u);
     EXPECT_EQ(trace_sites(nv_vk, mesh | FEATURE_BVH, true), 1u);
     unsetenv("MCPT_WALK_STEPS");

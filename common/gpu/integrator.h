@@ -790,22 +790,28 @@ MCPT_STRUCT(SlotStep) {
 // GPU warp waits at most MCPT_WALK_STEPS node steps for its longest ray instead of the whole
 // ray (issue 64; docs/traversal.md). Every ray (the shadow rays too: one trace site) goes
 // through the one walk below; each path's rays, hits and sums are step_slot's, bit for bit.
-// Scenes with a BVH and without cut-outs.
+// Scenes with a BVH.
 MCPT_FN SlotStep step_slot_walk(SCENE_PARAMS_ PathState st, uint pixel, PixelSums sums) {
     SlotStep step;
     step.sums = sums;
     uint budget = PARAM(bounce_budget);
+    bool masks = HAS_FEATURE(FEATURE_ALPHA_MASK) && (PARAM(scene_flags) & SCENE_ALPHA_MASK) != 0u;
     uvec2 stack[KD_STACK_SIZE];
+    // The lane's ray, and the part of it walked now: past the cut-outs met so far (t_base
+    // along the ray, the last one skipped), as trace_ray takes them.
     Ray ray;
     ray.o = V3S(0.0f);
     ray.d = V3S(1.0f);
     ray.tmax = 0.0f;
+    Ray seg = ray;
+    float t_base = 0.0f;
+    uint skip = NO_HIT, cutouts = 0u;
     bool shadow = false;
     Hit hit = no_hit(0.0f);
     WoopRay wr = woop_setup(ray.d);
     BvhWalk w = bvh_walk_begin(ray.d);
     w.done = true;
-    bool in_ray = false;
+    bool in_ray = false, walk_from_root = false;
     while (true) {
         // The lane's next ray: a pending shadow ray, else the path's, while it owes samples.
         if (!in_ray) {
@@ -821,33 +827,59 @@ MCPT_FN SlotStep step_slot_walk(SCENE_PARAMS_ PathState st, uint pixel, PixelSum
                 ray.d = st.d;
                 ray.tmax = MCPT_FLT_MAX;
             }
-            // Spheres first, one by one (trace_opaque), then the walk from the root.
-            hit = no_hit(ray.tmax);
+            seg = ray;
+            t_base = 0.0f;
+            skip = NO_HIT;
+            cutouts = 0u;
+            in_ray = walk_from_root = true;
+        }
+        // Spheres first, one by one (trace_opaque), then the walk from the root. With
+        // cut-outs, the nearest hit even for shadow rays (trace_ray).
+        bool any_hit = shadow && !masks;
+        if (walk_from_root) {
+            hit = no_hit(seg.tmax);
             uint num_spheres = HAS_FEATURE(FEATURE_SPHERES) ? PARAM(num_spheres) : 0u;
             uint s = 0u;
             for (; s < num_spheres; ++s) {
-                Ray r = ray;
+                Ray r = seg;
                 r.tmax = hit.t;
                 float t = intersect_sphere(r, SPHERE(s));
                 if (t > 0.0f) {
                     hit.t = t;
                     hit.prim = s | SPHERE_BIT;
-                    if (shadow) break;
+                    if (any_hit) break;
                 }
             }
-            if (s < num_spheres && !(shadow && hit.prim != NO_HIT)) hit.status = TRACE_INCOMPLETE;
-            wr = woop_setup(ray.d);
-            w = bvh_walk_begin(ray.d);
-            w.done = (shadow && hit.prim != NO_HIT) || PARAM(num_triangles) == 0u;
-            in_ray = true;
+            if (s < num_spheres && !(any_hit && hit.prim != NO_HIT)) hit.status = TRACE_INCOMPLETE;
+            wr = woop_setup(seg.d);
+            w = bvh_walk_begin(seg.d);
+            w.done = (any_hit && hit.prim != NO_HIT) || PARAM(num_triangles) == 0u;
+            walk_from_root = false;
         }
         // A few node steps of the walk.
 #ifdef MCPT_NEGATIVE_CONTROL_WALK
         w.sp = 0u;  // tests: a walk that loses its stack each time it pauses
 #endif
         for (uint k = 0u; k < MCPT_WALK_STEPS && !w.done; ++k)
-            BVH_WALK_ITERATION(w, stack, ray, wr, shadow, NO_HIT, hit)
+            BVH_WALK_ITERATION(w, stack, seg, wr, any_hit, skip, hit)
         if (!w.done) continue;
+        // Cut out where it was hit: walk on from the hit, past that triangle (trace_ray).
+        if (masks && hit.prim != NO_HIT && hit.status == 0u && (hit.prim & SPHERE_BIT) == 0u &&
+            !opaque_at(SCENE_ARGS_ TRIANGLE(hit.prim).material, hit.prim, hit.b1, hit.b2)) {
+            cutouts += 1u;
+            if (cutouts < MAX_CUTOUTS) {
+                seg.o = seg.o + seg.d * hit.t;
+                seg.tmax -= hit.t;
+                t_base += hit.t;
+                skip = hit.prim;
+                walk_from_root = true;
+                continue;
+            }
+            hit = no_hit(ray.tmax);
+            hit.status = TRACE_INCOMPLETE;
+        } else {
+            hit.t += t_base;  // + 0 without cut-outs: the same bits
+        }
         // The ray's hit: as step_path takes it.
         in_ray = false;
         st.rays += 1u;
@@ -868,10 +900,9 @@ MCPT_FN SlotStep step_slot_walk(SCENE_PARAMS_ PathState st, uint pixel, PixelSum
     step.st = st;
     return step;
 }
-#define WALK_ON                                                               \
+#define WALK_ON                                                                    \
     (MCPT_WALK_STEPS > 0u && MCPT_TRACE_SITES == 1u && HAS_FEATURE(FEATURE_BVH) && \
-     (PARAM(scene_flags) & SCENE_BVH) != 0u &&                                 \
-     !(HAS_FEATURE(FEATURE_ALPHA_MASK) && (PARAM(scene_flags) & SCENE_ALPHA_MASK) != 0u))
+     (PARAM(scene_flags) & SCENE_BVH) != 0u)
 #endif
 
 MCPT_FN SlotStep step_slot(SCENE_PARAMS_ PathState st, uint pixel, PixelSums sums) {
