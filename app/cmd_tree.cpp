@@ -103,12 +103,14 @@ void run_tree(const TreeArgs& a) {
                 }
             for (int si = 0; si < 3; ++si) {
                 lock[si] += lockstep_cost(lanes, shades[si]);
-                for (int k = 0; k < 5; ++k) walked[si][k] += walked_cost(lanes, shades[si], steps[k]);
+                for (int k = 0; k < 5; ++k)
+                    walked[si][k] += walked_cost(lanes, shades[si], steps[k]);
                 vote[si] += walked_cost(lanes, shades[si], 16, true);
             }
         }
-        std::printf("  walked (step_slot_walk) against lock-step, 8 samples a lane:\n"
-                    "    shading cost | walk steps 1     2     4     6     8 | vote at 16\n");
+        std::printf(
+            "  walked (step_slot_walk) against lock-step, 8 samples a lane:\n"
+            "    shading cost | walk steps 1     2     4     6     8 | vote at 16\n");
         for (int si = 0; si < 3; ++si) {
             std::printf("    %4.0f nodes   |          ", shades[si]);
             for (int k = 0; k < 5; ++k) std::printf(" %5.3f", walked[si][k] / lock[si]);

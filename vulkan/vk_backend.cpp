@@ -314,9 +314,9 @@ struct VulkanBackend::Impl {
                                          trace_sites(pd.info, features, rt),
                                          walk_steps(pd.info, features, rt)};
         static const char* const names[kSpecs] = {
-            "KD_STACK_SIZE", "local_size_x", "MCPT_FEATURES",     "KD_NODE_STEPS",
-            "KD_TRI_STEPS",  "KD_OVERLAP",   "MCPT_ENV_STRATEGY", "MCPT_TRACE_SITES",
-            "MCPT_WALK_STEPS"};
+            "KD_STACK_SIZE",     "local_size_x",     "MCPT_FEATURES",
+            "KD_NODE_STEPS",     "KD_TRI_STEPS",     "KD_OVERLAP",
+            "MCPT_ENV_STRATEGY", "MCPT_TRACE_SITES", "MCPT_WALK_STEPS"};
         VkSpecializationMapEntry entries[kSpecs];
         built_settings.clear();
         for (uint32_t i = 0; i < kSpecs; ++i) {

@@ -145,8 +145,7 @@ KdSteps kd_steps(const DeviceInfo&) {
 }
 
 uint32_t walk_steps(const DeviceInfo& device, uint32_t features, bool driver_traced) {
-    if (driver_traced || (features & FEATURE_BVH) == 0)
-        return 0;
+    if (driver_traced || (features & FEATURE_BVH) == 0) return 0;
     (void)device;
     uint32_t steps = 0;
     if (const char* e = std::getenv("MCPT_WALK_STEPS")) {
