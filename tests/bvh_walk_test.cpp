@@ -60,8 +60,9 @@ TEST_P(BvhWalk, PausedWalksGiveTheSameImage) {
     EXPECT_EQ(render_walked(GetParam(), mesh, "3"), whole);
     // Negative control: a walk that forgets the subtrees it deferred. (The materials scene's
     // BVH is a root of leaves: nothing is deferred there.)
-    if (GetParam() == "opencl")
+    if (GetParam() == "opencl") {
         EXPECT_NE(render_walked(GetParam(), mesh, "1", "-DMCPT_NEGATIVE_CONTROL_WALK"), whole);
+    }
 }
 
 // The count reaches the compiler, with the one trace site the walk needs: OpenCL's build
