@@ -42,6 +42,7 @@ struct ThroughputRow {
     // bytes per triangle (ours: nodes, leaf indices and the 36 bytes of a triangle's corners;
     // the driver's: its structures, which hold the corners).
     double build_ms = 0, bytes_per_triangle = 0;
+    int walk = -1;  // --walk-steps: the BVH walk's node steps (MCPT_WALK_STEPS); -1: the device's
     // Vulkan rows: rays/s over the OpenCL rays/s of the same device, else of the same kind of
     // device (a CPU driver against a CPU driver); 0: none.
     double ratio = 0;
@@ -87,7 +88,8 @@ std::string markdown_table(const std::vector<ThroughputRow>& rows) {
         "ms | bytes/triangle |\n"
         "|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const ThroughputRow& r : rows) {
-        t += "| " + r.scene + " | " + std::to_string(r.triangles) + " | " + r.tree + " | " +
+        t += "| " + r.scene + " | " + std::to_string(r.triangles) + " | " + r.tree +
+             (r.walk >= 0 ? ", walk " + std::to_string(r.walk) : std::string()) + " | " +
              r.backend + ": " + r.device + " | " + std::to_string(r.devices) + " | " +
              fmt("%.1f", r.msamples) + " | " + fmt("%.1f", r.mrays) + " | " +
              (r.speedup > 0 ? fmt("%.2f", r.speedup) : "") + " | " +
@@ -105,7 +107,7 @@ void write_csv(const std::string& path, const std::vector<ThroughputRow>& rows, 
     std::ostringstream f;
     f << "scene,triangles,tree,backend,device,width,height,seconds,msamples_per_s,mrays_per_s,"
          "vulkan_over_opencl,node_visits_per_ray,tri_tests_per_ray,bytes_per_ray,gbytes_per_s,"
-         "devices,speedup,build_ms,bytes_per_triangle\n";
+         "devices,speedup,build_ms,bytes_per_triangle,walk_steps\n";
     for (const ThroughputRow& r : rows) {
         f << r.scene << "," << r.triangles << "," << r.tree << "," << r.backend << ",\"" << r.device
           << "\"," << w << "," << h << "," << fmt("%.3f", r.seconds) << ","
@@ -116,7 +118,8 @@ void write_csv(const std::string& path, const std::vector<ThroughputRow>& rows, 
                         fmt("%.1f", r.bytes_per_ray()) + "," + fmt("%.3f", r.gbytes_per_s())
                   : std::string(",,,"))
           << "," << r.devices << "," << fmt("%.3f", r.speedup) << "," << fmt("%.3f", r.build_ms)
-          << "," << fmt("%.2f", r.bytes_per_triangle) << "\n";
+          << "," << fmt("%.2f", r.bytes_per_triangle) << ","
+          << (r.walk >= 0 ? std::to_string(r.walk) : std::string()) << "\n";
     }
     write_text_atomically(path, f.str());
 }
@@ -187,14 +190,21 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
     std::vector<std::string> trees;
     std::stringstream tree_list(a.tree);
     for (std::string t; std::getline(tree_list, t, ',');) trees.push_back(t);
+    // --walk-steps: rows for each count ($MCPT_WALK_STEPS, restored after), else the device's.
+    const std::vector<int> walks = a.walk_steps.empty() ? std::vector<int>{-1} : a.walk_steps;
+    const char* walk_env = std::getenv("MCPT_WALK_STEPS");
+    const std::string walk_before = walk_env ? walk_env : "";
+    const size_t per_tree = walks.size() * sessions.size();
     for (const auto& [name, scene] : scenes) {
         const size_t first = rows.size();
-        for (size_t run = 0; run < trees.size() * sessions.size(); ++run) {
+        for (size_t run = 0; run < trees.size() * per_tree; ++run) {
             const size_t k = run % sessions.size();
+            const int walk = walks[run % per_tree / sessions.size()];
+            if (walk >= 0) setenv("MCPT_WALK_STEPS", std::to_string(walk).c_str(), 1);
             Session& s = *sessions[k];
             Backend& backend = s.backend();
             // The driver's tracing only where the device has it (OpenCL never).
-            const TreeKind kind = parse_tree_kind(trees[run / sessions.size()]);
+            const TreeKind kind = parse_tree_kind(trees[run / per_tree]);
             const DeviceInfo& d = backend.device();
             if ((kind == TreeKind::RayQuery && !d.ray_queries) ||
                 (kind == TreeKind::RayPipeline && !d.ray_pipelines)) {
@@ -205,7 +215,7 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
             }
             s.set_scene(scene);
             s.settings().width = a.width, s.settings().height = a.height;
-            s.settings().tree = trees[run / sessions.size()];
+            s.settings().tree = trees[run / per_tree];
             // Warm-up (compilation done, clocks up, dispatch sizes settled), then the timed run
             // from zero.
             s.settings().seed = 1;
@@ -223,6 +233,7 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
             ThroughputRow row;
             row.scene = name;
             row.tree = tree_kind_name(g.tree_kind);
+            row.walk = walk;
             row.backend = backend.device().backend, row.device = backend.device().name;
             row.type = backend.device().type;
             row.devices = counts[k];
@@ -246,8 +257,10 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
                 row.visits_per_ray = c.paths.visits_per_ray();
                 row.tests_per_ray = c.paths.tests_per_ray();
             }
-            std::printf("  %-16s %-6s %-40.40s x%d %9.1f M samples/s %9.1f M rays/s\n",
-                        name.c_str(), row.tree.c_str(), (row.backend + ": " + row.device).c_str(),
+            const std::string tree_walk =
+                row.tree + (walk >= 0 ? " walk " + std::to_string(walk) : std::string());
+            std::printf("  %-16s %-12s %-40.40s x%d %9.1f M samples/s %9.1f M rays/s\n",
+                        name.c_str(), tree_walk.c_str(), (row.backend + ": " + row.device).c_str(),
                         row.devices, row.msamples, row.mrays);
             std::fflush(stdout);
             rows.push_back(row);
@@ -257,7 +270,7 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
             for (size_t j = first; j < rows.size(); ++j)
                 if (rows[i].devices > 1 && rows[j].devices == 1 &&
                     rows[j].backend == rows[i].backend && rows[j].tree == rows[i].tree &&
-                    rows[j].mrays > 0)
+                    rows[j].walk == rows[i].walk && rows[j].mrays > 0)
                     rows[i].speedup = rows[i].mrays / rows[j].mrays;
         // Vulkan against OpenCL per scene: the same device, else the same kind of device (and
         // as many devices).
@@ -267,6 +280,7 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
                 for (size_t j = first; j < rows.size() && rows[i].ratio == 0; ++j) {
                     const bool match = rows[j].devices == rows[i].devices &&
                                        rows[j].tree == rows[i].tree &&
+                                       rows[j].walk == rows[i].walk &&
                                        (same_name ? rows[j].device == rows[i].device
                                                   : rows[j].type == rows[i].type);
                     if (rows[j].backend == "opencl" && match && rows[j].mrays > 0)
@@ -275,6 +289,10 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
             }
         }
     }
+    if (walk_env)
+        setenv("MCPT_WALK_STEPS", walk_before.c_str(), 1);
+    else
+        unsetenv("MCPT_WALK_STEPS");
     const std::string table = markdown_table(rows);
     std::printf("\n%s", table.c_str());
     std::printf(

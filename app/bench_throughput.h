@@ -18,6 +18,9 @@ struct ThroughputBenchArgs {
     // Rows of one image on several devices: for each API and kind of device (GPUs, CPUs), its
     // first N devices of those given (or found), for every N here; empty: a row per device.
     std::vector<int> device_counts;
+    // Rows for each count of node steps the BVH walk pauses after (MCPT_WALK_STEPS,
+    // integrator.h: step_slot_walk); empty: the device's choice.
+    std::vector<int> walk_steps;
 };
 
 void run_throughput_bench(const ThroughputBenchArgs& args);

@@ -147,6 +147,7 @@ void run_bench(const BenchArgs& a) {
         t.warmup_seconds = a.quick ? 0.1 : 1;
         t.tree = a.tree;
         t.device_counts = a.device_counts;
+        t.walk_steps = a.walk_steps;
         run_throughput_bench(t);
         return;
     }

@@ -148,6 +148,7 @@ struct BenchArgs {
     double seconds = 0;                 // --throughput: timed seconds per row (0: 5, quick 0.3)
     std::string tree = "auto";          // --throughput
     std::vector<int> device_counts;     // --throughput --devices 1,2,4
+    std::vector<int> walk_steps;        // --throughput --walk-steps 0,4,6
     std::vector<std::string> backends;  // empty: every device found
     std::string models = "models";
     std::string output = "bench";

@@ -86,6 +86,12 @@ void add_bench_command(CLI::App& app) {
                     "each N (1,2,4: the scaling table; speed-up against one)")
         ->delimiter(',')
         ->check(CLI::Range(1, 64));
+    sub->add_option("--walk-steps", a->walk_steps,
+                    "--throughput: rows for each count of node steps the BVH walk takes before "
+                    "the lanes whose ray ended shade (MCPT_WALK_STEPS; 0: walked whole; "
+                    "default: the device's choice)")
+        ->delimiter(',')
+        ->check(CLI::Range(0, 32));
     sub->add_option("--backend", a->backends,
                     "opencl|vulkan[:device], repeatable (default: every device found)");
     sub->add_option("--models", a->models, "Directory of models (scripts/fetch-models)")

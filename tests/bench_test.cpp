@@ -176,7 +176,8 @@ TEST(BenchCli, ThroughputTableHasRatios) {
     std::vector<std::vector<std::string>> rows;
     for (; std::getline(lines, line);) {
         const std::vector<std::string> cells = csv_cells(line);
-        ASSERT_EQ(cells.size(), 19u) << line;
+        ASSERT_EQ(cells.size(), 20u) << line;
+        EXPECT_EQ(cells[19], "") << line;   // walk steps: the device's
         EXPECT_EQ(cells[15], "1") << line;  // one device
         EXPECT_TRUE(cells[2] == "sah" || cells[2] == "bvh") << line;
         EXPECT_GT(std::stod(cells[9]), 0.0) << line;   // M rays/s
@@ -200,6 +201,59 @@ TEST(BenchCli, ThroughputTableHasRatios) {
 #else
     ASSERT_EQ(rows.size(), 4u) << csv;
 #endif
+}
+
+// --walk-steps: rows for each count, each from a build with that count (the compile log: a
+// backend that kept its first build would pass the rows' count alone).
+TEST(BenchCli, ThroughputRowsForEachWalkCount) {
+    const auto dir = std::filesystem::temp_directory_path() / "mcpt_bench_walk_test";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir / "no-models");
+    const std::string prefix = (dir / "tp").string(), log = (dir / "compile.log").string();
+    std::string backends = " --backend opencl:" + test::test_opencl_device();
+#if MCPT_WITH_VULKAN
+    backends += " --backend vulkan";
+#endif
+    const CliRun r = run_mcpt(
+        "bench --throughput --quick --tree bvh --walk-steps 0,2 --time 0.1 "
+        "--width 32 --height 32 --models " +
+            (dir / "no-models").string() + backends + " -o " + prefix,
+        "MCPT_COMPILE_LOG=" + log);
+    ASSERT_EQ(r.status, 0) << r.output;
+    std::istringstream lines(read_file(prefix + ".csv"));
+    std::string line;
+    std::getline(lines, line);
+    const std::vector<std::string> header = csv_cells(line);
+    ASSERT_EQ(header.back(), "walk_steps") << line;
+    std::vector<std::string> walks;
+    for (; std::getline(lines, line);) walks.push_back(csv_cells(line).back());
+    const size_t apis = MCPT_WITH_VULKAN ? 2 : 1;
+    ASSERT_EQ(walks.size(), 2 * 2 * apis);  // two scenes, two counts
+    for (size_t i = 0; i < walks.size(); ++i)
+        EXPECT_EQ(walks[i], i % (2 * apis) < apis ? "0" : "2");
+    EXPECT_NE(r.output.find("| bvh, walk 2 |"), std::string::npos) << r.output;
+    // Each API built with each count ("<api>\t<seconds>\t<settings>" a line).
+    std::istringstream built(read_file(log));
+    std::vector<std::string> builds;
+    for (std::string l; std::getline(built, l);) {
+        const std::string api = l.substr(0, l.find('\t'));
+        for (const char* want : {"MCPT_WALK_STEPS=0", "MCPT_WALK_STEPS=2"})
+            if ((api == "opencl" || api == "vulkan") && (l + " ").find(want) != std::string::npos)
+                builds.push_back(api + " " + want);
+    }
+    for (const char* api : {"opencl", "vulkan"}) {
+        if (std::string(api) == "vulkan" && !MCPT_WITH_VULKAN) continue;
+        // OpenCL's build options leave a count of 0 out.
+        if (std::string(api) == "vulkan") {
+            EXPECT_NE(std::find(builds.begin(), builds.end(), "vulkan MCPT_WALK_STEPS=0"),
+                      builds.end());
+        }
+        EXPECT_NE(std::find(builds.begin(), builds.end(), std::string(api) + " MCPT_WALK_STEPS=2"),
+                  builds.end())
+            << api;
+    }
+    const CliRun bad = run_mcpt("bench --throughput --quick --walk-steps 33");
+    EXPECT_NE(bad.status, 0);
 }
 
 TEST(BenchSvg, LogLogPlotHasSeriesLegendAndEscapes) {

@@ -71,6 +71,7 @@ struct VulkanBackend::Impl {
     uint32_t max_groups = 1;
     uint32_t built_stack = 0, built_features = 0;
     bool built_texels = false, built_rq = false, built_rt = false;
+    uint32_t built_walk = 0;
     bool first_dispatch_logged = true;  // until a build
     std::string built_settings;  // the specialization constants, "NAME=value ..."
     BackendOptions options;
@@ -290,9 +291,11 @@ struct VulkanBackend::Impl {
     }
 
     void build(uint32_t stack_size, uint32_t features, bool texels, bool rq, bool rt) {
+        // (The walk's count, read from the environment, changes the constants too.)
+        const uint32_t walk = walk_steps(pd.info, features, rt);
         if ((pipeline || ray_pipeline.handle()) && stack_size == built_stack &&
             features == built_features && texels == built_texels && rq == built_rq &&
-            rt == built_rt)
+            rt == built_rt && walk == built_walk)
             return;
         const vk::DeviceFns& f = dev->fn();
         if (pipeline) f.vkDestroyPipeline(dev->handle(), pipeline, nullptr);
@@ -312,7 +315,7 @@ struct VulkanBackend::Impl {
                                          steps.overlap,
                                          options.env_strategy,
                                          trace_sites(pd.info, features, rt),
-                                         walk_steps(pd.info, features, rt)};
+                                         walk};
         static const char* const names[kSpecs] = {
             "KD_STACK_SIZE",     "local_size_x",     "MCPT_FEATURES",
             "KD_NODE_STEPS",     "KD_TRI_STEPS",     "KD_OVERLAP",
@@ -351,6 +354,7 @@ struct VulkanBackend::Impl {
         built_texels = texels;
         built_rq = rq;
         built_rt = rt;
+        built_walk = walk;
         first_dispatch_logged = false;
         log_compile("vulkan", compile_seconds,
                     built_settings + (rt       ? " raypipeline"
