@@ -689,6 +689,15 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
     return st;
 }
 
+// A carried shadow ray's hit: the light's contribution when nothing blocks it (before the
+// next vertex's emission, as with two sites). (A macro: step_path and step_slot_walk.)
+#define SHADOW_RAY_ENDED(ST, HIT)                    \
+    (ST).shadow_pending = false;                     \
+    if ((HIT).status != 0u)                          \
+        (ST).status = PATH_INVALID;                  \
+    else if ((HIT).prim == NO_HIT)                   \
+        (ST).radiance += (ST).shadow_contribution;
+
 // One step of a path: the ray to its next vertex and what follows from it. With one trace
 // site (MCPT_TRACE_SITES, scene_access.h), a pending shadow ray goes first, from the same
 // call: the kernel's only traversal (NVIDIA's Vulkan compiler inlines each call, and two
@@ -712,13 +721,7 @@ MCPT_FN PathState step_path(SCENE_PARAMS_ PathState st, uint pixel) {
     MCPT_COUNT_RAY(hit);
 #ifdef MCPT_CARRIED_SHADOW
     if (shadow) {
-        // The light's contribution when nothing blocks it (before the next vertex's emission,
-        // as with two sites).
-        st.shadow_pending = false;
-        if (hit.status != 0u)
-            st.status = PATH_INVALID;
-        else if (hit.prim == NO_HIT)
-            st.radiance += st.shadow_contribution;
+        SHADOW_RAY_ENDED(st, hit)
         return st;
     }
 #endif
@@ -884,11 +887,7 @@ MCPT_FN SlotStep step_slot_walk(SCENE_PARAMS_ PathState st, uint pixel, PixelSum
         in_ray = false;
         st.rays += 1u;
         if (shadow) {
-            st.shadow_pending = false;
-            if (hit.status != 0u)
-                st.status = PATH_INVALID;
-            else if (hit.prim == NO_HIT)
-                st.radiance += st.shadow_contribution;
+            SHADOW_RAY_ENDED(st, hit)
         } else if (hit.status != 0u) {
             st.status = PATH_INVALID;
         } else {
