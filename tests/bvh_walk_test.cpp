@@ -24,29 +24,18 @@ class BvhWalk : public ::testing::TestWithParam<std::string> {};
 // `scene` through the BVH in reproducible mode, 16 samples; steps nullptr: the variable unset.
 std::vector<float> render_walked(const std::string& api, const Scene& scene, const char* steps,
                                  const std::string& defines = "", std::string* settings = nullptr) {
-    if (steps)
-        setenv("MCPT_WALK_STEPS", steps, 1);
-    else
-        unsetenv("MCPT_WALK_STEPS");
-    std::vector<float> image;
-    try {
-        BackendOptions o;
-        o.extra_defines = defines;
-        Session s(test::test_backend(api, o));
-        s.set_scene(scene);
-        s.settings().width = 48, s.settings().height = 40;
-        s.settings().tree = "bvh";
-        s.settings().reproducible = true;
-        s.settings().seed = 3;
-        s.render(1e6, 0, 16);
-        if (settings) *settings = s.backend().build_settings();
-        image = s.image_rgba32f();
-    } catch (...) {
-        unsetenv("MCPT_WALK_STEPS");
-        throw;
-    }
-    unsetenv("MCPT_WALK_STEPS");
-    return image;
+    const test::ScopedEnv env("MCPT_WALK_STEPS", steps);
+    BackendOptions o;
+    o.extra_defines = defines;
+    Session s(test::test_backend(api, o));
+    s.set_scene(scene);
+    s.settings().width = 48, s.settings().height = 40;
+    s.settings().tree = "bvh";
+    s.settings().reproducible = true;
+    s.settings().seed = 3;
+    s.render(1e6, 0, 16);
+    if (settings) *settings = s.backend().build_settings();
+    return s.image_rgba32f();
 }
 
 TEST_P(BvhWalk, PausedWalksGiveTheSameImage) {
@@ -99,7 +88,7 @@ INSTANTIATE_TEST_SUITE_P(Backends, BvhWalk, ::testing::ValuesIn(test::test_apis(
 
 // Only scenes through our BVH walk; the driver's tracing never does.
 TEST(BvhWalkChoice, OnlyTheBvh) {
-    setenv("MCPT_WALK_STEPS", "4", 1);
+    const test::ScopedEnv env("MCPT_WALK_STEPS", "4");
     DeviceInfo nv_vk;
     nv_vk.backend = "vulkan", nv_vk.name = "NVIDIA H100 80GB HBM3", nv_vk.platform = "NVIDIA";
     const uint32_t mesh = FEATURE_TRIANGLES | FEATURE_DIFFUSE | FEATURE_TRIANGLE_LIGHTS;
@@ -109,7 +98,6 @@ TEST(BvhWalkChoice, OnlyTheBvh) {
     EXPECT_EQ(walk_steps(nv_vk, mesh | FEATURE_BVH | FEATURE_ALPHA_MASK), 4u);
     EXPECT_EQ(walk_steps(nv_vk, mesh | FEATURE_BVH, true), 0u);
     EXPECT_EQ(trace_sites(nv_vk, mesh | FEATURE_BVH, true), 1u);
-    unsetenv("MCPT_WALK_STEPS");
 }
 
 }  // namespace

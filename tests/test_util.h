@@ -37,6 +37,24 @@ inline std::unique_ptr<Backend> test_opencl_backend(const std::string& defines =
 // $MCPT_TEST_VULKAN_DEVICE (index or name), else the best (lavapipe in CI).
 std::unique_ptr<Backend> test_backend(const std::string& api, BackendOptions options = {});
 
+// An environment variable set (value nullptr: unset) for the object's lifetime, then unset,
+// also when the scope is left by an exception.
+class ScopedEnv {
+  public:
+    ScopedEnv(const char* name, const char* value) : name_(name) {
+        if (value)
+            setenv(name, value, 1);
+        else
+            unsetenv(name);
+    }
+    ~ScopedEnv() { unsetenv(name_); }
+    ScopedEnv(const ScopedEnv&) = delete;
+    ScopedEnv& operator=(const ScopedEnv&) = delete;
+
+  private:
+    const char* name_;
+};
+
 // The backends the stability tests run on: both APIs where Vulkan is built.
 inline std::vector<std::string> test_apis() {
 #if MCPT_WITH_VULKAN

@@ -21,26 +21,15 @@ class TraceSites : public ::testing::TestWithParam<std::string> {};
 // The textured scene in reproducible mode, 16 samples; sites nullptr: the variable unset.
 std::vector<float> render_textured(const std::string& api, const char* sites, uint32_t seed = 3,
                                    std::string* settings = nullptr) {
-    if (sites)
-        setenv("MCPT_TRACE_SITES", sites, 1);
-    else
-        unsetenv("MCPT_TRACE_SITES");
-    std::vector<float> image;
-    try {
-        Session s(test::test_backend(api));
-        s.set_scene(load_gltf(std::string(MCPT_TEST_DATA_DIR) + "/textured.glb"));
-        s.settings().width = 48, s.settings().height = 40;
-        s.settings().reproducible = true;
-        s.settings().seed = seed;
-        s.render(1e6, 0, 16);
-        if (settings) *settings = s.backend().build_settings();
-        image = s.image_rgba32f();
-    } catch (...) {
-        unsetenv("MCPT_TRACE_SITES");
-        throw;
-    }
-    unsetenv("MCPT_TRACE_SITES");
-    return image;
+    const test::ScopedEnv env("MCPT_TRACE_SITES", sites);
+    Session s(test::test_backend(api));
+    s.set_scene(load_gltf(std::string(MCPT_TEST_DATA_DIR) + "/textured.glb"));
+    s.settings().width = 48, s.settings().height = 40;
+    s.settings().reproducible = true;
+    s.settings().seed = seed;
+    s.render(1e6, 0, 16);
+    if (settings) *settings = s.backend().build_settings();
+    return s.image_rgba32f();
 }
 
 TEST_P(TraceSites, OneOrTwoGiveTheSameImage) {

@@ -840,20 +840,7 @@ MCPT_FN SlotStep step_slot_walk(SCENE_PARAMS_ PathState st, uint pixel, PixelSum
         // cut-outs, the nearest hit even for shadow rays (trace_ray).
         bool any_hit = shadow && !masks;
         if (walk_from_root) {
-            hit = no_hit(seg.tmax);
-            uint num_spheres = HAS_FEATURE(FEATURE_SPHERES) ? PARAM(num_spheres) : 0u;
-            uint s = 0u;
-            for (; s < num_spheres; ++s) {
-                Ray r = seg;
-                r.tmax = hit.t;
-                float t = intersect_sphere(r, SPHERE(s));
-                if (t > 0.0f) {
-                    hit.t = t;
-                    hit.prim = s | SPHERE_BIT;
-                    if (any_hit) break;
-                }
-            }
-            if (s < num_spheres && !(any_hit && hit.prim != NO_HIT)) hit.status = TRACE_INCOMPLETE;
+            hit = sphere_hit(SCENE_ARGS_ seg, any_hit);
             wr = woop_setup(seg.d);
             w = bvh_walk_begin(seg.d);
             w.done = (any_hit && hit.prim != NO_HIT) || PARAM(num_triangles) == 0u;

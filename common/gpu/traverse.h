@@ -136,11 +136,10 @@ MCPT_NAMESPACE_END
 #include "traverse_driver.h"
 MCPT_NAMESPACE_BEGIN
 #else
-// Nearest hit with t < ray.tmax, ignoring triangle `skip`; with any_hit, the first hit found.
-MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
+// Spheres: few, tested one by one. The nearest hit with t < ray.tmax; with any_hit, the
+// first. (trace_opaque, and step_slot_walk before its walk.)
+MCPT_FN Hit sphere_hit(SCENE_PARAMS_ Ray ray, bool any_hit) {
     Hit hit = no_hit(ray.tmax);
-
-    // Spheres: few, tested one by one.
     uint num_spheres = HAS_FEATURE(FEATURE_SPHERES) ? PARAM(num_spheres) : 0u;
     uint s = 0u;
     for (; s < num_spheres; ++s) {
@@ -154,6 +153,13 @@ MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
         }
     }
     if (s < num_spheres) hit.status = TRACE_INCOMPLETE;
+    return hit;
+}
+
+// Nearest hit with t < ray.tmax, ignoring triangle `skip`; with any_hit, the first hit found.
+MCPT_FN Hit trace_opaque(SCENE_PARAMS_ Ray ray, bool any_hit, uint skip) {
+    Hit hit = sphere_hit(SCENE_ARGS_ ray, any_hit);
+    if (any_hit && hit.prim != NO_HIT) return hit;
     if (!HAS_FEATURE(FEATURE_TRIANGLES) || PARAM(num_triangles) == 0u) return hit;
     WoopRay wr = woop_setup(ray.d);
 
