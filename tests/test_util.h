@@ -1,4 +1,5 @@
-// Helpers shared by the tests: the OpenCL device under test and simple statistics.
+// Helpers shared by the tests: the OpenCL device under test, simple statistics and a scoped
+// environment variable.
 #pragma once
 
 #include <gtest/gtest.h>

@@ -1,7 +1,9 @@
 // The path tracer: camera rays, next-event estimation to a light chosen in proportion to its
 // power (a point on an emitter, a punctual light, a direction of the environment), BSDF
 // sampling, both combined by multiple importance sampling (power heuristic; delta lights
-// by NEE alone), Russian roulette. Shared verbatim by OpenCL C, GLSL and C++.
+// by NEE alone), Russian roulette; step_slot runs a pixel's samples one bounce per
+// iteration (step_slot_walk: with the BVH walked a few node steps at a time). Shared verbatim
+// by OpenCL C, GLSL and C++.
 #ifndef MCPT_GPU_INTEGRATOR_H
 #define MCPT_GPU_INTEGRATOR_H
 

@@ -2,8 +2,10 @@
 // Ylitie, Karras & Laine, "Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide
 // BVHs" (HPG 2017): a node's eight child boxes (on a grid, as floats) tested at once, the
 // hits kept as bit masks (internal children and leaf triangles) and visited nearest-octant
-// first, one 8-byte stack entry per node left with unvisited hits. Included by traverse.h,
-// whose closer_triangle_hit() tests the triangles; docs/traversal.md: what was measured.
+// first, one 8-byte stack entry per node left with unvisited hits; and the same loop as a walk
+// that pauses between iterations (BvhWalk, for integrator.h's step_slot_walk). Included by
+// traverse.h, whose closer_triangle_hit() tests the triangles; docs/traversal.md: what was
+// measured.
 #ifndef MCPT_GPU_TRAVERSE_BVH_H
 #define MCPT_GPU_TRAVERSE_BVH_H
 
