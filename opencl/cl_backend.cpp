@@ -290,8 +290,11 @@ class OpenClBackend final : public Backend {
         // 56 it runs 13-43% faster on the H100 without spilling. Denormals flushed to zero:
         // +7% on the materials scene, -1 to -4% on the others, all closer to Vulkan's speed
         // (docs/benchmarks.md); lang.h also takes GLSL's normalize and length there.
-        if (dev_.info.platform.find("NVIDIA") != std::string::npos)
-            opts += " -DMCPT_NVIDIA_OPENCL -cl-nv-maxrregcount=56 -cl-denorms-are-zero";
+        if (dev_.info.platform.find("NVIDIA") != std::string::npos) {
+            opts += " -DMCPT_NVIDIA_OPENCL -cl-denorms-are-zero";
+            if (const uint32_t cap = nvidia_register_cap(); cap != 0)
+                opts += " -cl-nv-maxrregcount=" + std::to_string(cap);
+        }
         const KdSteps steps = kd_steps(dev_.info);
         if (steps.nodes != 1 || steps.triangles != 1)
             opts += " -DKD_NODE_STEPS=" + std::to_string(steps.nodes) +
@@ -363,6 +366,17 @@ class OpenClBackend final : public Backend {
     bool dumped_ = false;
     uint64_t dump_at_ = dump_dispatch_number();  // $MCPT_DUMP_DISPATCH; 0: none
 
+    // NVIDIA's register cap: 56, or $MCPT_NV_MAXRREGCOUNT for measurements (0: none).
+    static uint32_t nvidia_register_cap() {
+        const char* e = std::getenv("MCPT_NV_MAXRREGCOUNT");
+        if (!e) return 56;
+        char* end = nullptr;
+        const long n = std::strtol(e, &end, 10);
+        if (!*e || *end != '\0' || (n != 0 && (n < 16 || n > 255)))
+            throw Error("MCPT_NV_MAXRREGCOUNT must be 0 (no cap) or 16 to 255, not '" +
+                        std::string(e) + "'");
+        return uint32_t(n);
+    }
     static uint64_t dump_dispatch_number() {
         const char* e = std::getenv("MCPT_DUMP_DISPATCH");
         if (!e || !*e) return 0;
