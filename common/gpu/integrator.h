@@ -852,6 +852,9 @@ MCPT_FN SlotStep step_slot_walk(SCENE_PARAMS_ PathState st, uint pixel, PixelSum
 #ifdef MCPT_NEGATIVE_CONTROL_WALK
         w.sp = 0u;  // tests: a walk that loses its stack each time it pauses
 #endif
+        // Rolled: N copies of the iteration would crowd the instruction cache (as two trace
+        // sites did on NVIDIA, and the child-box test's halves unrolled).
+        NO_UNROLL
         for (uint k = 0u; k < MCPT_WALK_STEPS && !w.done; ++k)
             BVH_WALK_ITERATION(w, stack, seg, wr, any_hit, skip, hit)
         if (!w.done) continue;
