@@ -290,9 +290,10 @@ class OpenClBackend final : public Backend {
         // 56 it runs 13-43% faster on the H100 without spilling. Denormals flushed to zero:
         // +7% on the materials scene, -1 to -4% on the others, all closer to Vulkan's speed
         // (docs/benchmarks.md); lang.h also takes GLSL's normalize and length there.
+        const uint32_t walk = walk_steps(dev_.info, features, false, stack_size - 1);
         if (dev_.info.platform.find("NVIDIA") != std::string::npos) {
             opts += " -DMCPT_NVIDIA_OPENCL -cl-denorms-are-zero";
-            if (const uint32_t cap = nvidia_register_cap(); cap != 0)
+            if (const uint32_t cap = nvidia_register_cap(walk); cap != 0)
                 opts += " -cl-nv-maxrregcount=" + std::to_string(cap);
         }
         const KdSteps steps = kd_steps(dev_.info);
@@ -300,9 +301,9 @@ class OpenClBackend final : public Backend {
             opts += " -DKD_NODE_STEPS=" + std::to_string(steps.nodes) +
                     "u -DKD_TRI_STEPS=" + std::to_string(steps.triangles) + "u";
         if (steps.overlap == 0) opts += " -DKD_OVERLAP=0u";
-        if (trace_sites(dev_.info, features) == 1) opts += " -DMCPT_TRACE_SITES=1u";
-        if (const uint32_t walk = walk_steps(dev_.info, features))
-            opts += " -DMCPT_WALK_STEPS=" + std::to_string(walk) + "u";
+        if (trace_sites(dev_.info, features, false, stack_size - 1) == 1)
+            opts += " -DMCPT_TRACE_SITES=1u";
+        if (walk != 0) opts += " -DMCPT_WALK_STEPS=" + std::to_string(walk) + "u";
         if (options_.env_strategy != 0)
             opts += " -DMCPT_ENV_STRATEGY=" + std::to_string(options_.env_strategy) + "u";
         if (!options_.extra_defines.empty()) opts += " " + options_.extra_defines;
@@ -366,10 +367,13 @@ class OpenClBackend final : public Backend {
     bool dumped_ = false;
     uint64_t dump_at_ = dump_dispatch_number();  // $MCPT_DUMP_DISPATCH; 0: none
 
-    // NVIDIA's register cap: 56, or $MCPT_NV_MAXRREGCOUNT for measurements (0: none).
-    static uint32_t nvidia_register_cap() {
+    // NVIDIA's register cap: 56, none for the BVH walk, or $MCPT_NV_MAXRREGCOUNT for
+    // measurements (0: none). (H100, 1024², M rays/s: walked 4 steps at a time under the cap
+    // of 56 the bunny ran at 1,486 and the 871k dragon at 1,135; under 80, 2,408 and 1,588;
+    // uncapped 2,443 and 1,800. Walked whole, capped: 2,207 and 1,783; uncapped 2,199 and 1,652.)
+    static uint32_t nvidia_register_cap(uint32_t walk) {
         const char* e = std::getenv("MCPT_NV_MAXRREGCOUNT");
-        if (!e) return 56;
+        if (!e) return walk != 0 ? 0 : 56;
         char* end = nullptr;
         const long n = std::strtol(e, &end, 10);
         if (!*e || *end != '\0' || (n != 0 && (n < 16 || n > 255)))

@@ -100,5 +100,33 @@ TEST(BvhWalkChoice, OnlyTheBvh) {
     EXPECT_EQ(trace_sites(nv_vk, mesh | FEATURE_BVH, true), 1u);
 }
 
+// The device's choice: NVIDIA's GPUs walk a BVH of depth 5 or more, 4 steps at a time (both
+// APIs); shallower trees, other GPUs and the CPU devices walk every ray whole.
+TEST(BvhWalkChoice, NvidiaGpusOnDeepTrees) {
+    const test::ScopedEnv env("MCPT_WALK_STEPS", nullptr);
+    DeviceInfo nv_vk, nv_cl, other_gpu, lavapipe;
+    nv_vk.backend = "vulkan", nv_vk.type = "gpu", nv_vk.name = "NVIDIA H100 80GB HBM3";
+    nv_cl.backend = "opencl", nv_cl.type = "gpu", nv_cl.name = "NVIDIA H100 80GB HBM3";
+    nv_cl.platform = "NVIDIA CUDA";
+    other_gpu.backend = "vulkan", other_gpu.type = "gpu", other_gpu.name = "Adreno (TM) 740";
+    lavapipe.backend = "vulkan", lavapipe.type = "cpu", lavapipe.name = "llvmpipe (LLVM 19.1.7)";
+    const uint32_t bvh =
+        FEATURE_TRIANGLES | FEATURE_DIFFUSE | FEATURE_TRIANGLE_LIGHTS | FEATURE_BVH;
+    for (const DeviceInfo* nv : {&nv_vk, &nv_cl}) {
+        EXPECT_EQ(walk_steps(*nv, bvh, false, 5), 4u) << nv->backend;
+        EXPECT_EQ(walk_steps(*nv, bvh, false, 9), 4u) << nv->backend;
+        EXPECT_EQ(trace_sites(*nv, bvh, false, 9), 1u) << nv->backend;
+        EXPECT_EQ(walk_steps(*nv, bvh, false, 4), 0u) << nv->backend;
+        EXPECT_EQ(walk_steps(*nv, bvh, false, 0), 0u) << nv->backend;
+        EXPECT_EQ(walk_steps(*nv, bvh, true, 9), 0u) << nv->backend;
+    }
+    EXPECT_EQ(trace_sites(nv_cl, bvh, false, 4), 2u);
+    EXPECT_EQ(walk_steps(other_gpu, bvh, false, 9), 0u);
+    EXPECT_EQ(walk_steps(lavapipe, bvh, false, 9), 0u);
+    // The variable still decides where it is set.
+    const test::ScopedEnv off("MCPT_WALK_STEPS", "0");
+    EXPECT_EQ(walk_steps(nv_vk, bvh, false, 9), 0u);
+}
+
 }  // namespace
 }  // namespace mcpt

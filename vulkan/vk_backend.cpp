@@ -292,7 +292,7 @@ struct VulkanBackend::Impl {
 
     void build(uint32_t stack_size, uint32_t features, bool texels, bool rq, bool rt) {
         // (The walk's count, read from the environment, changes the constants too.)
-        const uint32_t walk = walk_steps(pd.info, features, rt);
+        const uint32_t walk = walk_steps(pd.info, features, rt, stack_size - 1);
         if ((pipeline || ray_pipeline.handle()) && stack_size == built_stack &&
             features == built_features && texels == built_texels && rq == built_rq &&
             rt == built_rt && walk == built_walk)
@@ -314,7 +314,7 @@ struct VulkanBackend::Impl {
                                          steps.triangles,
                                          steps.overlap,
                                          options.env_strategy,
-                                         trace_sites(pd.info, features, rt),
+                                         trace_sites(pd.info, features, rt, stack_size - 1),
                                          walk};
         static const char* const names[kSpecs] = {
             "KD_STACK_SIZE",     "local_size_x",     "MCPT_FEATURES",

@@ -92,15 +92,20 @@ KdSteps kd_steps(const DeviceInfo& device);
 // ray-tracing pipeline (`ray_pipeline`: each traceRayEXT site keeps the path's live state
 // across a call into the driver's traversal; one site 1.8x to 3.1x faster on an H100); else
 // 2, the shadow ray traced where it is cast (docs/traversal.md).
-// $MCPT_TRACE_SITES (1 or 2) overrides. Images are the same either way on PoCL and lavapipe;
-// NVIDIA's compilers round the two programs differently (both APIs, docs/benchmarks.md).
-uint32_t trace_sites(const DeviceInfo& device, uint32_t features, bool ray_pipeline = false);
+// 1 also wherever the BVH is walked (walk_steps). $MCPT_TRACE_SITES (1 or 2) overrides.
+// Images are the same either way on PoCL and lavapipe; NVIDIA's compilers round the two
+// programs differently (both APIs, docs/benchmarks.md).
+uint32_t trace_sites(const DeviceInfo& device, uint32_t features, bool ray_pipeline = false,
+                     uint32_t tree_depth = 0);
 
 // Node steps a ray's BVH walk takes before the lanes whose rays ended shade
 // (MCPT_WALK_STEPS, integrator.h: step_slot_walk; 0: every ray walked to its end where it is
-// traced). Nonzero only for scenes with the BVH (FEATURE_BVH), through our own traversal, and then
-// with one trace site (trace_sites). $MCPT_WALK_STEPS (0-32) overrides.
-uint32_t walk_steps(const DeviceInfo& device, uint32_t features, bool driver_traced = false);
+// traced). Nonzero only for scenes with the BVH (FEATURE_BVH), through our own traversal, and
+// then with one trace site (trace_sites): 4 on NVIDIA's GPUs for a BVH of depth 5 or more
+// (`tree_depth`: GpuScene::stack_size - 1), where waiting for the warp's longest ray costs
+// more than the walk's bookkeeping. $MCPT_WALK_STEPS (0-32) overrides.
+uint32_t walk_steps(const DeviceInfo& device, uint32_t features, bool driver_traced = false,
+                    uint32_t tree_depth = 0);
 
 class Backend {
   public:

@@ -144,23 +144,35 @@ KdSteps kd_steps(const DeviceInfo&) {
     return s;
 }
 
-uint32_t walk_steps(const DeviceInfo& device, uint32_t features, bool driver_traced) {
+namespace {
+bool is_nvidia(const DeviceInfo& device) {
+    return device.platform.find("NVIDIA") != std::string::npos ||
+           device.name.find("NVIDIA") != std::string::npos;
+}
+}  // namespace
+
+uint32_t walk_steps(const DeviceInfo& device, uint32_t features, bool driver_traced,
+                    uint32_t tree_depth) {
     if (driver_traced || (features & FEATURE_BVH) == 0) return 0;
-    (void)device;
-    uint32_t steps = 0;
     if (const char* e = std::getenv("MCPT_WALK_STEPS")) {
         const std::string v = e;
         char* end = nullptr;
         const long n = std::strtol(e, &end, 10);
         if (v.empty() || *end != '\0' || n < 0 || n > 32)
             throw Error("MCPT_WALK_STEPS must be 0 to 32, not '" + v + "'");
-        steps = uint32_t(n);
+        return uint32_t(n);
     }
-    return steps;
+    // Measured on an H100 (1024², M rays/s, walked whole against 4 steps; docs/traversal.md):
+    // NVIDIA's Vulkan bunny (depth 5) +17%, dragon-48k (6) +14%, dragon-871k (9) +8%; the
+    // textured scene (4) level; the Cornell box and the materials scene (depth 0) -9% and
+    // -16%. NVIDIA's OpenCL walks only without its register cap (opencl/cl_backend.cpp).
+    // Other GPUs and the CPU devices (lavapipe -11%, PoCL -2%): not walked.
+    return device.type == "gpu" && is_nvidia(device) && tree_depth >= 5 ? 4u : 0u;
 }
 
-uint32_t trace_sites(const DeviceInfo& device, uint32_t features, bool ray_pipeline) {
-    if (walk_steps(device, features, ray_pipeline) > 0) return 1u;
+uint32_t trace_sites(const DeviceInfo& device, uint32_t features, bool ray_pipeline,
+                     uint32_t tree_depth) {
+    if (walk_steps(device, features, ray_pipeline, tree_depth) > 0) return 1u;
     if (const char* e = std::getenv("MCPT_TRACE_SITES")) {
         const std::string v = e;
         if (v != "1" && v != "2") throw Error("MCPT_TRACE_SITES must be 1 or 2, not '" + v + "'");
@@ -174,8 +186,7 @@ uint32_t trace_sites(const DeviceInfo& device, uint32_t features, bool ray_pipel
     // -9% (docs/traversal.md). Through the ray-tracing pipeline (H100, 1024², 2026-12-07):
     // the Cornell box 908 -> 2,776 M rays/s, the 871k dragon 657 -> 1,167; lavapipe's 10%
     // slower with one (the textured scene).
-    const bool nvidia = device.platform.find("NVIDIA") != std::string::npos ||
-                        device.name.find("NVIDIA") != std::string::npos;
+    const bool nvidia = is_nvidia(device);
     const bool one = (features & (FEATURE_TEXTURES | FEATURE_KDTREE)) != 0 || ray_pipeline;
     return device.backend == "vulkan" && nvidia && one ? 1u : 2u;
 }
