@@ -43,6 +43,7 @@ struct ThroughputRow {
     // the driver's: its structures, which hold the corners).
     double build_ms = 0, bytes_per_triangle = 0;
     int walk = -1;  // --walk-steps: the BVH walk's node steps (MCPT_WALK_STEPS); -1: the device's
+    uint32_t walk_used = 0;  // the steps the kernel was built with (walk_steps(): 0, walked whole)
     // Vulkan rows: rays/s over the OpenCL rays/s of the same device, else of the same kind of
     // device (a CPU driver against a CPU driver); 0: none.
     double ratio = 0;
@@ -89,8 +90,9 @@ std::string markdown_table(const std::vector<ThroughputRow>& rows) {
         "|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const ThroughputRow& r : rows) {
         t += "| " + r.scene + " | " + std::to_string(r.triangles) + " | " + r.tree +
-             (r.walk >= 0 ? ", walk " + std::to_string(r.walk) : std::string()) + " | " +
-             r.backend + ": " + r.device + " | " + std::to_string(r.devices) + " | " +
+             (r.walk >= 0 || r.walk_used > 0 ? ", walk " + std::to_string(r.walk_used)
+                                             : std::string()) +
+             " | " + r.backend + ": " + r.device + " | " + std::to_string(r.devices) + " | " +
              fmt("%.1f", r.msamples) + " | " + fmt("%.1f", r.mrays) + " | " +
              (r.speedup > 0 ? fmt("%.2f", r.speedup) : "") + " | " +
              (r.ratio > 0 ? fmt("%.2f", r.ratio) : "") + " | " +
@@ -118,8 +120,7 @@ void write_csv(const std::string& path, const std::vector<ThroughputRow>& rows, 
                         fmt("%.1f", r.bytes_per_ray()) + "," + fmt("%.3f", r.gbytes_per_s())
                   : std::string(",,,"))
           << "," << r.devices << "," << fmt("%.3f", r.speedup) << "," << fmt("%.3f", r.build_ms)
-          << "," << fmt("%.2f", r.bytes_per_triangle) << ","
-          << (r.walk >= 0 ? std::to_string(r.walk) : std::string()) << "\n";
+          << "," << fmt("%.2f", r.bytes_per_triangle) << "," << r.walk_used << "\n";
     }
     write_text_atomically(path, f.str());
 }
@@ -234,6 +235,8 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
             row.scene = name;
             row.tree = tree_kind_name(g.tree_kind);
             row.walk = walk;
+            row.walk_used =
+                walk_steps(d, g.features, traced_by_driver(g.tree_kind), g.stack_size - 1);
             row.backend = backend.device().backend, row.device = backend.device().name;
             row.type = backend.device().type;
             row.devices = counts[k];
@@ -257,8 +260,9 @@ void run_throughput_bench(const ThroughputBenchArgs& a) {
                 row.visits_per_ray = c.paths.visits_per_ray();
                 row.tests_per_ray = c.paths.tests_per_ray();
             }
-            const std::string tree_walk =
-                row.tree + (walk >= 0 ? " walk " + std::to_string(walk) : std::string());
+            const std::string tree_walk = row.tree + (walk >= 0 || row.walk_used > 0
+                                                          ? " walk " + std::to_string(row.walk_used)
+                                                          : std::string());
             std::printf("  %-16s %-12s %-40.40s x%d %9.1f M samples/s %9.1f M rays/s\n",
                         name.c_str(), tree_walk.c_str(), (row.backend + ": " + row.device).c_str(),
                         row.devices, row.msamples, row.mrays);
