@@ -254,6 +254,17 @@ void run_render(const RenderArgs& a) {
         std::printf("compiled for: %s; left out: %s\n",
                     feature_names(backend.compiled_features()).c_str(),
                     features_left_out(backend.compiled_features()).c_str());
+        // How rays are traced: trace sites and the BVH walk (backend.h).
+        const uint32_t f = backend.compiled_features();
+        const bool driver = traced_by_driver(g.tree_kind);
+        const uint32_t walk = walk_steps(backend.device(), f, driver, g.stack_size - 1);
+        std::printf("trace sites: %u; %s\n",
+                    trace_sites(backend.device(), f, g.tree_kind == TreeKind::RayPipeline,
+                                g.stack_size - 1),
+                    walk > 0 ? ("BVH walked " + std::to_string(walk) +
+                                " node steps at a time (MCPT_WALK_STEPS)")
+                                   .c_str()
+                             : "every ray walked whole");
     }
     std::printf(
         "rendered %dx%d, %llu spp, max depth %d in %.3f s: %.3f M samples/s, %.2f M rays/s\n",
