@@ -5,10 +5,12 @@
 // bit for bit walked whole and paused after every node (the mesh also
 // every third), on both APIs. Control: a walk that loses its stack when it pauses (OpenCL: the
 // define reaches its kernel only) gives another image. The count reaches the compiler, a
-// count out of range is refused, and which scenes may walk.
+// count out of range is refused, which scenes walk, and render -v says whether one does.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdlib>
+#include <filesystem>
 
 #include "common/error.h"
 #include "common/render/session.h"
@@ -81,6 +83,24 @@ TEST_P(BvhWalk, OutOfRangeIsRefused) {
                 << e.what();
         }
     }
+}
+
+// render -v says how the kernel traces: the walk where it is on, else every ray whole.
+TEST_P(BvhWalk, RenderSaysWhetherItWalks) {
+    const std::string out = (std::filesystem::temp_directory_path() /
+                             ("mcpt_walk_says_" + GetParam() + std::to_string(getpid()) + ".exr"))
+                                .string();
+    const std::string args = "render cornell --tree bvh --width 16 --height 16 --spp 1 -v -o " +
+                             out + " " + test::device_args(GetParam());
+    const test::CliRun walked = test::run_mcpt(args, "MCPT_WALK_STEPS=3");
+    ASSERT_EQ(walked.status, 0) << walked.output;
+    EXPECT_NE(walked.output.find("trace sites: 1; BVH walked 3 node steps at a time"),
+              std::string::npos)
+        << walked.output;
+    const test::CliRun whole = test::run_mcpt(args, "MCPT_WALK_STEPS=0");
+    ASSERT_EQ(whole.status, 0) << whole.output;
+    EXPECT_NE(whole.output.find("; every ray walked whole"), std::string::npos) << whole.output;
+    std::filesystem::remove(out);
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, BvhWalk, ::testing::ValuesIn(test::test_apis()),
