@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -38,22 +39,27 @@ inline std::unique_ptr<Backend> test_opencl_backend(const std::string& defines =
 // $MCPT_TEST_VULKAN_DEVICE (index or name), else the best (lavapipe in CI).
 std::unique_ptr<Backend> test_backend(const std::string& api, BackendOptions options = {});
 
-// An environment variable set (value nullptr: unset) for the object's lifetime, then unset,
-// also when the scope is left by an exception.
+// An environment variable set (value nullptr: unset) for the object's lifetime, then as it
+// was before (nested ones too), also when the scope is left by an exception.
 class ScopedEnv {
   public:
     ScopedEnv(const char* name, const char* value) : name_(name) {
-        if (value)
-            setenv(name, value, 1);
-        else
-            unsetenv(name);
+        if (const char* before = std::getenv(name)) before_ = before;
+        set(value);
     }
-    ~ScopedEnv() { unsetenv(name_); }
+    ~ScopedEnv() { set(before_ ? before_->c_str() : nullptr); }
     ScopedEnv(const ScopedEnv&) = delete;
     ScopedEnv& operator=(const ScopedEnv&) = delete;
 
   private:
+    void set(const char* value) {
+        if (value)
+            setenv(name_, value, 1);
+        else
+            unsetenv(name_);
+    }
     const char* name_;
+    std::optional<std::string> before_;
 };
 
 // The backends the stability tests run on: both APIs where Vulkan is built.

@@ -20,24 +20,7 @@ namespace {
 
 constexpr double kZLimit = 4.5;  // as in furnace_test.cpp
 
-// Sets an environment variable for one scope, restoring the previous value.
-class ScopedEnv {
-  public:
-    ScopedEnv(const char* name, const char* value) : name_(name) {
-        if (const char* old = std::getenv(name)) old_ = old;
-        setenv(name, value, 1);
-    }
-    ~ScopedEnv() {
-        if (old_)
-            setenv(name_, old_->c_str(), 1);
-        else
-            unsetenv(name_);
-    }
-
-  private:
-    const char* name_;
-    std::optional<std::string> old_;
-};
+using test::ScopedEnv;
 
 bool have_vulkan() {
     return !list_vulkan_devices().empty();
