@@ -3,7 +3,8 @@
 // device (auto by default): samples/s and rays/s, the Vulkan/OpenCL ratio per scene and device,
 // node visits and triangle tests per ray (counted on the CPU), the node and triangle bytes that
 // implies per ray and the bandwidth at the measured rate, and the structure's build time and
-// bytes per triangle (ours, or the driver's for rayquery and raypipeline). Writes prefix.md,
+// bytes per triangle (ours, or the driver's for rayquery and raypipeline), and the BVH walk's
+// node steps each kernel was built with (--walk-steps: rows for each). Writes prefix.md,
 // prefix.csv and prefix.svg.
 #include "app/bench_throughput.h"
 
