@@ -217,26 +217,7 @@ void GltfLoader::read_model() {
     }
     loader.SetFsCallbacks(folder_callbacks(&folder));
     const std::string base_dir = std::filesystem::path(path_).parent_path().string();
-    std::string err, warn;
-    bool ok = false;
-    try {
-        ok = binary ? loader.LoadBinaryFromMemory(&model_, &err, &warn, bytes.data(),
-                                                  static_cast<unsigned>(bytes.size()), base_dir)
-                    : loader.LoadASCIIFromString(&model_, &err, &warn,
-                                                 reinterpret_cast<const char*>(bytes.data()),
-                                                 static_cast<unsigned>(bytes.size()), base_dir);
-    } catch (const std::exception& e) {
-        fail(std::string("malformed glTF file: ") + e.what());
-    }
-    if (!ok)
-        fail(std::string("cannot load ") + (binary ? "binary glTF (.glb)" : "glTF") +
-             " file: " + (err.empty() ? "unknown tinygltf error" : trim_trailing_space(err)));
-    // tinygltf's own warnings, one line each.
-    std::string line;
-    for (std::istringstream lines(warn); std::getline(lines, line);)
-        if (!trim_trailing_space(line).empty())
-            warn_once("tinygltf:" + line, "glTF: " + trim_trailing_space(line));
-    decode_compressed();
+    parse(loader, bytes.data(), bytes.size(), binary, base_dir, "file");
 }
 
 // Compressed meshes: the JSON rewritten so that tinygltf parses it (gltf_compression.h).
@@ -308,20 +289,28 @@ void GltfLoader::parse_memory() {
             std::filesystem::weakly_canonical(std::filesystem::absolute(base_dir_, ec), ec);
         loader.SetFsCallbacks(folder_callbacks(&folder));
     }
+    parse(loader, bytes_, size_, binary, base_dir_, "data");
+}
+
+// tinygltf's parse of `size` bytes at `data` (a .glb or .gltf, named a `noun` in messages),
+// its warnings kept, then the compressed meshes decoded.
+void GltfLoader::parse(tg::TinyGLTF& loader, const unsigned char* data, size_t size, bool binary,
+                       const std::string& base_dir, const char* noun) {
     std::string err, warn;
     bool ok = false;
     try {
-        ok = binary ? loader.LoadBinaryFromMemory(&model_, &err, &warn, bytes_,
-                                                  static_cast<unsigned>(size_), base_dir_)
+        ok = binary ? loader.LoadBinaryFromMemory(&model_, &err, &warn, data,
+                                                  static_cast<unsigned>(size), base_dir)
                     : loader.LoadASCIIFromString(&model_, &err, &warn,
-                                                 reinterpret_cast<const char*>(bytes_),
-                                                 static_cast<unsigned>(size_), base_dir_);
+                                                 reinterpret_cast<const char*>(data),
+                                                 static_cast<unsigned>(size), base_dir);
     } catch (const std::exception& e) {
-        fail(std::string("malformed glTF data: ") + e.what());
+        fail(std::string("malformed glTF ") + noun + ": " + e.what());
     }
     if (!ok)
-        fail(std::string("cannot load ") + (binary ? "binary glTF (.glb)" : "glTF") +
-             " data: " + (err.empty() ? "unknown tinygltf error" : trim_trailing_space(err)));
+        fail(std::string("cannot load ") + (binary ? "binary glTF (.glb)" : "glTF") + " " + noun +
+             ": " + (err.empty() ? "unknown tinygltf error" : trim_trailing_space(err)));
+    // tinygltf's own warnings, one line each.
     std::string line;
     for (std::istringstream lines(warn); std::getline(lines, line);)
         if (!trim_trailing_space(line).empty())

@@ -125,6 +125,8 @@ class GltfLoader {
     std::vector<uint32_t> read_indices(int accessor, const std::string& where) const;
 
     void parse_memory();
+    void parse(tg::TinyGLTF& loader, const unsigned char* data, size_t size, bool binary,
+               const std::string& base_dir, const char* noun);
     void prepare_compressed(std::vector<unsigned char>& bytes, bool binary);
     void decode_compressed();
 
