@@ -313,7 +313,49 @@ TEST(VulkanDevices, ListedWithLimitsAndOpenClOnlyOptionsRefused) {
     EXPECT_THROW(make_vulkan_backend(o), Error);
 }
 
-}  // namespace
-}  // namespace mcpt
+// $MCPT_VULKAN_STATISTICS=1: the layout line (render -v) carries the driver's statistics of the
+// compute pipeline, or why there are none (lavapipe 22 lacks the extension); unset: no word of
+// them; any other value: a clear error before a device is made.
+TEST(VulkanStatistics, LayoutNamesTheDriversStatisticsOnlyWhenAsked) {
+    SKIP_WITHOUT_VULKAN();
+    const Packed p = pack(make_builtin_scene("cornell"));
+    {
+        const ScopedEnv off("MCPT_VULKAN_STATISTICS", nullptr);
+        auto vk = open_vulkan();
+        render_on(*vk, p, 4, 1, 1u);
+        EXPECT_EQ(vk->layout().find("statistics"), std::string::npos) << vk->layout();
+    }
+    {
+        const ScopedEnv on("MCPT_VULKAN_STATISTICS", "1");
+        auto vk = open_vulkan();
+        const RenderResult r = render_on(*vk, p, 4, 1, 1u);
+        EXPECT_EQ(r.spp, 1u);
+        const std::string layout = vk->layout();
+        const std::string some = "; the driver's statistics: ";
+        const size_t at = layout.find(some);
+        EXPECT_TRUE(at != std::string::npos ||
+                    layout.find("; no driver statistics (") != std::string::npos)
+            << layout;
+        if (at != std::string::npos) {
+            EXPECT_GT(layout.size(), at + some.size()) << layout;
+        }
+        std::cout << "[ info ] " << layout << "\n";
+    }
+    {
+        const ScopedEnv bad("MCPT_VULKAN_STATISTICS", "yes");
+        try {
+            auto vk = open_vulkan();
+            render_on(*vk, p, 4, 1, 1u);
+            ADD_FAILURE() << "MCPT_VULKAN_STATISTICS=yes was accepted";
+        } catch (const Error& e) {
+            EXPECT_NE(std::string(e.what()).find("MCPT_VULKAN_STATISTICS must be 0 or 1"),
+                      std::string::npos)
+                << e.what();
+        }
+    }
+}
 
 #endif  // MCPT_WITH_VULKAN
+
+}  // namespace
+}  // namespace mcpt

@@ -73,7 +73,8 @@ struct VulkanBackend::Impl {
     bool built_texels = false, built_rq = false, built_rt = false;
     uint32_t built_walk = 0;
     bool first_dispatch_logged = true;  // until a build
-    std::string built_settings;  // the specialization constants, "NAME=value ..."
+    std::string built_settings;         // the specialization constants, "NAME=value ..."
+    std::string statistics;  // the driver's, of the compute pipeline ($MCPT_VULKAN_STATISTICS)
     BackendOptions options;
     uint32_t dispatches = 0;  // counted for options.lose_device_after
     double compile_seconds = 0;
@@ -324,7 +325,8 @@ struct VulkanBackend::Impl {
         built_settings.clear();
         for (uint32_t i = 0; i < kSpecs; ++i) {
             entries[i] = {i, 4 * i, 4};
-            built_settings += std::string(i ? " " : "") + names[i] + "=" + std::to_string(values[i]);
+            built_settings +=
+                std::string(i ? " " : "") + names[i] + "=" + std::to_string(values[i]);
         }
         VkSpecializationInfo spec{};
         spec.mapEntryCount = kSpecs;
@@ -344,9 +346,11 @@ struct VulkanBackend::Impl {
             ci.stage.pName = "main";
             ci.stage.pSpecializationInfo = &spec;
             ci.layout = rq ? tlas_pipeline_layout : pipeline_layout;
+            if (dev->statistics()) ci.flags |= VK_PIPELINE_CREATE_CAPTURE_STATISTICS_BIT_KHR;
             VK_CHECK(f.vkCreateComputePipelines, dev->handle(), cold ? VK_NULL_HANDLE : cache, 1,
                      &ci, nullptr, &pipeline);
         }
+        statistics = dev->pipeline_statistics(pipeline);
         compile_seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         built_stack = stack_size;
@@ -723,7 +727,18 @@ std::string VulkanBackend::layout() const {
            (impl_->scene_texels ? ", scene read as texel buffers" : "") +
            (impl_->scene_rq ? ", ray queries, " + impl_->accel.describe() : "") +
            (impl_->scene_rt ? ", ray-tracing pipeline, " + impl_->accel.describe() : "") +
-           window_note(impl_->accum_shape);
+           window_note(impl_->accum_shape) + statistics_note();
+}
+// What $MCPT_VULKAN_STATISTICS=1 asked of the driver: its statistics of the compute pipeline,
+// or why there are none.
+std::string VulkanBackend::statistics_note() const {
+    if (!vk::pipeline_statistics_wanted()) return "";
+    if (!impl_->statistics.empty()) return "; the driver's statistics: " + impl_->statistics;
+    if (impl_->scene_rt) return "; no driver statistics (the ray-tracing pipeline: not asked)";
+    if (!impl_->pd.pipeline_statistics)
+        return std::string("; no driver statistics (") + vk::kPipelineStatisticsExtension +
+               " absent)";
+    return "; no driver statistics (none reported)";
 }
 uint32_t VulkanBackend::local_size() const {
     return impl_->local;

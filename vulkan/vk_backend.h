@@ -67,6 +67,7 @@ class VulkanBackend final : public Backend {
     uint32_t local_size() const;
 
   private:
+    std::string statistics_note() const;
     std::unique_ptr<Impl> impl_;
 };
 

@@ -376,6 +376,17 @@ std::vector<PhysicalDevice> Instance::devices(const std::string& profile_request
                 std::find(names.begin(), names.end(), VK_KHR_DRIVER_PROPERTIES_EXTENSION_NAME) !=
                 names.end();
             probe_driver_tracing(d, names);
+            if (std::find(names.begin(), names.end(), kPipelineStatisticsExtension) !=
+                names.end()) {
+                VkPhysicalDevicePipelineExecutablePropertiesFeaturesKHR pe{};
+                pe.sType =
+                    VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PIPELINE_EXECUTABLE_PROPERTIES_FEATURES_KHR;
+                VkPhysicalDeviceFeatures2 f2{};
+                f2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+                f2.pNext = &pe;
+                fn_.vkGetPhysicalDeviceFeatures2(h, &f2);
+                d.pipeline_statistics = pe.pipelineExecutableInfo == VK_TRUE;
+            }
             VkPhysicalDeviceDriverPropertiesKHR drv{};
             drv.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES_KHR;
             VkPhysicalDeviceMaintenance3Properties m3{};
@@ -467,6 +478,13 @@ std::vector<PhysicalDevice> Instance::devices(const std::string& profile_request
         out.push_back(std::move(d));
     }
     return out;
+}
+
+bool pipeline_statistics_wanted() {
+    const char* e = std::getenv("MCPT_VULKAN_STATISTICS");
+    if (!e || std::strcmp(e, "0") == 0) return false;
+    if (std::strcmp(e, "1") == 0) return true;
+    throw Error("MCPT_VULKAN_STATISTICS must be 0 or 1, not '" + std::string(e) + "'");
 }
 
 }  // namespace mcpt::vk

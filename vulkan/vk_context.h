@@ -143,9 +143,9 @@ struct PhysicalDevice {
     DeviceInfo info;
     VkPhysicalDeviceProperties props{};
     VkPhysicalDeviceMemoryProperties memory{};
-    uint64_t max_allocation = 0;         // maxMemoryAllocationSize (maintenance3, core 1.1)
-    uint32_t queue_family = UINT32_MAX;  // first family with compute, UINT32_MAX if none
-    uint32_t timestamp_valid_bits = 0;   // of that family
+    uint64_t max_allocation = 0;            // maxMemoryAllocationSize (maintenance3, core 1.1)
+    uint32_t queue_family = UINT32_MAX;     // first family with compute, UINT32_MAX if none
+    uint32_t timestamp_valid_bits = 0;      // of that family
     std::string limits_profile = "device";  // vk_limits_profile.h: what props.limits hold
     // Ray queries usable (--tree rayquery): Vulkan 1.2, VK_KHR_acceleration_structure,
     // VK_KHR_ray_query and VK_KHR_deferred_host_operations, with their features and
@@ -157,6 +157,9 @@ struct PhysicalDevice {
     // this one).
     bool ray_pipeline = false;
     std::string ray_pipeline_note;
+    // The driver's statistics of a compiled pipeline (registers, code size: whatever it
+    // reports) can be asked for: VK_KHR_pipeline_executable_properties and its feature.
+    bool pipeline_statistics = false;
     VkPhysicalDeviceAccelerationStructurePropertiesKHR accel_props{};  // where accel()
     VkPhysicalDeviceRayTracingPipelinePropertiesKHR rt_props{};        // where ray_pipeline
     // Acceleration structures: either way of tracing through them.
@@ -169,6 +172,13 @@ inline constexpr const char* kAccelExtensions[] = {"VK_KHR_acceleration_structur
                                                    "VK_KHR_deferred_host_operations"};
 inline constexpr const char* kRayQueryExtension = "VK_KHR_ray_query";
 inline constexpr const char* kRayPipelineExtension = "VK_KHR_ray_tracing_pipeline";
+inline constexpr const char* kPipelineStatisticsExtension = "VK_KHR_pipeline_executable_properties";
+
+// $MCPT_VULKAN_STATISTICS=1: devices are created with kPipelineStatisticsExtension where they
+// have it, pipelines capture the driver's statistics, and `render -v` prints them (a
+// measurement: capturing may cost the driver's pipeline cache). Unset or 0: neither. Any other
+// value throws mcpt::Error.
+bool pipeline_statistics_wanted();
 
 // The buffer limits of a device for check_device_limits(), with MCPT_VULKAN_MAX_BUFFER_BYTES
 // applied as the environment says now.

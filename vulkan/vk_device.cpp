@@ -17,7 +17,8 @@ Device::Device(const Instance& instance, const PhysicalDevice& pd, std::string n
     : memory_(pd.memory), name_(std::move(name)) {
     const InstanceFns& fi = instance.fn();
     // Device with one compute queue; no features, no extensions, unless the driver traces
-    // (ray queries, the ray-tracing pipeline: each where the device has it).
+    // (ray queries, the ray-tracing pipeline: each where the device has it) or the driver's
+    // pipeline statistics are asked for.
     const float priority = 1.f;
     VkDeviceQueueCreateInfo qi{};
     qi.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO;
@@ -52,11 +53,20 @@ Device::Device(const Instance& instance, const PhysicalDevice& pd, std::string n
         extensions.push_back(kRayPipelineExtension);
         *tail = &rt;
     }
-    if (pd.accel()) {
-        di.pNext = &v12;
-        di.enabledExtensionCount = uint32_t(extensions.size());
-        di.ppEnabledExtensionNames = extensions.data();
+    if (!pd.accel()) extensions.clear();
+    void* chain = pd.accel() ? &v12 : nullptr;
+    // The driver's statistics of each pipeline, where asked for and the device has them.
+    VkPhysicalDevicePipelineExecutablePropertiesFeaturesKHR pe{};
+    pe.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PIPELINE_EXECUTABLE_PROPERTIES_FEATURES_KHR;
+    pe.pipelineExecutableInfo = VK_TRUE;
+    if (pipeline_statistics_wanted() && pd.pipeline_statistics) {
+        extensions.push_back(kPipelineStatisticsExtension);
+        pe.pNext = chain;
+        chain = &pe;
     }
+    di.pNext = chain;
+    di.enabledExtensionCount = uint32_t(extensions.size());
+    di.ppEnabledExtensionNames = extensions.empty() ? nullptr : extensions.data();
     VK_CHECK(fi.vkCreateDevice, pd.handle, &di, nullptr, &device_);
 
     // Device-level functions, all or none.
@@ -90,6 +100,13 @@ Device::Device(const Instance& instance, const PhysicalDevice& pd, std::string n
     }
     accel_ = pd.accel();
     rt_ = pd.ray_pipeline;
+    if (chain == &pe) {
+        get_executables_ = reinterpret_cast<PFN_vkGetPipelineExecutablePropertiesKHR>(
+            fi.vkGetDeviceProcAddr(device_, "vkGetPipelineExecutablePropertiesKHR"));
+        get_statistics_ = reinterpret_cast<PFN_vkGetPipelineExecutableStatisticsKHR>(
+            fi.vkGetDeviceProcAddr(device_, "vkGetPipelineExecutableStatisticsKHR"));
+        statistics_ = get_executables_ && get_statistics_;
+    }
     f_.vkGetDeviceQueue(device_, pd.queue_family, 0, &queue_);
 
     // Command pool, one reusable command buffer, a fence.
@@ -112,6 +129,51 @@ Device::Device(const Instance& instance, const PhysicalDevice& pd, std::string n
         destroy();
         throw;
     }
+}
+
+std::string Device::pipeline_statistics(VkPipeline pipeline) const {
+    if (!statistics_ || pipeline == VK_NULL_HANDLE) return "";
+    VkPipelineInfoKHR pi{};
+    pi.sType = VK_STRUCTURE_TYPE_PIPELINE_INFO_KHR;
+    pi.pipeline = pipeline;
+    uint32_t n = 0;
+    if (get_executables_(device_, &pi, &n, nullptr) != VK_SUCCESS) return "";
+    std::vector<VkPipelineExecutablePropertiesKHR> executables(n);
+    for (auto& e : executables) e.sType = VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_PROPERTIES_KHR;
+    if (get_executables_(device_, &pi, &n, executables.data()) != VK_SUCCESS) return "";
+    // Each executable's statistics, "name value" (a compute pipeline has one executable).
+    std::string out;
+    for (uint32_t i = 0; i < n; ++i) {
+        VkPipelineExecutableInfoKHR ei{};
+        ei.sType = VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_INFO_KHR;
+        ei.pipeline = pipeline;
+        ei.executableIndex = i;
+        uint32_t m = 0;
+        if (get_statistics_(device_, &ei, &m, nullptr) != VK_SUCCESS) continue;
+        std::vector<VkPipelineExecutableStatisticKHR> stats(m);
+        for (auto& s : stats) s.sType = VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_STATISTIC_KHR;
+        if (get_statistics_(device_, &ei, &m, stats.data()) != VK_SUCCESS) continue;
+        if (n > 1) out += std::string(out.empty() ? "" : "; ") + executables[i].name + ": ";
+        for (uint32_t k = 0; k < m; ++k) {
+            const VkPipelineExecutableStatisticKHR& s = stats[k];
+            std::string value;
+            switch (s.format) {
+                case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_BOOL32_KHR:
+                    value = s.value.b32 ? "yes" : "no";
+                    break;
+                case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_INT64_KHR:
+                    value = std::to_string(s.value.i64);
+                    break;
+                case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_UINT64_KHR:
+                    value = std::to_string(s.value.u64);
+                    break;
+                default:
+                    value = std::to_string(s.value.f64);
+            }
+            out += std::string(k ? ", " : "") + s.name + " " + value;
+        }
+    }
+    return out;
 }
 
 Device::~Device() {
@@ -182,8 +244,8 @@ void Device::free_buffer(Buffer& b) {
 
 Buffer Device::upload(const void* data, size_t bytes, VkBufferUsageFlags more_usage) {
     Buffer b = create_buffer(
-        bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT | more_usage, 0,
-        VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+        bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT | more_usage,
+        0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
     if (b.mapped) {
         std::memcpy(b.mapped, data, bytes);
         return b;

@@ -38,6 +38,12 @@ class Device {
     // The ray-tracing pipeline's functions; null on a device without it.
     const RayPipelineFns* rt() const { return rt_ ? &rt_fns_ : nullptr; }
     VkDevice handle() const { return device_; }
+    // Pipelines capture the driver's statistics (pipeline_statistics_wanted() and the device
+    // has them: VK_PIPELINE_CREATE_CAPTURE_STATISTICS_BIT_KHR goes into their flags).
+    bool statistics() const { return statistics_; }
+    // The driver's statistics of a pipeline created with that flag, "name value, ..." (its
+    // names: "Register Count", "Binary Size", ...); "" without them.
+    std::string pipeline_statistics(VkPipeline pipeline) const;
     VkCommandBuffer cmd() const { return cmd_; }
     // The pipeline stages shaders read and write the scene in: compute, and ray tracing where
     // the device was created with the pipeline (barriers name only stages a device has).
@@ -72,6 +78,9 @@ class Device {
     bool accel_ = false, rt_ = false;
     AccelFns accel_fns_;
     RayPipelineFns rt_fns_;
+    bool statistics_ = false;
+    PFN_vkGetPipelineExecutablePropertiesKHR get_executables_ = nullptr;
+    PFN_vkGetPipelineExecutableStatisticsKHR get_statistics_ = nullptr;
     VkDevice device_ = VK_NULL_HANDLE;
     VkQueue queue_ = VK_NULL_HANDLE;
     VkCommandPool pool_ = VK_NULL_HANDLE;
