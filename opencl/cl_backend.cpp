@@ -286,14 +286,14 @@ class OpenClBackend final : public Backend {
         if (dev_.info.type == "cpu") opts += " -DMCPT_OUT_OF_LINE";     // platform.h
         opts += " -DMCPT_KD_MAILBOX";                                   // traverse.h
         // NVIDIA's compiler takes inline PTX (sampler.h: one instruction for a bit reversal).
-        // Left alone it gives the kernel 109-147 registers (its Vulkan driver: 80-96); at most
-        // 56 it runs 13-43% faster on the H100 without spilling. Denormals flushed to zero:
-        // +7% on the materials scene, -1 to -4% on the others, all closer to Vulkan's speed
+        // Left alone it gives the kernel 109-157 registers (its Vulkan driver: 96-128); capped
+        // by kernel (nvidia_register_cap) it runs 9-43% faster on the H100. Denormals flushed to
+        // zero: +7% on the materials scene, -1 to -4% on the others, all closer to Vulkan's speed
         // (docs/benchmarks.md); lang.h also takes GLSL's normalize and length there.
         const uint32_t walk = walk_steps(dev_.info, features, false, stack_size - 1);
         if (dev_.info.platform.find("NVIDIA") != std::string::npos) {
             opts += " -DMCPT_NVIDIA_OPENCL -cl-denorms-are-zero";
-            if (const uint32_t cap = nvidia_register_cap(walk); cap != 0)
+            if (const uint32_t cap = nvidia_register_cap(features, walk); cap != 0)
                 opts += " -cl-nv-maxrregcount=" + std::to_string(cap);
         }
         const KdSteps steps = kd_steps(dev_.info);
@@ -371,16 +371,6 @@ class OpenClBackend final : public Backend {
     // measurements (0: none). (H100, 1024², M rays/s: walked 4 steps at a time under the cap
     // of 56 the bunny ran at 1,486 and the 871k dragon at 1,135; under 80, 2,408 and 1,588;
     // uncapped 2,443 and 1,800. Walked whole, capped: 2,207 and 1,783; uncapped 2,199 and 1,652.)
-    static uint32_t nvidia_register_cap(uint32_t walk) {
-        const char* e = std::getenv("MCPT_NV_MAXRREGCOUNT");
-        if (!e) return walk != 0 ? 0 : 56;
-        char* end = nullptr;
-        const long n = std::strtol(e, &end, 10);
-        if (!*e || *end != '\0' || (n != 0 && (n < 16 || n > 255)))
-            throw Error("MCPT_NV_MAXRREGCOUNT must be 0 (no cap) or 16 to 255, not '" +
-                        std::string(e) + "'");
-        return uint32_t(n);
-    }
     static uint64_t dump_dispatch_number() {
         const char* e = std::getenv("MCPT_DUMP_DISPATCH");
         if (!e || !*e) return 0;

@@ -148,5 +148,30 @@ TEST(BvhWalkChoice, NvidiaGpusOnDeepTrees) {
     EXPECT_EQ(walk_steps(nv_vk, bvh, false, 9), 0u);
 }
 
+// NVIDIA's OpenCL register cap by kernel: 128 walked, 96 for a BVH walked whole, 56 with
+// textures and off the BVH; the variable overrides, and a bad value is refused.
+TEST(NvidiaRegisterCap, ByKernel) {
+    const test::ScopedEnv env("MCPT_NV_MAXRREGCOUNT", nullptr);
+    const uint32_t mesh = FEATURE_TRIANGLES | FEATURE_DIFFUSE | FEATURE_TRIANGLE_LIGHTS;
+    EXPECT_EQ(nvidia_register_cap(mesh | FEATURE_BVH, 4), 128u);
+    EXPECT_EQ(nvidia_register_cap(mesh | FEATURE_BVH | FEATURE_TEXTURES, 4), 128u);
+    EXPECT_EQ(nvidia_register_cap(mesh | FEATURE_BVH, 0), 96u);
+    EXPECT_EQ(nvidia_register_cap(mesh | FEATURE_BVH | FEATURE_TEXTURES, 0), 56u);
+    EXPECT_EQ(nvidia_register_cap(mesh | FEATURE_KDTREE, 0), 56u);
+    EXPECT_EQ(nvidia_register_cap(mesh, 0), 56u);
+    {
+        const test::ScopedEnv none("MCPT_NV_MAXRREGCOUNT", "0");
+        EXPECT_EQ(nvidia_register_cap(mesh | FEATURE_BVH, 4), 0u);
+    }
+    {
+        const test::ScopedEnv some("MCPT_NV_MAXRREGCOUNT", "72");
+        EXPECT_EQ(nvidia_register_cap(mesh | FEATURE_KDTREE, 0), 72u);
+    }
+    for (const char* bad : {"", "8", "256", "96x", "-1"}) {
+        const test::ScopedEnv wrong("MCPT_NV_MAXRREGCOUNT", bad);
+        EXPECT_THROW(nvidia_register_cap(mesh | FEATURE_BVH, 0), Error) << "'" << bad << "'";
+    }
+}
+
 }  // namespace
 }  // namespace mcpt

@@ -27,8 +27,8 @@ struct DeviceInfo {
     std::string platform;  // OpenCL platform / Vulkan driver
     std::string type;      // "gpu" | "cpu" | "other"
     std::vector<std::pair<std::string, std::string>> limits;  // name, value (for display)
-    bool phone_limits = false;  // held to the phone's limits (Vulkan limits=phone)
-    bool ray_queries = false;   // the driver traces rays for us (Vulkan VK_KHR_ray_query)
+    bool phone_limits = false;   // held to the phone's limits (Vulkan limits=phone)
+    bool ray_queries = false;    // the driver traces rays for us (Vulkan VK_KHR_ray_query)
     bool ray_pipelines = false;  // the same through VK_KHR_ray_tracing_pipeline
     MemoryLimits memory;
     // "opencl: NVIDIA H100": the device in messages and checkpoints.
@@ -106,6 +106,14 @@ uint32_t trace_sites(const DeviceInfo& device, uint32_t features, bool ray_pipel
 // more than the walk's bookkeeping. $MCPT_WALK_STEPS (0-32) overrides.
 uint32_t walk_steps(const DeviceInfo& device, uint32_t features, bool driver_traced = false,
                     uint32_t tree_depth = 0);
+
+// The register cap NVIDIA's OpenCL compiles a kernel with (-cl-nv-maxrregcount; 0: none) for
+// its features and walk (walk_steps): left alone the compiler gives the kernel 109-157
+// registers, so few warps fit an SM that loads wait uncovered. 128 for a walked BVH, 96 for a
+// BVH walked whole, 56 for a BVH with textures and for the k-d tree and no tree (measured on
+// an H100: docs/traversal.md, "The register cap by kernel"). $MCPT_NV_MAXRREGCOUNT (0, or 16
+// to 255) overrides.
+uint32_t nvidia_register_cap(uint32_t features, uint32_t walk);
 
 class Backend {
   public:

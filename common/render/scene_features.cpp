@@ -27,8 +27,7 @@ const char* const kFeatureNames[FEATURE_COUNT] = {
 // The features of a material: its kind, then its textures and alpha mask.
 uint32_t material_features(const gpu::GpuMaterial& m) {
     uint32_t f = 0;
-    if (m.tex_base != NO_TEXTURE || m.tex_metal_rough != NO_TEXTURE ||
-        m.tex_emission != NO_TEXTURE)
+    if (m.tex_base != NO_TEXTURE || m.tex_metal_rough != NO_TEXTURE || m.tex_emission != NO_TEXTURE)
         f |= FEATURE_TEXTURES;
     if (m.tex_normal != NO_TEXTURE) f |= FEATURE_TEXTURES | FEATURE_SHADING_NORMALS;
     if (m.alpha_cutoff > 0.f) f |= FEATURE_ALPHA_MASK;
@@ -168,9 +167,28 @@ uint32_t walk_steps(const DeviceInfo& device, uint32_t features, bool driver_tra
     // Measured on an H100 (1024², M rays/s, walked whole against 4 steps; docs/traversal.md):
     // NVIDIA's Vulkan bunny (depth 5) +17%, dragon-48k (6) +14%, dragon-871k (9) +8%; the
     // textured scene (4) level; the Cornell box and the materials scene (depth 0) -9% and
-    // -16%. NVIDIA's OpenCL walks only without its register cap (opencl/cl_backend.cpp).
+    // -16%. NVIDIA's OpenCL walks with a cap of 128 registers (nvidia_register_cap).
     // Other GPUs and the CPU devices (lavapipe -11%, PoCL -2%): not walked.
     return device.type == "gpu" && is_nvidia(device) && tree_depth >= 5 ? 4u : 0u;
+}
+
+uint32_t nvidia_register_cap(uint32_t features, uint32_t walk) {
+    if (const char* e = std::getenv("MCPT_NV_MAXRREGCOUNT")) {
+        char* end = nullptr;
+        const long n = std::strtol(e, &end, 10);
+        if (!*e || *end != '\0' || (n != 0 && (n < 16 || n > 255)))
+            throw Error("MCPT_NV_MAXRREGCOUNT must be 0 (no cap) or 16 to 255, not '" +
+                        std::string(e) + "'");
+        return uint32_t(n);
+    }
+    // H100, 1024², M rays/s (docs/traversal.md): walked, 128 against none, dragon-871k 2,046
+    // against 1,777, dragon-48k 2,640 against 2,282, bunny 2,734 against 2,421 (96: between);
+    // walked whole, 96 against 56, the Cornell box 5,212 against 4,504, the materials scene
+    // 3,584 against 3,285; the textured scene 1,448 at 56, 1,226 at 96, 1,137 uncapped. The
+    // k-d tree's 56: 13-43% faster than uncapped (docs/benchmarks.md).
+    if ((features & FEATURE_BVH) == 0) return 56;
+    if (walk != 0) return 128;
+    return (features & FEATURE_TEXTURES) != 0 ? 56 : 96;
 }
 
 uint32_t trace_sites(const DeviceInfo& device, uint32_t features, bool ray_pipeline,
