@@ -355,6 +355,28 @@ TEST(VulkanStatistics, LayoutNamesTheDriversStatisticsOnlyWhenAsked) {
     }
 }
 
+// $MCPT_VULKAN_WORKGROUP: another workgroup size renders the same image bit for bit (every
+// pixel's samples are its own); a size past the device's limits is refused.
+TEST(VulkanWorkgroup, OtherSizesRenderTheSameImage) {
+    SKIP_WITHOUT_VULKAN();
+    const Packed p = pack(make_builtin_scene("cornell"));
+    const auto image = [&](const char* size) {
+        const ScopedEnv env("MCPT_VULKAN_WORKGROUP", size);
+        auto vk = open_vulkan();
+        return render_on(*vk, p, 24, 4, 5u).mean_image();
+    };
+    const std::vector<float> base = image(nullptr);
+    EXPECT_EQ(image("32"), base);
+    EXPECT_EQ(image("96"), base);
+    // Control: another seed is another image.
+    {
+        auto vk = open_vulkan();
+        EXPECT_NE(render_on(*vk, p, 24, 4, 6u).mean_image(), base);
+    }
+    EXPECT_THROW(image("0"), Error);
+    EXPECT_THROW(image("1000000"), Error);
+}
+
 #endif  // MCPT_WITH_VULKAN
 
 }  // namespace

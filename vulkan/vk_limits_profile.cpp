@@ -44,8 +44,18 @@ void apply_limits_profile(PhysicalDevice& d, const std::string& profile) {
 }
 
 uint32_t workgroup_size(const VkPhysicalDeviceLimits& l) {
-    return std::max(1u, std::min({uint32_t(WORKGROUP_SIZE), l.maxComputeWorkGroupSize[0],
-                                  l.maxComputeWorkGroupInvocations}));
+    const uint32_t most = std::min(l.maxComputeWorkGroupSize[0], l.maxComputeWorkGroupInvocations);
+    // $MCPT_VULKAN_WORKGROUP: another size, for measurements (how the driver allocates
+    // registers for it), within the device's limits.
+    if (const char* e = std::getenv("MCPT_VULKAN_WORKGROUP")) {
+        char* end = nullptr;
+        const long n = std::strtol(e, &end, 10);
+        if (!*e || *end != '\0' || n < 1 || n > long(most))
+            throw Error("MCPT_VULKAN_WORKGROUP must be 1 to " + std::to_string(most) + ", not '" +
+                        std::string(e) + "'");
+        return uint32_t(n);
+    }
+    return std::max(1u, std::min(uint32_t(WORKGROUP_SIZE), most));
 }
 
 std::string layout_line(const VkPhysicalDeviceLimits& l) {
