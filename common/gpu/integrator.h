@@ -3,17 +3,16 @@
 // sampling, both combined by multiple importance sampling (power heuristic; delta lights
 // by NEE alone), Russian roulette; step_slot runs a pixel's samples one bounce per
 // iteration (step_slot_walk: with the BVH walked a few node steps at a time). Shared verbatim
-// by OpenCL C, GLSL and C++.
+// by OpenCL C, GLSL and C++; the light choice and its pdfs are light_choice.h, the hit
+// point surface_point.h.
 #ifndef MCPT_GPU_INTEGRATOR_H
 #define MCPT_GPU_INTEGRATOR_H
 
 #include "bsdf.h"
-#include "light_tree.h"
-#include "lights.h"
-#include "rect_light.h"
+#include "light_choice.h"  // sample_light, emitter_hit_pdf
 #include "sampler.h"
+#include "surface_point.h"  // SurfacePoint, surface_at
 #include "traverse.h"
-#include "triangle_light.h"
 
 MCPT_NAMESPACE_BEGIN
 
@@ -50,282 +49,6 @@ MCPT_FN vec4 sample4(uint pixel, uint sample_index, uint group, uint seed) {
 
 MCPT_FN float quiet_nan() {
     return uint_as_float(0x7fc00000u);
-}
-
-// A hit point with its rounding-error bound, geometric normal (front side / outside), the
-// interpolated shading normal (on ng's side), texture coordinates and their derivatives.
-MCPT_STRUCT(SurfacePoint) {
-    vec3 p;
-    vec3 p_error;
-    vec3 ng;
-    vec3 ns;
-    vec2 uv;
-    vec3 dpdu, dpdv;
-    uint material;
-};
-
-MCPT_FN SurfacePoint surface_at(SCENE_PARAMS_ Ray ray, Hit hit) {
-    SurfacePoint s;
-    s.uv = V2(0.0f, 0.0f);
-    s.dpdu = V3S(0.0f);
-    s.dpdv = V3S(0.0f);
-    if (HAS_FEATURE(FEATURE_SPHERES) && (hit.prim & SPHERE_BIT) != 0u) {
-        // Sphere: reproject onto the surface, error bound from pbrt-v4.
-        GpuSphere sph = SPHERE(hit.prim & ~SPHERE_BIT);
-        vec3 c = V3(sph.cx, sph.cy, sph.cz);
-        vec3 rel = ray.o + ray.d * hit.t - c;
-        rel = rel * DIVF(sph.radius, length(rel));
-        s.p = c + rel;
-        s.p_error = VABS(rel) * gamma_bound(5.0f) + VABS(s.p) * gamma_bound(2.0f);
-        s.ng = DIVF(rel, sph.radius);
-        s.ns = s.ng;
-        s.material = sph.material;
-    } else {
-        // Triangle: barycentric interpolation, error bound from pbrt-v4.
-        GpuTriangle tri = TRIANGLE(hit.prim);
-        vec3 v0 = tri_v0(tri), v1 = tri_v1(tri), v2 = tri_v2(tri);
-        float b0 = 1.0f - hit.b1 - hit.b2;
-        vec3 p0 = v0 * b0, p1 = v1 * hit.b1, p2 = v2 * hit.b2;
-        s.p = p0 + p1 + p2;
-        s.p_error = (VABS(p0) + VABS(p1) + VABS(p2)) * gamma_bound(7.0f);
-        s.ng = normalize(cross(v1 - v0, v2 - v0));
-        s.ns = s.ng;
-        s.material = tri.material;
-        if ((HAS_FEATURE(FEATURE_SHADING_NORMALS) || HAS_FEATURE(FEATURE_TEXTURES)) &&
-            (PARAM(scene_flags) & SCENE_VERTEX_DATA) != 0u) {
-            GpuTriangleAttributes a = ATTRIBUTES(hit.prim);
-            if (HAS_FEATURE(FEATURE_SHADING_NORMALS)) {
-                // Interpolated vertex normals, turned to the geometric normal's side.
-                vec3 ns = normal_from_oct(a.n0) * b0 + normal_from_oct(a.n1) * hit.b1 +
-                          normal_from_oct(a.n2) * hit.b2;
-                float len = length(ns);
-                if (len > 0.0f) s.ns = dot(ns, s.ng) < 0.0f ? DIVF(-ns, len) : DIVF(ns, len);
-            }
-            if (HAS_FEATURE(FEATURE_TEXTURES)) {
-                // Texture coordinates and the surface's derivatives along them (tangents).
-                s.uv = V2(a.u0, a.v0) * b0 + V2(a.u1, a.v1) * hit.b1 + V2(a.u2, a.v2) * hit.b2;
-                float du1 = a.u1 - a.u0, dv1 = a.v1 - a.v0, du2 = a.u2 - a.u0, dv2 = a.v2 - a.v0;
-                float det = du1 * dv2 - du2 * dv1;
-                if (det != 0.0f) {
-                    vec3 e1 = v1 - v0, e2 = v2 - v0;
-                    s.dpdu = DIVF(e1 * dv2 - e2 * dv1, det);
-                    s.dpdv = DIVF(e2 * du1 - e1 * du2, det);
-                }
-            }
-        }
-    }
-    return s;
-}
-
-// The scene picks local lights by the light tree (else every light by power).
-#define LIGHT_TREE_ON (HAS_FEATURE(FEATURE_LIGHT_TREE) && PARAM(num_tree_lights) > 0u)
-
-MCPT_FN float triangle_area(GpuTriangle tri) {
-    return 0.5f * length(cross(tri_v1(tri) - tri_v0(tri), tri_v2(tri) - tri_v0(tri)));
-}
-
-// Probability that next-event estimation at x picks emitter `light_prim` (a triangle index,
-// or a sphere index | LIGHT_SPHERE_BIT) of material m, over its area: by power, mean(Le) /
-// total (the pick is area * mean(Le) / total, twice that for a two-sided emitter), or by the
-// tree, its pick's probability over the area.
-MCPT_FN float emitter_area_pdf(SCENE_PARAMS_ uint light_prim, vec3 x, vec3 rn, GpuMaterial m,
-                               float area) {
-    if (LIGHT_TREE_ON)
-        return DIVF(PARAM(light_tree_pmf) *
-                        light_tree_pmf(SCENE_ARGS_ x, rn, light_tree_trail(SCENE_ARGS_ light_prim)),
-                    area);
-    float faces = emits_from_back(m) ? 2.0f : 1.0f;
-    return DIVF(faces * mean_component(material_emission(m)), PARAM(light_power_total));
-}
-
-// Probability that next-event estimation at x picks emitter triangle `prim` (of material m
-// and area `area`): by the tree, or by power.
-MCPT_FN float triangle_pick_pmf(SCENE_PARAMS_ uint prim, vec3 x, vec3 rn, GpuMaterial m,
-                                float area) {
-    return emitter_area_pdf(SCENE_ARGS_ prim, x, rn, m, area) * area;
-}
-
-// Solid-angle pdf that next-event estimation samples a sphere light from x (cone sampling),
-// the sphere picked with probability pmf.
-MCPT_FN float sphere_cone_pdf(GpuSphere sph, vec3 x, float pmf) {
-    vec3 to_c = V3(sph.cx, sph.cy, sph.cz) - x;
-    float r2 = sph.radius * sph.radius;
-    float d2 = dot(to_c, to_c);
-    if (d2 <= r2) return 0.0f;  // inside: never sampled from here
-    return DIVF(pmf, 2.0f * MCPT_PI * one_minus_cos_cone(r2 / d2));
-}
-
-MCPT_FN float sphere_light_pdf(SCENE_PARAMS_ uint index, vec3 x, vec3 rn) {
-    GpuSphere sph = SPHERE(index);
-    float pmf = LIGHT_TREE_ON
-                    ? PARAM(light_tree_pmf) *
-                          light_tree_pmf(SCENE_ARGS_ x, rn,
-                                         light_tree_trail(SCENE_ARGS_ index | LIGHT_SPHERE_BIT))
-                    : 4.0f * MCPT_PI * sph.radius * sph.radius *
-                          emitter_area_pdf(SCENE_ARGS_ index | LIGHT_SPHERE_BIT, x, rn,
-                                           MATERIAL(sph.material), 1.0f);
-    return sphere_cone_pdf(sph, x, pmf);
-}
-
-// Choose a light by power (alias table) or by the tree (receiver normal rn, or 0), then a
-// point on it, a direction of it, seen from x (shading normal ns: emissive triangles' samples
-// follow its cosine). u: 3 uniforms.
-MCPT_FN LightSample sample_light(SCENE_PARAMS_ vec3 x, vec3 rn, vec3 ns, vec3 u) {
-    LightSample ls = no_light_sample();
-    // A local light by the tree, or (without one, or else) one from the alias table: of every
-    // light, or with a tree of the lights at infinity.
-    uint count = PARAM(num_lights);
-    float pick = u.x;
-    bool by_tree = false;
-    float tree_pmf = 0.0f;
-    GpuLight light;
-    if (LIGHT_TREE_ON) {
-        float pt = PARAM(light_tree_pmf);
-        count -= PARAM(num_tree_lights);
-        if (pick < pt || count == 0u) {
-            TreePick tp = light_tree_pick(SCENE_ARGS_ x, rn, MINF(pick / pt, 0.99999994f));
-            light = LIGHT(tp.slot);
-            tree_pmf = pt * tp.pmf;
-            by_tree = true;
-        } else {
-            pick = MINF((pick - pt) / (1.0f - pt), 0.99999994f);
-        }
-    }
-    if (!by_tree) {
-        float scaled = pick * F32(count);
-        uint slot = min(U32(scaled), count - 1u);
-        light = LIGHT(slot);
-        if ((scaled - F32(slot)) >= light.prob) light = LIGHT(light.alias);
-    }
-    float pmf = by_tree ? tree_pmf : light.pmf;
-    uint prim = light.prim;
-    if (HAS_FEATURE(FEATURE_PUNCTUAL_LIGHTS) && (prim & LIGHT_PUNCTUAL_BIT) != 0u) {
-        ls = sample_punctual(SCENE_ARGS_ prim & LIGHT_INDEX_MASK, x, pmf);
-    } else if (HAS_FEATURE(FEATURE_ENVIRONMENT) && prim == LIGHT_ENVIRONMENT) {
-        ls = sample_environment(SCENE_ARGS_ u.y, u.z, pmf);
-    } else if (HAS_FEATURE(FEATURE_SPHERE_LIGHTS) && (prim & LIGHT_SPHERE_BIT) != 0u) {
-        // Sphere: uniform direction in the cone it subtends.
-        GpuSphere sph = SPHERE(prim & ~LIGHT_SPHERE_BIT);
-        vec3 c = V3(sph.cx, sph.cy, sph.cz);
-        vec3 to_c = c - x;
-        float r2 = sph.radius * sph.radius;
-        float d2 = dot(to_c, to_c);
-        if (d2 <= r2) return ls;
-        float dc = sqrt(d2);
-        float omc = one_minus_cos_cone(r2 / d2);
-        vec3 rel = sample_cone(u.y, u.z, omc);
-        ls.wi = normalize(frame_to_world(frame_from_normal(DIVF(to_c, dc)), rel));
-        // Distance to the near side of the sphere along wi.
-        float sin2 = rel.x * rel.x + rel.y * rel.y;
-        float ds = dc * rel.z - sqrt(MAXF(0.0f, r2 - d2 * sin2));
-        vec3 on = x + ls.wi * ds - c;
-        ls.n = DIVF(on, length(on));
-        ls.p = c + ls.n * sph.radius;
-        ls.p_error = VABS(ls.n * sph.radius) * gamma_bound(5.0f) + VABS(ls.p) * gamma_bound(2.0f);
-        GpuMaterial m = MATERIAL(sph.material);
-        ls.le = material_emission(m);
-        ls.pdf = by_tree ? sphere_cone_pdf(sph, x, pmf)
-                         : sphere_light_pdf(SCENE_ARGS_ prim & ~LIGHT_SPHERE_BIT, x, rn);
-        ls.valid = ls.pdf > 0.0f;
-    } else if ((HAS_FEATURE(FEATURE_TRIANGLE_LIGHTS) || HAS_FEATURE(FEATURE_RECT_LIGHTS)) &&
-               (prim & ~LIGHT_INDEX_MASK) == 0u) {
-        // Triangle, or the rectangle it is half of: a point by solid angle (else by area);
-        // emission from the front, or both faces.
-        GpuTriangle tri = TRIANGLE(prim);
-        vec3 v0 = tri_v0(tri), v1 = tri_v1(tri), v2 = tri_v2(tri);
-        GpuMaterial m = MATERIAL(tri.material);
-        bool rect = is_rect_light(m);
-        float omega, area;
-        vec2 b = V2(0.0f, 0.0f);
-        // The uniforms warped toward the receiver's cosine at the corners (by solid angle
-        // only); the warp's density divides the sample's value below.
-        vec2 uw = V2(u.y, u.z);
-        float warp_pdf = 1.0f;
-        if (rect) {
-            RectLight r = rect_of_triangle(v0, v1, v2);
-            omega = rect_solid_angle(SCENE_ARGS_ r, x);
-            area = rect_area(r);
-            if (cosine_warp_on(SCENE_ARGS_ omega)) {
-                vec3 c = r.c - x;
-                vec3 q =
-                    cosine_warp(uw, V4(cosine_warp_weight(ns, c), cosine_warp_weight(ns, c + r.ex),
-                                       cosine_warp_weight(ns, c + r.ey),
-                                       cosine_warp_weight(ns, c + r.ex + r.ey)));
-                uw = V2(q.x, q.y);
-                warp_pdf = q.z;
-            }
-            vec2 st = sample_rect_light(r, x, omega, uw);
-            vec3 ps = r.ex * st.x, pt = r.ey * st.y;
-            ls.p = r.c + ps + pt;
-            ls.p_error = (VABS(r.c) + VABS(ps) + VABS(pt)) * gamma_bound(6.0f);
-        } else {
-            omega = triangle_solid_angle(SCENE_ARGS_ v0, v1, v2, x);
-            area = triangle_area(tri);
-            if (cosine_warp_on(SCENE_ARGS_ omega)) {
-                float w1 = cosine_warp_weight(ns, v1 - x);
-                vec3 q = cosine_warp(
-                    uw, V4(w1, w1, cosine_warp_weight(ns, v0 - x), cosine_warp_weight(ns, v2 - x)));
-                uw = V2(q.x, q.y);
-                warp_pdf = q.z;
-            }
-            b = sample_triangle_light(v0, v1, v2, x, omega, uw);
-            vec3 p0 = v0 * (1.0f - b.x - b.y), p1 = v1 * b.x, p2 = v2 * b.y;
-            ls.p = p0 + p1 + p2;
-            ls.p_error = (VABS(p0) + VABS(p1) + VABS(p2)) * gamma_bound(6.0f);
-        }
-        ls.n = normalize(cross(v1 - v0, v2 - v0));
-        vec3 to_l = ls.p - x;
-        float dist2 = dot(to_l, to_l);
-        ls.wi = to_l * inversesqrt(dist2);
-        float cos_l = -dot(ls.n, ls.wi);
-        if (cos_l < 0.0f && emits_from_back(m)) cos_l = -cos_l;
-        if (cos_l <= 0.0f || dist2 <= 0.0f) return ls;
-        ls.le = material_emission(m);
-        if (HAS_FEATURE(FEATURE_TEXTURES) && m.tex_emission != NO_TEXTURE && !rect) {
-            // Emission texture at the point (the pdf stays the factor's, as for hits; the host
-            // pairs no rectangle of a textured emission).
-            vec2 uv = V2(0.0f, 0.0f);
-            if ((PARAM(scene_flags) & SCENE_VERTEX_DATA) != 0u) {
-                GpuTriangleAttributes a = ATTRIBUTES(prim);
-                uv = V2(a.u0, a.v0) * (1.0f - b.x - b.y) + V2(a.u1, a.v1) * b.x +
-                     V2(a.u2, a.v2) * b.y;
-            }
-            vec4 t = sample_texture(SCENE_ARGS_ m.tex_emission, uv);
-            ls.le = ls.le * V3(t.x, t.y, t.z);
-        }
-        // (pmf: the pick's probability; a BSDF-sampled hit recomputes it, triangle_pick_pmf.)
-        // The pdf stays the unwarped one: the MIS weights of both strategies take it, as a
-        // BSDF-sampled hit computes it without the normal at the vertex before (weights that
-        // sum to one keep the sum unbiased); the warp's density divides the value alone.
-        ls.pdf = triangle_light_pdf(pmf, omega, area, dist2, cos_l);
-        ls.le = ls.le * (1.0f / warp_pdf);
-        ls.valid = true;
-    }
-    return ls;
-}
-
-// Solid-angle pdf with which next-event estimation would have produced the emitter hit
-// `hit` from x (receiver normal rn), for the MIS weight of a BSDF-sampled ray.
-MCPT_FN float emitter_hit_pdf(SCENE_PARAMS_ vec3 x, vec3 rn, Ray ray, Hit hit, SurfacePoint s) {
-    if (HAS_FEATURE(FEATURE_SPHERE_LIGHTS) && (hit.prim & SPHERE_BIT) != 0u) {
-        return sphere_light_pdf(SCENE_ARGS_ hit.prim & ~SPHERE_BIT, x, rn);
-    }
-    float cos_l = ABSF(dot(s.ng, ray.d));  // the front, or a two-sided emitter's back
-    vec3 to_l = s.p - x;
-    GpuTriangle tri = TRIANGLE(hit.prim);
-    GpuMaterial m = MATERIAL(s.material);
-    vec3 v0 = tri_v0(tri), v1 = tri_v1(tri), v2 = tri_v2(tri);
-    float omega, area;
-    if (is_rect_light(m)) {
-        RectLight r = rect_of_triangle(v0, v1, v2);
-        omega = rect_solid_angle(SCENE_ARGS_ r, x);
-        area = rect_area(r);
-    } else {
-        omega = triangle_solid_angle(SCENE_ARGS_ v0, v1, v2, x);
-        area = triangle_area(tri);
-    }
-    float pick = triangle_pick_pmf(SCENE_ARGS_ hit.prim, x, rn, m, area);
-    return triangle_light_pdf(pick, omega, area, dot(to_l, to_l), cos_l);
 }
 
 MCPT_FN PathResult path_result(vec3 radiance, uint rays) {
@@ -631,9 +354,9 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
                     uint medium =
                         volume ? (dot(ls.wi, s.ng) < 0.0f ? s.material + 1u : 0u) : PATH_MEDIUM(st);
                     if (medium != 0u)
-                        contribution *= transmittance(material_sigma(MATERIAL(medium - 1u)),
-                                                      ls.at_infinity ? MCPT_FLT_MAX
-                                                                     : length(shadow.d));
+                        contribution *=
+                            transmittance(material_sigma(MATERIAL(medium - 1u)),
+                                          ls.at_infinity ? MCPT_FLT_MAX : length(shadow.d));
                 }
 #ifdef MCPT_CARRIED_SHADOW
                 if (MCPT_TRACE_SITES == 1u) {
@@ -693,11 +416,11 @@ MCPT_FN PathState shade_vertex(SCENE_PARAMS_ PathState st, Ray ray, Hit hit, uin
 
 // A carried shadow ray's hit: the light's contribution when nothing blocks it (before the
 // next vertex's emission, as with two sites). (A macro: step_path and step_slot_walk.)
-#define SHADOW_RAY_ENDED(ST, HIT)                    \
-    (ST).shadow_pending = false;                     \
-    if ((HIT).status != 0u)                          \
-        (ST).status = PATH_INVALID;                  \
-    else if ((HIT).prim == NO_HIT)                   \
+#define SHADOW_RAY_ENDED(ST, HIT)   \
+    (ST).shadow_pending = false;    \
+    if ((HIT).status != 0u)         \
+        (ST).status = PATH_INVALID; \
+    else if ((HIT).prim == NO_HIT)  \
         (ST).radiance += (ST).shadow_contribution;
 
 // One step of a path: the ray to its next vertex and what follows from it. With one trace
