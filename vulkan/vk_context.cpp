@@ -10,6 +10,7 @@
 #include <mutex>
 #include <sstream>
 
+#include "common/env_integer.h"
 #include "common/error.h"
 #include "vulkan/vk_limits_profile.h"
 
@@ -481,10 +482,7 @@ std::vector<PhysicalDevice> Instance::devices(const std::string& profile_request
 }
 
 bool pipeline_statistics_wanted() {
-    const char* e = std::getenv("MCPT_VULKAN_STATISTICS");
-    if (!e || std::strcmp(e, "0") == 0) return false;
-    if (std::strcmp(e, "1") == 0) return true;
-    throw Error("MCPT_VULKAN_STATISTICS must be 0 or 1, not '" + std::string(e) + "'");
+    return env_integer("MCPT_VULKAN_STATISTICS", 0, 1).value_or(0) == 1;
 }
 
 }  // namespace mcpt::vk

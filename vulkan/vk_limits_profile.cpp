@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdlib>
 
+#include "common/env_integer.h"
 #include "common/error.h"
 #include "common/gpu/shared_types.h"
 
@@ -47,14 +48,8 @@ uint32_t workgroup_size(const VkPhysicalDeviceLimits& l) {
     const uint32_t most = std::min(l.maxComputeWorkGroupSize[0], l.maxComputeWorkGroupInvocations);
     // $MCPT_VULKAN_WORKGROUP: another size, for measurements (how the driver allocates
     // registers for it), within the device's limits.
-    if (const char* e = std::getenv("MCPT_VULKAN_WORKGROUP")) {
-        char* end = nullptr;
-        const long n = std::strtol(e, &end, 10);
-        if (!*e || *end != '\0' || n < 1 || n > long(most))
-            throw Error("MCPT_VULKAN_WORKGROUP must be 1 to " + std::to_string(most) + ", not '" +
-                        std::string(e) + "'");
-        return uint32_t(n);
-    }
+    if (const std::optional<long> n = env_integer("MCPT_VULKAN_WORKGROUP", 1, long(most)))
+        return uint32_t(*n);
     return std::max(1u, std::min(uint32_t(WORKGROUP_SIZE), most));
 }
 

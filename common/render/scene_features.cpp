@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <string>
 
+#include "common/env_integer.h"
 #include "common/error.h"
 #include "common/render/backend.h"
 #include "common/render/gpu_scene.h"
@@ -122,27 +123,12 @@ void log_compile(const char* api, double seconds, const std::string& settings) {
     }
 }
 
-namespace {
-uint32_t steps_from_env(const char* name, uint32_t fallback) {
-    const char* e = std::getenv(name);
-    if (!e) return fallback;
-    const int n = std::atoi(e);
-    if (n < 1 || n > 32)
-        throw Error(std::string(name) + " must be 1 to 32, not '" + std::string(e) + "'");
-    return uint32_t(n);
-}
-}  // namespace
-
 KdSteps kd_steps(const DeviceInfo&) {
     // One of each, overlapped, on every device measured (docs/traversal.md).
     KdSteps s;
-    s.nodes = steps_from_env("MCPT_KD_NODE_STEPS", s.nodes);
-    s.triangles = steps_from_env("MCPT_KD_TRI_STEPS", s.triangles);
-    if (const char* e = std::getenv("MCPT_KD_OVERLAP")) {
-        const std::string v = e;
-        if (v != "0" && v != "1") throw Error("MCPT_KD_OVERLAP must be 0 or 1, not '" + v + "'");
-        s.overlap = v == "1" ? 1u : 0u;
-    }
+    s.nodes = uint32_t(env_integer("MCPT_KD_NODE_STEPS", 1, 32).value_or(s.nodes));
+    s.triangles = uint32_t(env_integer("MCPT_KD_TRI_STEPS", 1, 32).value_or(s.triangles));
+    s.overlap = uint32_t(env_integer("MCPT_KD_OVERLAP", 0, 1).value_or(s.overlap));
     return s;
 }
 
@@ -156,14 +142,7 @@ bool is_nvidia(const DeviceInfo& device) {
 uint32_t walk_steps(const DeviceInfo& device, uint32_t features, bool driver_traced,
                     uint32_t tree_depth) {
     if (driver_traced || (features & FEATURE_BVH) == 0) return 0;
-    if (const char* e = std::getenv("MCPT_WALK_STEPS")) {
-        const std::string v = e;
-        char* end = nullptr;
-        const long n = std::strtol(e, &end, 10);
-        if (v.empty() || *end != '\0' || n < 0 || n > 32)
-            throw Error("MCPT_WALK_STEPS must be 0 to 32, not '" + v + "'");
-        return uint32_t(n);
-    }
+    if (const std::optional<long> n = env_integer("MCPT_WALK_STEPS", 0, 32)) return uint32_t(*n);
     // Measured on an H100 (1024², M rays/s, walked whole against 4 steps; docs/traversal.md):
     // NVIDIA's Vulkan bunny (depth 5) +17%, dragon-48k (6) +14%, dragon-871k (9) +8%; the
     // textured scene (4) level; the Cornell box and the materials scene (depth 0) -9% and
@@ -173,13 +152,10 @@ uint32_t walk_steps(const DeviceInfo& device, uint32_t features, bool driver_tra
 }
 
 uint32_t nvidia_register_cap(uint32_t features, uint32_t walk) {
-    if (const char* e = std::getenv("MCPT_NV_MAXRREGCOUNT")) {
-        char* end = nullptr;
-        const long n = std::strtol(e, &end, 10);
-        if (!*e || *end != '\0' || (n != 0 && (n < 16 || n > 255)))
-            throw Error("MCPT_NV_MAXRREGCOUNT must be 0 (no cap) or 16 to 255, not '" +
-                        std::string(e) + "'");
-        return uint32_t(n);
+    const char* const caps = "0 (no cap) or 16 to 255";
+    if (const std::optional<long> n = env_integer("MCPT_NV_MAXRREGCOUNT", 0, 255, caps)) {
+        if (*n != 0 && *n < 16) refuse_env("MCPT_NV_MAXRREGCOUNT", caps);
+        return uint32_t(*n);
     }
     // H100, 1024², M rays/s (docs/traversal.md): walked, 128 against none, dragon-871k 2,046
     // against 1,777, dragon-48k 2,640 against 2,282, bunny 2,734 against 2,421 (96: between);
@@ -194,10 +170,8 @@ uint32_t nvidia_register_cap(uint32_t features, uint32_t walk) {
 uint32_t trace_sites(const DeviceInfo& device, uint32_t features, bool ray_pipeline,
                      uint32_t tree_depth) {
     if (walk_steps(device, features, ray_pipeline, tree_depth) > 0) return 1u;
-    if (const char* e = std::getenv("MCPT_TRACE_SITES")) {
-        const std::string v = e;
-        if (v != "1" && v != "2") throw Error("MCPT_TRACE_SITES must be 1 or 2, not '" + v + "'");
-        return v == "1" ? 1u : 2u;
+    if (const std::optional<long> n = env_integer("MCPT_TRACE_SITES", 1, 2)) {
+        return uint32_t(*n);
     }
     // One site measured (1024², H100): NVIDIA's Vulkan on the textured scene 688 -> 858 M
     // rays/s, on the meshes and the Cornell box -5% to +2%; NVIDIA's OpenCL 2-7x slower (the
