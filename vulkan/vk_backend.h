@@ -15,6 +15,9 @@
 //                                     (tests of dispatches split into pixel ranges)
 //   XDG_CACHE_HOME / HOME             the pipeline cache lives in $XDG_CACHE_HOME/mcpt or
 //                                     ~/.cache/mcpt
+//   MCPT_VULKAN_WORKGROUP=N           specialize another workgroup size (measurements)
+//   MCPT_VULKAN_STATISTICS=1          the driver's pipeline statistics in layout() (registers:
+//                                     VK_KHR_pipeline_executable_properties)
 #pragma once
 #include <memory>
 #include <vector>

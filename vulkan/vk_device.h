@@ -1,7 +1,7 @@
 // A logical device for compute (private to vulkan/): one queue, one reusable command buffer
 // with a fence, buffers with their own allocations (with device addresses where asked), the
-// acceleration-structure and ray-tracing-pipeline functions where the device has them, and the
-// on-disk pipeline cache file.
+// acceleration-structure and ray-tracing-pipeline functions where the device has them, the
+// driver's pipeline statistics where asked for, and the on-disk pipeline cache file.
 #pragma once
 #include <string>
 #include <vector>

@@ -1,6 +1,7 @@
 // What a scene uses (feature bits) and what each device compiles from it: the kernel's
-// features, the tree cost model, the k-d steps, trace sites and the BVH walk's steps
-// (backend.h) with their environment overrides, and the compile log ($MCPT_COMPILE_LOG).
+// features, the tree cost model, the k-d steps, trace sites, the BVH walk's steps and NVIDIA's
+// OpenCL register cap (backend.h) with their environment overrides, and the compile log
+// ($MCPT_COMPILE_LOG).
 #include "common/render/scene_features.h"
 
 #include <cstdio>
