@@ -116,6 +116,33 @@ void run_tree(const TreeArgs& a) {
             for (int k = 0; k < 5; ++k) std::printf(" %5.3f", walked[si][k] / lock[si]);
             std::printf(" | %5.3f\n", vote[si] / lock[si]);
         }
+        // Work-groups of 64 lanes (two warps in step at each pause), walked 4 steps at a time:
+        // regrouped at each pause (the lanes whose ray ended packed together) against each
+        // lane keeping its warp, for an exchange costing 0, 2 or 8 node steps a warp.
+        const double moves[] = {0, 2, 8};
+        double kept[3] = {}, moved[3][3] = {};
+        for (int w = 0; w < a.warps / 2; ++w) {
+            const uint32_t first = uint32_t((uint64_t(w) * 2654435761u) % warps_in_image) * 32u;
+            std::vector<std::vector<uint32_t>> lanes(64);
+            for (uint32_t i = 0; i < 64; ++i)
+                for (uint32_t k = 0; k < 8; ++k) {
+                    const auto v = cpu_path_visits(g, pp, (first + i) % (1024u * 1024u),
+                                                   uint32_t(w) * 8 + k);
+                    lanes[i].insert(lanes[i].end(), v.begin(), v.end());
+                }
+            for (int si = 0; si < 3; ++si) {
+                kept[si] += grouped_walk_cost(lanes, shades[si], 4, false);
+                for (int m = 0; m < 3; ++m)
+                    moved[si][m] += grouped_walk_cost(lanes, shades[si], 4, true, moves[m]);
+            }
+        }
+        std::printf("  work-groups of 64 lanes walked 4 steps a pause, regrouped against not:\n"
+                    "    shading cost | exchange 0     2     8 node steps a warp\n");
+        for (int si = 0; si < 3; ++si) {
+            std::printf("    %4.0f nodes   |         ", shades[si]);
+            for (int m = 0; m < 3; ++m) std::printf(" %5.3f", moved[si][m] / kept[si]);
+            std::printf("\n");
+        }
     }
 }
 

@@ -406,5 +406,21 @@ TEST(WarpModel, WalkedCostAgainstLockStep) {
     EXPECT_DOUBLE_EQ(walked_cost(skewed, 2, 2), 28.0);
 }
 
+// The work-group's model, worked by hand: warps of two lanes, [A, B] and [C, D]; A and C trace
+// one ray of 3 node steps, B and D three of 1; a pause each step, shading costing 2.
+TEST(WarpModel, RegroupedWorkGroupAgainstKeptWarps) {
+    const std::vector<std::vector<uint32_t>> lanes = {{3}, {1, 1, 1}, {3}, {1, 1, 1}};
+    // Kept: each pause both warps walk a step and both shade (B, D): 3 x (2 + 4).
+    EXPECT_DOUBLE_EQ(grouped_walk_cost(lanes, 2, 1, false, 0, 2), 18.0);
+    // Regrouped: B and D share the first warp, so one warp shades in the first two pauses;
+    // in the third every lane ends and both shade: (2 + 2) + (2 + 2) + (2 + 4).
+    EXPECT_DOUBLE_EQ(grouped_walk_cost(lanes, 2, 1, true, 0, 2), 14.0);
+    // The exchange at 1 node step a warp, each of the three pauses: 14 + 3 x 2.
+    EXPECT_DOUBLE_EQ(grouped_walk_cost(lanes, 2, 1, true, 1, 2), 20.0);
+    // One warp holding every lane: regrouping changes nothing.
+    EXPECT_DOUBLE_EQ(grouped_walk_cost(lanes, 2, 1, true, 0, 4),
+                     grouped_walk_cost(lanes, 2, 1, false, 0, 4));
+}
+
 }  // namespace
 }  // namespace mcpt

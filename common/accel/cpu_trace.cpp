@@ -155,4 +155,45 @@ double walked_cost(const std::vector<std::vector<uint32_t>>& lanes, double shade
     return cost;
 }
 
+double grouped_walk_cost(const std::vector<std::vector<uint32_t>>& lanes, double shade,
+                         uint32_t steps, bool regroup, double move, size_t warp) {
+    const size_t kWarp = std::max<size_t>(1, warp);
+    const size_t n = lanes.size();
+    // Lane order[p] sits at place p (warp p / 32); each lane's ray (at) and its steps left.
+    std::vector<size_t> order(n), at(n, 0);
+    std::vector<uint32_t> left(n, 0);
+    for (size_t l = 0; l < n; ++l) order[l] = l, left[l] = lanes[l].empty() ? 0u : lanes[l][0];
+    const auto live = [&](size_t l) { return at[l] < lanes[l].size(); };
+    double cost = 0;
+    while (true) {
+        // Walk: each warp as long as its longest ray, at most `steps`.
+        bool any = false;
+        for (size_t w = 0; w < n; w += kWarp) {
+            uint32_t longest = 0;
+            for (size_t p = w; p < std::min(n, w + kWarp); ++p)
+                if (live(order[p])) any = true, longest = std::max(longest, left[order[p]]);
+            const uint32_t k = std::min(longest, steps);
+            cost += k;
+            for (size_t p = w; p < std::min(n, w + kWarp); ++p)
+                left[order[p]] -= std::min(left[order[p]], k);
+        }
+        if (!any) break;
+        // Regroup: the lanes whose ray ended first, in place order.
+        const auto ended = [&](size_t l) { return live(l) && left[l] == 0; };
+        if (regroup) {
+            std::stable_partition(order.begin(), order.end(), ended);
+            cost += move * double((n + kWarp - 1) / kWarp);
+        }
+        // Shade: each warp holding a lane whose ray ended; those lanes start their next ray.
+        for (size_t w = 0; w < n; w += kWarp) {
+            bool shades = false;
+            for (size_t p = w; p < std::min(n, w + kWarp); ++p) shades = shades || ended(order[p]);
+            if (shades) cost += shade;
+        }
+        for (size_t l = 0; l < n; ++l)
+            if (ended(l) && ++at[l] < lanes[l].size()) left[l] = lanes[l][at[l]];
+    }
+    return cost;
+}
+
 }  // namespace mcpt

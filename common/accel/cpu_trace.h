@@ -64,4 +64,12 @@ double lockstep_cost(const std::vector<std::vector<uint32_t>>& lanes, double sha
 double walked_cost(const std::vector<std::vector<uint32_t>>& lanes, double shade, uint32_t steps,
                    bool vote = false);
 
+// The walk over a work-group of several warps of `warp` lanes, its warps in step at each pause: every warp holding a lane walks up to `steps` node steps (as long as its
+// longest ray, at most `steps`), then every warp holding a lane whose ray ended shades. With
+// `regroup`, the lanes are regrouped at each pause, the ones whose ray ended packed into the
+// first warps (they shade together, and their fresh rays walk together), each warp paying
+// `move` node steps for the exchange; without, each lane keeps its warp.
+double grouped_walk_cost(const std::vector<std::vector<uint32_t>>& lanes, double shade,
+                         uint32_t steps, bool regroup, double move = 0, size_t warp = 32);
+
 }  // namespace mcpt
