@@ -8,6 +8,7 @@
 
 #include "app/commands.h"
 #include "common/accel/cpu_trace.h"
+#include "common/accel/wide_bvh.h"
 
 namespace mcpt {
 
@@ -35,6 +36,10 @@ void run_tree(const TreeArgs& a) {
     std::printf("  bytes per triangle (tree + triangle data): %.1f\n",
                 (double(tree.stats.bytes) + tri_bytes) /
                     double(std::max<size_t>(1, scene.triangles.size())));
+    if (tree.kind == TreeKind::Bvh)
+        std::printf("  SAH cost (a node visit as %g triangle tests, the root's area 1): %.2f\n",
+                    kSimtCostModel.wide_node_visit,
+                    bvh_sah_cost(tree, kSimtCostModel.wide_node_visit, 1.0));
 
     // Camera rays through a square grid of pixels.
     gpu::GpuParams p = g.params;
@@ -72,10 +77,12 @@ void run_tree(const TreeArgs& a) {
         pp.max_depth = ro.max_depth, pp.rr_depth = ro.rr_depth, pp.seed = 12345;
         const uint32_t warps_in_image = 1024u * 1024u / 32u;
         double busy = 0, active = 0, rays = 0, visits = 0;
+        gpu::RayWork path_rays;
         for (int w = 0; w < a.warps; ++w) {
             const uint32_t first = uint32_t((uint64_t(w) * 2654435761u) % warps_in_image) * 32u;
             std::vector<std::vector<uint32_t>> lanes;
             for (uint32_t i = 0; i < 32; ++i) {
+                path_rays.add(cpu_path_work(g, pp, first + i, uint32_t(w)));
                 lanes.push_back(cpu_path_visits(g, pp, first + i, uint32_t(w)));
                 rays += double(lanes.back().size());
                 for (uint32_t v : lanes.back()) visits += v;
@@ -88,6 +95,7 @@ void run_tree(const TreeArgs& a) {
                     "rays/path)\n",
                     a.warps, busy / a.warps, active / a.warps, visits / std::max(1.0, rays),
                     rays / (32.0 * a.warps));
+        print_work("rays of those paths", path_rays);
         // Each lane's stream of 8 samples (path regeneration): the walk's cost against
         // lock-step for a shading step of 2, 4 or 8 node steps (docs/traversal.md).
         const double shades[] = {2, 4, 8};
@@ -108,6 +116,11 @@ void run_tree(const TreeArgs& a) {
                 vote[si] += walked_cost(lanes, shades[si], 16, true);
             }
         }
+        std::printf(
+            "  a warp's cost a sample of its 32 lanes, in node steps, shading costing 4: lock-step "
+            "%.1f, "
+            "walked 4 steps a pause %.1f\n",
+            lock[1] / (8.0 * a.warps), walked[1][2] / (8.0 * a.warps));
         std::printf(
             "  walked (step_slot_walk) against lock-step, 8 samples a lane:\n"
             "    shading cost | walk steps 1     2     4     6     8 | vote at 16\n");

@@ -120,7 +120,7 @@ TEST(BvhWalkChoice, OnlyTheBvh) {
     EXPECT_EQ(trace_sites(nv_vk, mesh | FEATURE_BVH, true), 1u);
 }
 
-// The device's choice: NVIDIA's GPUs walk a BVH of depth 5 or more, 4 steps at a time (both
+// The device's choice: NVIDIA's GPUs walk a BVH of depth 6 or more, 4 steps at a time (both
 // APIs); shallower trees, other GPUs and the CPU devices walk every ray whole.
 TEST(BvhWalkChoice, NvidiaGpusOnDeepTrees) {
     const test::ScopedEnv env("MCPT_WALK_STEPS", nullptr);
@@ -133,10 +133,10 @@ TEST(BvhWalkChoice, NvidiaGpusOnDeepTrees) {
     const uint32_t bvh =
         FEATURE_TRIANGLES | FEATURE_DIFFUSE | FEATURE_TRIANGLE_LIGHTS | FEATURE_BVH;
     for (const DeviceInfo* nv : {&nv_vk, &nv_cl}) {
-        EXPECT_EQ(walk_steps(*nv, bvh, false, 5), 4u) << nv->backend;
+        EXPECT_EQ(walk_steps(*nv, bvh, false, 6), 4u) << nv->backend;
         EXPECT_EQ(walk_steps(*nv, bvh, false, 9), 4u) << nv->backend;
         EXPECT_EQ(trace_sites(*nv, bvh, false, 9), 1u) << nv->backend;
-        EXPECT_EQ(walk_steps(*nv, bvh, false, 4), 0u) << nv->backend;
+        EXPECT_EQ(walk_steps(*nv, bvh, false, 5), 0u) << nv->backend;
         EXPECT_EQ(walk_steps(*nv, bvh, false, 0), 0u) << nv->backend;
         EXPECT_EQ(walk_steps(*nv, bvh, true, 9), 0u) << nv->backend;
     }

@@ -53,6 +53,9 @@ struct TreeOptions {
     int max_leaf_prims = 1;                     // SAH: a node this small becomes a leaf
     int threads = 0;                            // 0: the CPUs this process may use (usable_cpus())
     TreeCostModel auto_model = kSimtCostModel;  // TreeKind::Auto: the device's costs
+    // Bvh: each wide node's children by the SAH-optimal collapse (wide_bvh.cpp); false: the
+    // largest child opened first ($MCPT_BVH_COLLAPSE=0, tree_options()).
+    bool bvh_optimal_collapse = true;
 };
 
 struct TreeStats {

@@ -2,8 +2,11 @@
 //  1. a binary BVH by binned SAH over triangle box centroids (16 bins, or one a reference
 //     below 16, on the axis of largest centroid extent), the two children of large nodes
 //     built on two threads;
-//  2. each wide node collapsed from a binary subtree: the child of largest surface area
-//     opened until eight children or none left to open;
+//  2. each wide node collapsed from a binary subtree, by the SAH-optimal collapse (Ylitie et
+//     al., section 4.1: a table of least costs a binary node and slot budget, bottom-up; then
+//     each node's children chosen with their boxes as it quantizes them); or, without
+//     TreeOptions::bvh_optimal_collapse, the child of largest surface area opened until eight
+//     children or none left to open;
 //  3. children placed in slots greedily by their centre along each octant's direction (a
 //     node of leaves only: in order, from slot 0), the internal ones stored contiguously in
 //     breadth-first order, the leaves' triangles contiguously per node;
@@ -20,6 +23,7 @@
 #include <deque>
 #include <future>
 #include <limits>
+#include <memory>
 
 #include "common/error.h"
 #include "common/io/host_cpus.h"
@@ -30,6 +34,9 @@ namespace {
 
 constexpr int kSahBins = 16;
 constexpr size_t kParallelMin = 16384;  // a node this large builds its children on two threads
+// The optimal collapse's costs: a wide node's visit, in triangle tests (kSimtCostModel's).
+constexpr float kCollapseNodeCost = float(kSimtCostModel.wide_node_visit);
+constexpr float kCollapseTriangleCost = 1.f;
 
 // A triangle's reference: its box and index, moved as the build partitions (sequential
 // reads at every level, not gathers through an index).
@@ -293,6 +300,127 @@ struct Kids {
     const uint32_t* end() const { return at + n; }
 };
 
+// The SAH-optimal collapse (after Ylitie, Karras & Laine 2017, section 4.1), in two steps.
+// Bottom-up, for every binary node n and slot budget i (1-8): the least SAH cost of n's
+// subtree in at most i child slots of a wide node, and how (n itself in one slot, a leaf or a
+// wide node of its own; or its children spread over k and i - k slots). Then, for each wide
+// node made from binary node b, its children chosen again with each candidate slot's box as b
+// quantizes it (padded by up to two grid cells a side: a thin leaf high in the tree, such as
+// a room's light, otherwise looks free and is entered by every ray that nears it), the costs
+// below a slot from the table. Costs per unit of half area: a wide node's visit `node`, a
+// triangle's test `triangle`.
+struct CollapsePlan {
+    const std::vector<BinNode>& bin;
+    float node, triangle;
+    std::vector<float> cost;         // [n * BVH_WIDTH + i - 1]
+    std::vector<float> spread_cost;  // [n]: n's children spread over eight slots
+
+    CollapsePlan(const std::vector<BinNode>& bin_, float node_, float triangle_)
+        : bin(bin_), node(node_), triangle(triangle_) {
+        const size_t w = BVH_WIDTH;
+        cost.resize(bin.size() * w), spread_cost.resize(bin.size());
+        for (size_t n = bin.size(); n-- > 0;) {  // children follow their parent in `bin`
+            const BinNode& b = bin[n];
+            const float area = float(half_area(b.lo, b.hi));
+            float* c = &cost[n * w];
+            if (b.count > 0) {  // a binary leaf (at most BVH_LEAF_MAX triangles): one slot
+                for (size_t i = 0; i < w; ++i) c[i] = area * triangle * float(b.below);
+                continue;
+            }
+            const float* l = &cost[b.left * w];
+            const float* r = &cost[b.right * w];
+            float spread[BVH_WIDTH + 1];
+            for (size_t j = 2; j <= w; ++j) {
+                spread[j] = std::numeric_limits<float>::infinity();
+                for (size_t k = 1; k < j; ++k)
+                    spread[j] = std::min(spread[j], l[k - 1] + r[j - k - 1]);
+            }
+            spread_cost[n] = spread[w];
+            c[0] = area * node + spread[w];
+            for (size_t i = 2; i <= w; ++i) c[i - 1] = std::min(c[0], spread[i]);
+        }
+    }
+
+    // The children of the wide node made from binary node b (not a leaf), into kids.
+    void choose(uint32_t b, Kids& kids) const {
+        // b's grid, as quantize() will build it: each axis's origin and cell.
+        double p[3], cell[3];
+        for (int a = 0; a < 3; ++a) {
+            const AxisGrid g = axis_grid(bin[b].lo[a], bin[b].hi[a]);
+            p[a] = g.p, cell[a] = std::ldexp(1.0, g.e);
+        }
+        // Candidates below b within seven levels, each once (a tree: one parent each).
+        std::vector<Choice> local;
+        local.reserve(64);
+        const int left = eval(bin[b].left, BVH_WIDTH - 1, p, cell, local);
+        const int right = eval(bin[b].right, BVH_WIDTH - 1, p, cell, local);
+        float best = std::numeric_limits<float>::infinity();
+        size_t best_k = 1;
+        for (size_t k = 1; k < BVH_WIDTH; ++k) {
+            const float c =
+                local[size_t(left)].cost[k - 1] + local[size_t(right)].cost[BVH_WIDTH - k - 1];
+            if (c < best) best = c, best_k = k;
+        }
+        emit(local, left, best_k, kids);
+        emit(local, right, BVH_WIDTH - best_k, kids);
+    }
+
+  private:
+    // A candidate's least cost in at most i slots (i = 1 to its budget), and how: 0 = one
+    // slot, else k slots for its left child (`left`, `right`: their entries in `local`).
+    struct Choice {
+        uint32_t n;
+        int left = -1, right = -1;
+        float cost[BVH_WIDTH];
+        uint8_t k[BVH_WIDTH];
+    };
+
+    // Binary node n as a slot of b's node, given at most `budget` slots; its entry in local.
+    int eval(uint32_t n, size_t budget, const double p[3], const double cell[3],
+             std::vector<Choice>& local) const {
+        const BinNode& x = bin[n];
+        // Its box as quantized in b's grid (quantize(): a cell beyond the rounding each way).
+        double d[3];
+        for (int a = 0; a < 3; ++a) {
+            const double qlo = std::floor((double(x.lo[a]) - p[a]) / cell[a]) - 1.0;
+            const double qhi = std::ceil((double(x.hi[a]) - p[a]) / cell[a]) + 1.0;
+            d[a] = (qhi - qlo) * cell[a];
+        }
+        const float area = float(d[0] * d[1] + d[1] * d[2] + d[2] * d[0]);
+        const float one =
+            x.count > 0 ? area * triangle * float(x.below) : area * node + spread_cost[n];
+        const int at = int(local.size());
+        local.push_back(Choice{n, -1, -1, {}, {}});
+        for (size_t i = 0; i < BVH_WIDTH; ++i)
+            local[size_t(at)].cost[i] = one, local[size_t(at)].k[i] = 0;
+        if (x.count > 0 || budget < 2) return at;
+        const int l = eval(x.left, budget - 1, p, cell, local);
+        const int r = eval(x.right, budget - 1, p, cell, local);
+        Choice& c = local[size_t(at)];
+        c.left = l, c.right = r;
+        for (size_t i = 2; i <= budget; ++i)
+            for (size_t k = 1; k < i; ++k) {
+                const float s = local[size_t(l)].cost[k - 1] + local[size_t(r)].cost[i - k - 1];
+                if (s < c.cost[i - 1]) c.cost[i - 1] = s, c.k[i - 1] = uint8_t(k);
+            }
+        for (size_t i = budget + 1; i <= BVH_WIDTH; ++i)  // (never asked for)
+            c.cost[i - 1] = c.cost[budget - 1], c.k[i - 1] = c.k[budget - 1];
+        return at;
+    }
+
+    // Candidate `at`'s slots given i of them.
+    void emit(const std::vector<Choice>& local, int at, size_t i, Kids& kids) const {
+        const Choice& c = local[size_t(at)];
+        const uint8_t k = c.k[i - 1];
+        if (k == 0) {
+            kids.push_back(c.n);
+            return;
+        }
+        emit(local, c.left, k, kids);
+        emit(local, c.right, i - k, kids);
+    }
+};
+
 struct Collapser {
     const std::vector<BinNode>& bin;
     const std::vector<Prim>& refs;
@@ -300,6 +428,7 @@ struct Collapser {
     std::vector<uint32_t> leaf_indices;
     TreeStats stats;
     uint32_t allocated = 1;  // node indices handed out (the root's is 0)
+    const CollapsePlan* plan = nullptr;  // the SAH-optimal collapse; null: largest area first
 
     // The wide subtree of binary node `root`, breadth first: nodes[0] is its root, and each
     // node's internal children follow one another.
@@ -379,6 +508,10 @@ struct Collapser {
         Kids kids;
         if (is_leaf(b)) {  // a leaf root (at most BVH_LEAF_MAX triangles)
             kids.push_back(b);
+            return kids;
+        }
+        if (plan) {
+            plan->choose(b, kids);
             return kids;
         }
         // Each child's area once (-1 for a leaf: never opened).
@@ -476,11 +609,12 @@ struct Collapser {
 // subtree, of child 1's, ...] and their indices moved there, into `units` (the tree's 8-byte
 // units). The same tree on any number of threads.
 Collapser collapse_wide(const std::vector<BinNode>& bin, const std::vector<Prim>& refs, int threads,
-                        std::vector<gpu::KdNode>& units) {
-    Collapser top{bin, refs, {}, {}, {}};
+                        std::vector<gpu::KdNode>& units, const CollapsePlan* plan) {
+    Collapser top{bin, refs, {}, {}, {}, 1, plan};
     const Kids internal = top.make_node(0);
     std::vector<Collapser> subs;
-    for (size_t j = 0; j < internal.size(); ++j) subs.push_back(Collapser{bin, refs, {}, {}, {}});
+    for (size_t j = 0; j < internal.size(); ++j)
+        subs.push_back(Collapser{bin, refs, {}, {}, {}, 1, plan});
     // Largest subtrees first, each taken by the next free thread.
     std::vector<size_t> order(internal.size());
     for (size_t j = 0; j < order.size(); ++j) order[j] = j;
@@ -567,7 +701,10 @@ KdTree build_wide_bvh(const std::vector<Triangle>& triangles, const TreeOptions&
     } else {
         bin.reserve(refs.size());
         BinaryBuilder{refs}.build(0, uint32_t(refs.size()), bin, threads, root);
-        Collapser col = collapse_wide(bin, refs, threads, tree.nodes);
+        std::unique_ptr<CollapsePlan> plan;
+        if (options.bvh_optimal_collapse)
+            plan = std::make_unique<CollapsePlan>(bin, kCollapseNodeCost, kCollapseTriangleCost);
+        Collapser col = collapse_wide(bin, refs, threads, tree.nodes, plan.get());
         tree.leaf_indices = std::move(col.leaf_indices);
         tree.stats = col.stats;
     }
@@ -632,6 +769,21 @@ std::vector<BvhChild> bvh_children(const gpu::BvhNode& n) {
         out.push_back(c);
     }
     return out;
+}
+
+double bvh_sah_cost(const KdTree& tree, double node, double triangle) {
+    const Bounds& b = tree.bounds;
+    const double dx = double(b.max.x) - b.min.x, dy = double(b.max.y) - b.min.y,
+                 dz = double(b.max.z) - b.min.z;
+    const double root = dx * dy + dy * dz + dz * dx;
+    if (tree.leaf_indices.empty() || !(root > 0)) return 0;
+    double cost = 0;
+    for (uint32_t i = 0; i < bvh_node_count(tree); ++i)
+        for (const BvhChild& c : bvh_children(bvh_node(tree, i))) {
+            const double x = c.hi[0] - c.lo[0], y = c.hi[1] - c.lo[1], z = c.hi[2] - c.lo[2];
+            cost += (x * y + y * z + z * x) * (c.internal ? node : triangle * c.triangles);
+        }
+    return cost / root;
 }
 
 }  // namespace mcpt

@@ -1,6 +1,7 @@
 // The 8-wide BVH (gpu::BvhNode, after Ylitie, Karras & Laine 2017) over a scene's
 // triangles, beside the k-d tree: a binned-SAH binary BVH built on the host's threads,
-// collapsed to eight children per node (the largest child opened first), children placed in
+// collapsed to eight children per node (by the SAH, each child's box as its node quantizes
+// it; or the largest child opened first), children placed in
 // the slots of the octants they are nearest along, and their boxes quantized conservatively
 // (to a grid, stored as float offsets from its origin).
 // It travels in a KdTree of kind TreeKind::Bvh: `nodes` holds the BVH nodes' bytes
@@ -32,6 +33,11 @@ struct BvhChild {
     double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};  // exactly as quantized
 };
 std::vector<BvhChild> bvh_children(const gpu::BvhNode& node);
+
+// The tree's SAH cost relative to its root's box: every slot's quantized box's half area
+// over the root's, times `node` for an internal child or `triangle` per triangle of a leaf
+// (0 for a tree without triangles).
+double bvh_sah_cost(const KdTree& tree, double node, double triangle);
 
 // The quantized plane (low or high) of a slot on an axis, as a byte of the node; tests move
 // one by a grid cell to plant a box that misses part of its content.

@@ -101,7 +101,7 @@ uint32_t trace_sites(const DeviceInfo& device, uint32_t features, bool ray_pipel
 // Node steps a ray's BVH walk takes before the lanes whose rays ended shade
 // (MCPT_WALK_STEPS, integrator.h: step_slot_walk; 0: every ray walked to its end where it is
 // traced). Nonzero only for scenes with the BVH (FEATURE_BVH), through our own traversal, and
-// then with one trace site (trace_sites): 4 on NVIDIA's GPUs for a BVH of depth 5 or more
+// then with one trace site (trace_sites): 4 on NVIDIA's GPUs for a BVH of depth 6 or more
 // (`tree_depth`: GpuScene::stack_size - 1), where waiting for the warp's longest ray costs
 // more than the walk's bookkeeping. $MCPT_WALK_STEPS (0-32) overrides.
 uint32_t walk_steps(const DeviceInfo& device, uint32_t features, bool driver_traced = false,

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "common/env_integer.h"
 #include "common/error.h"
 #include "common/io/host_memory.h"
 #include "common/render/device_limits.h"
@@ -16,6 +17,10 @@ TreeOptions tree_options(const std::string& kind, int depth) {
     o.kind = parse_tree_kind(kind);
     if (depth < -1 || depth > 60) throw Error("tree depth must be between 0 and 60 (-1: default)");
     o.max_depth = depth;
+    // The BVH's collapse (measurements: 0 for the largest child opened first).
+    if (const auto v =
+            env_integer("MCPT_BVH_COLLAPSE", 0, 1, "0 (largest child first) or 1 (SAH-optimal)"))
+        o.bvh_optimal_collapse = *v == 1;
     return o;
 }
 

@@ -145,11 +145,12 @@ uint32_t walk_steps(const DeviceInfo& device, uint32_t features, bool driver_tra
     if (driver_traced || (features & FEATURE_BVH) == 0) return 0;
     if (const std::optional<long> n = env_integer("MCPT_WALK_STEPS", 0, 32)) return uint32_t(*n);
     // Measured on an H100 (1024², M rays/s, walked whole against 4 steps; docs/traversal.md):
-    // NVIDIA's Vulkan bunny (depth 5) +17%, dragon-48k (6) +14%, dragon-871k (9) +8%; the
-    // textured scene (4) level; the Cornell box and the materials scene (depth 0) -9% and
-    // -16%. NVIDIA's OpenCL walks with a cap of 128 registers (nvidia_register_cap).
+    // NVIDIA's Vulkan bunny +17%, dragon-48k +14%, dragon-871k +8%; the textured scene
+    // level; the Cornell box and the materials scene -9% and -16%. Their BVHs' depths, by the
+    // optimal collapse (one more than the largest-child-first trees measured then): 6, 7 and
+    // 11; 5; 0 and 0. NVIDIA's OpenCL walks with a cap of 128 registers (nvidia_register_cap).
     // Other GPUs and the CPU devices (lavapipe -11%, PoCL -2%): not walked.
-    return device.type == "gpu" && is_nvidia(device) && tree_depth >= 5 ? 4u : 0u;
+    return device.type == "gpu" && is_nvidia(device) && tree_depth >= 6 ? 4u : 0u;
 }
 
 uint32_t nvidia_register_cap(uint32_t features, uint32_t walk) {
