@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include "common/render/prepare.h"
+
 #include "test_util.h"
 
 namespace mcpt {
@@ -35,6 +37,27 @@ TEST(EnvInteger, InRangeUnsetOrRefused) {
     for (const char* bad : {"", "3x", " ", "x3", "1.5"}) {
         const test::ScopedEnv v("MCPT_TEST_ENV_INTEGER", bad);
         EXPECT_NE(refusal(0, 32), "") << "'" << bad << "'";
+    }
+}
+
+// The BVH's collapse through tree_options(): SAH-optimal unless the variable says 0; other
+// values refused.
+TEST(EnvInteger, BvhCollapseSetting) {
+    {
+        const test::ScopedEnv unset("MCPT_BVH_COLLAPSE", nullptr);
+        EXPECT_TRUE(tree_options("bvh").bvh_optimal_collapse);
+    }
+    {
+        const test::ScopedEnv off("MCPT_BVH_COLLAPSE", "0");
+        EXPECT_FALSE(tree_options("bvh").bvh_optimal_collapse);
+    }
+    const test::ScopedEnv bad("MCPT_BVH_COLLAPSE", "2");
+    try {
+        tree_options("bvh");
+        ADD_FAILURE() << "MCPT_BVH_COLLAPSE=2 was taken";
+    } catch (const Error& e) {
+        EXPECT_EQ(std::string(e.what()),
+                  "MCPT_BVH_COLLAPSE must be 0 (largest child first) or 1 (SAH-optimal), not '2'");
     }
 }
 
