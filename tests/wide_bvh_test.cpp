@@ -318,6 +318,26 @@ TEST(WideBvhQuality, OptimalCollapseCostsLessThanLargestChildFirst) {
     }
 }
 
+// The optimal collapse at every scale: the blob scaled by 2^-60 and 2^60 (exact in float)
+// and moved far from the origin by a power of two gives the same tree (its leaves in the same
+// order, as many nodes), its costs never overflowing.
+TEST(WideBvhQuality, OptimalCollapseTheSameAtEveryScale) {
+    const auto moved = [](float shift, float scale) {
+        std::vector<Triangle> tris = blob(24);
+        for (Triangle& t : tris)
+            for (vec3* v : {&t.v0, &t.v1, &t.v2}) *v = (*v + shift) * scale;
+        return tris;
+    };
+    for (const float shift : {0.f, 0x1p4f}) {
+        const KdTree unit = build_kdtree(moved(shift, 1.f), bvh_options());
+        for (const float scale : {0x1p-60f, 0x1p60f}) {
+            const KdTree bvh = build_kdtree(moved(shift, scale), bvh_options());
+            EXPECT_EQ(bvh_node_count(bvh), bvh_node_count(unit)) << scale << ", " << shift;
+            EXPECT_EQ(bvh.leaf_indices, unit.leaf_indices) << scale << ", " << shift;
+        }
+    }
+}
+
 // The parallel build (subtrees from 16,384 references on threads) on the large mesh: its
 // closest hits are brute force's, bit for bit.
 TEST(WideBvhTraversal, LargeMeshHitsAreBruteForces) {

@@ -307,21 +307,25 @@ struct Kids {
 // node made from binary node b, its children chosen again with each candidate slot's box as b
 // quantizes it (padded by up to two grid cells a side: a thin leaf high in the tree, such as
 // a room's light, otherwise looks free and is entered by every ray that nears it), the costs
-// below a slot from the table. Costs per unit of half area: a wide node's visit `node`, a
-// triangle's test `triangle`.
+// below a slot from the table. Costs per unit of half area relative to the root's (so no
+// scale overflows or underflows them): a wide node's visit `node`, a triangle's test
+// `triangle`.
 struct CollapsePlan {
     const std::vector<BinNode>& bin;
     float node, triangle;
+    double per_root_area = 1;        // 1 / the root's half area (1 for a flat root)
     std::vector<float> cost;         // [n * BVH_WIDTH + i - 1]
     std::vector<float> spread_cost;  // [n]: n's children spread over eight slots
 
     CollapsePlan(const std::vector<BinNode>& bin_, float node_, float triangle_)
         : bin(bin_), node(node_), triangle(triangle_) {
+        const double root = half_area(bin[0].lo, bin[0].hi);
+        if (root > 0 && std::isfinite(root)) per_root_area = 1 / root;
         const size_t w = BVH_WIDTH;
         cost.resize(bin.size() * w), spread_cost.resize(bin.size());
         for (size_t n = bin.size(); n-- > 0;) {  // children follow their parent in `bin`
             const BinNode& b = bin[n];
-            const float area = float(half_area(b.lo, b.hi));
+            const float area = float(half_area(b.lo, b.hi) * per_root_area);
             float* c = &cost[n * w];
             if (b.count > 0) {  // a binary leaf (at most BVH_LEAF_MAX triangles): one slot
                 for (size_t i = 0; i < w; ++i) c[i] = area * triangle * float(b.below);
@@ -386,7 +390,7 @@ struct CollapsePlan {
             const double qhi = std::ceil((double(x.hi[a]) - p[a]) / cell[a]) + 1.0;
             d[a] = (qhi - qlo) * cell[a];
         }
-        const float area = float(d[0] * d[1] + d[1] * d[2] + d[2] * d[0]);
+        const float area = float((d[0] * d[1] + d[1] * d[2] + d[2] * d[0]) * per_root_area);
         const float one =
             x.count > 0 ? area * triangle * float(x.below) : area * node + spread_cost[n];
         const int at = int(local.size());
