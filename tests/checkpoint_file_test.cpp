@@ -14,6 +14,7 @@
 #include "common/error.h"
 #include "common/render/checkpoint.h"
 #include "common/render/parts.h"
+#include "test_util.h"
 
 namespace mcpt {
 namespace {
@@ -21,9 +22,7 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path temp(const std::string& name) {
-    const fs::path dir = fs::path(::testing::TempDir()) / "mcpt_checkpoint_file_test";
-    fs::create_directories(dir);
-    return dir / name;
+    return test::temp_file(name);
 }
 
 std::string error_of(const std::function<void()>& f) {

@@ -30,9 +30,7 @@ void write_file(const fs::path& p, const std::string& bytes) {
 }
 
 fs::path temp(const std::string& name) {
-    const fs::path dir = fs::path(::testing::TempDir()) / "mcpt_checkpoint_test";
-    fs::create_directories(dir);
-    return dir / name;
+    return test::temp_file(name);
 }
 
 // The render every test resumes: about 1 s of samples on PoCL or lavapipe, 16 groups of 16

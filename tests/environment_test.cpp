@@ -17,6 +17,7 @@
 #include "common/error.h"
 #include "common/io/image_io.h"
 #include "common/render/prepare.h"
+#include "test_util.h"
 
 #if MCPT_WITH_OPENEXR
 #include <ImfChannelList.h>
@@ -33,9 +34,7 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path temp(const std::string& name) {
-    const fs::path dir = fs::path(::testing::TempDir()) / "mcpt_environment_test";
-    fs::create_directories(dir);
-    return dir / name;
+    return test::temp_file(name);
 }
 
 // A w x h map: a sky brightening toward the top, a sun 1e6 at (3, 2), a dim texel 1e-6.

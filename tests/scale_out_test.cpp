@@ -23,9 +23,7 @@ namespace fs = std::filesystem;
 using test::run_mcpt;
 
 fs::path temp(const std::string& name) {
-    const fs::path dir = fs::path(::testing::TempDir()) / "mcpt_scale_out_test";
-    fs::create_directories(dir);
-    return dir / name;
+    return test::temp_file(name);
 }
 
 // About a second of samples on PoCL; chunks of 0.05 s, so every device takes several.

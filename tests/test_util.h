@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -95,6 +96,19 @@ CliRun run_command(const std::string& command);
 std::string device_args(const std::string& api);
 // A file's bytes ("" if it cannot be read).
 std::string read_file(const std::string& path);
+// A path for `name` in the running test's own folder (created; TempDir/mcpt/SUITE/TEST):
+// ctest runs tests as processes side by side, and two that shared a file name raced (one
+// removed the file another was about to read).
+// (Inline: the unit tests' binary links no test_util.cpp.)
+inline std::string temp_file(const std::string& name) {
+    const ::testing::TestInfo* t = ::testing::UnitTest::GetInstance()->current_test_info();
+    std::string suite = t ? t->test_suite_name() : "none", test = t ? t->name() : "none";
+    for (std::string* s : {&suite, &test}) std::replace(s->begin(), s->end(), '/', '_');
+    const std::filesystem::path dir =
+        std::filesystem::path(::testing::TempDir()) / "mcpt" / suite / test;
+    std::filesystem::create_directories(dir);
+    return (dir / name).string();
+}
 // The file at `path` holds exactly `expected`, and neither is empty (two runs that wrote no
 // file would otherwise compare equal).
 ::testing::AssertionResult same_bytes(const std::string& path, const std::string& expected);

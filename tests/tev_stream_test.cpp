@@ -35,9 +35,7 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
 fs::path temp(const std::string& name) {
-    const fs::path dir = fs::path(::testing::TempDir()) / "mcpt_tev_stream_test";
-    fs::create_directories(dir);
-    return dir / name;
+    return test::temp_file(name);
 }
 
 // Bounds-checked reads from one message's payload; the first failure names the field.
