@@ -82,8 +82,9 @@ void run_tree(const TreeArgs& a) {
             const uint32_t first = uint32_t((uint64_t(w) * 2654435761u) % warps_in_image) * 32u;
             std::vector<std::vector<uint32_t>> lanes;
             for (uint32_t i = 0; i < 32; ++i) {
-                path_rays.add(cpu_path_work(g, pp, first + i, uint32_t(w)));
-                lanes.push_back(cpu_path_visits(g, pp, first + i, uint32_t(w)));
+                gpu::RayWork work = cpu_path_work(g, pp, first + i, uint32_t(w), true);
+                path_rays.add(work);
+                lanes.push_back(std::move(work.visits_per_trace));
                 rays += double(lanes.back().size());
                 for (uint32_t v : lanes.back()) visits += v;
             }
@@ -117,9 +118,8 @@ void run_tree(const TreeArgs& a) {
             }
         }
         std::printf(
-            "  a warp's cost a sample of its 32 lanes, in node steps, shading costing 4: lock-step "
-            "%.1f, "
-            "walked 4 steps a pause %.1f\n",
+            "  a warp's cost a sample of its 32 lanes, in node steps, shading costing 4: "
+            "lock-step %.1f, walked 4 steps a pause %.1f\n",
             lock[1] / (8.0 * a.warps), walked[1][2] / (8.0 * a.warps));
         std::printf(
             "  walked (step_slot_walk) against lock-step, 8 samples a lane:\n"

@@ -73,8 +73,9 @@ gpu::PathResult cpu_trace_path(const GpuScene& s, const gpu::GpuParams& params, 
 }
 
 gpu::RayWork cpu_path_work(const GpuScene& s, const gpu::GpuParams& params, uint32_t pixel,
-                           uint32_t sample_index) {
+                           uint32_t sample_index, bool keep_visits) {
     gpu::RayWork work;
+    work.keep_visits = keep_visits;
     gpu::path_work = &work;
     cpu_trace_path(s, params, pixel, sample_index);
     gpu::path_work = nullptr;
@@ -83,12 +84,7 @@ gpu::RayWork cpu_path_work(const GpuScene& s, const gpu::GpuParams& params, uint
 
 std::vector<uint32_t> cpu_path_visits(const GpuScene& s, const gpu::GpuParams& params,
                                       uint32_t pixel, uint32_t sample_index) {
-    gpu::RayWork work;
-    work.keep_visits = true;
-    gpu::path_work = &work;
-    cpu_trace_path(s, params, pixel, sample_index);
-    gpu::path_work = nullptr;
-    return std::move(work.visits_per_trace);
+    return std::move(cpu_path_work(s, params, pixel, sample_index, true).visits_per_trace);
 }
 
 WarpLanes warp_lanes(const std::vector<std::vector<uint32_t>>& lanes) {

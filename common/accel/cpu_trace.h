@@ -37,9 +37,10 @@ gpu::Ray cpu_cast_ray(const GpuScene& scene, uint32_t i);
 gpu::PathResult cpu_trace_path(const GpuScene& scene, const gpu::GpuParams& params, uint32_t pixel,
                                uint32_t sample_index);
 
-// The traversal work of every ray (camera, bounce, shadow) of that same path sample.
+// The traversal work of every ray (camera, bounce, shadow) of that same path sample; with
+// `keep_visits`, each ray's node visits too (RayWork::visits_per_trace).
 gpu::RayWork cpu_path_work(const GpuScene& scene, const gpu::GpuParams& params, uint32_t pixel,
-                           uint32_t sample_index);
+                           uint32_t sample_index, bool keep_visits = false);
 
 // The node visits of each ray of that path sample in the order traced (camera ray, then each
 // vertex's shadow and bounce rays): a GPU warp walks 32 such sequences in lock-step.
