@@ -57,8 +57,10 @@ struct BinNode {
     uint32_t left = 0, right = 0, first = 0, count = 0, below = 0;
 };
 
-// In double: float boxes up to 3.4e38 wide stay finite.
-double half_area(const float lo[3], const float hi[3]) {
+// A box's half surface area from its extents. In double: float boxes up to 3.4e38 wide stay
+// finite.
+template <class T>
+double half_area(const T lo[3], const T hi[3]) {
     const double dx = double(hi[0]) - lo[0], dy = double(hi[1]) - lo[1], dz = double(hi[2]) - lo[2];
     return dx * dy + dy * dz + dz * dx;
 }
@@ -257,6 +259,16 @@ AxisGrid axis_grid(double lo, double hi) {
     }
 }
 
+// A child's low and high planes on an axis's grid, in cells from its origin: rounded outward
+// and widened by one more cell, so the traversal's rounding never shrinks the box. (2^-e is
+// exact in double for e in [-100, 126]: the same quotients as a division.)
+double grid_below(double x, const AxisGrid& g) {
+    return std::floor((x - g.p) * std::ldexp(1.0, -g.e)) - 1.0;
+}
+double grid_above(double x, const AxisGrid& g) {
+    return std::ceil((x - g.p) * std::ldexp(1.0, -g.e)) + 1.0;
+}
+
 // A grid plane as a byte, 0-255 (NaN: 0; only boxes beyond float range reach the ends).
 uint32_t grid_byte(double q) {
     return q >= 255.0 ? 255u : (q > 0 ? uint32_t(q) : 0u);
@@ -347,17 +359,14 @@ struct CollapsePlan {
 
     // The children of the wide node made from binary node b (not a leaf), into kids.
     void choose(uint32_t b, Kids& kids) const {
-        // b's grid, as quantize() will build it: each axis's origin and cell.
-        double p[3], cell[3];
-        for (int a = 0; a < 3; ++a) {
-            const AxisGrid g = axis_grid(bin[b].lo[a], bin[b].hi[a]);
-            p[a] = g.p, cell[a] = std::ldexp(1.0, g.e);
-        }
+        // b's grid, as quantize() will build it (its children's boxes together are b's).
+        AxisGrid grid[3];
+        for (int a = 0; a < 3; ++a) grid[a] = axis_grid(bin[b].lo[a], bin[b].hi[a]);
         // Candidates below b within seven levels, each once (a tree: one parent each).
         std::vector<Choice> local;
         local.reserve(64);
-        const int left = eval(bin[b].left, BVH_WIDTH - 1, p, cell, local);
-        const int right = eval(bin[b].right, BVH_WIDTH - 1, p, cell, local);
+        const int left = eval(bin[b].left, BVH_WIDTH - 1, grid, local);
+        const int right = eval(bin[b].right, BVH_WIDTH - 1, grid, local);
         float best = std::numeric_limits<float>::infinity();
         size_t best_k = 1;
         for (size_t k = 1; k < BVH_WIDTH; ++k) {
@@ -380,17 +389,16 @@ struct CollapsePlan {
     };
 
     // Binary node n as a slot of b's node, given at most `budget` slots; its entry in local.
-    int eval(uint32_t n, size_t budget, const double p[3], const double cell[3],
-             std::vector<Choice>& local) const {
+    int eval(uint32_t n, size_t budget, const AxisGrid grid[3], std::vector<Choice>& local) const {
         const BinNode& x = bin[n];
-        // Its box as quantized in b's grid (quantize(): a cell beyond the rounding each way).
-        double d[3];
+        // Its box as quantized in b's grid, from the grid's origin.
+        double lo[3], hi[3];
         for (int a = 0; a < 3; ++a) {
-            const double qlo = std::floor((double(x.lo[a]) - p[a]) / cell[a]) - 1.0;
-            const double qhi = std::ceil((double(x.hi[a]) - p[a]) / cell[a]) + 1.0;
-            d[a] = (qhi - qlo) * cell[a];
+            const double cell = std::ldexp(1.0, grid[a].e);
+            lo[a] = grid_below(x.lo[a], grid[a]) * cell,
+            hi[a] = grid_above(x.hi[a], grid[a]) * cell;
         }
-        const float area = float((d[0] * d[1] + d[1] * d[2] + d[2] * d[0]) * per_root_area);
+        const float area = float(half_area(lo, hi) * per_root_area);
         const float one =
             x.count > 0 ? area * triangle * float(x.below) : area * node + spread_cost[n];
         const int at = int(local.size());
@@ -398,8 +406,8 @@ struct CollapsePlan {
         for (size_t i = 0; i < BVH_WIDTH; ++i)
             local[size_t(at)].cost[i] = one, local[size_t(at)].k[i] = 0;
         if (x.count > 0 || budget < 2) return at;
-        const int l = eval(x.left, budget - 1, p, cell, local);
-        const int r = eval(x.right, budget - 1, p, cell, local);
+        const int l = eval(x.left, budget - 1, grid, local);
+        const int r = eval(x.right, budget - 1, grid, local);
         Choice& c = local[size_t(at)];
         c.left = l, c.right = r;
         for (size_t i = 2; i <= budget; ++i)
@@ -592,13 +600,10 @@ struct Collapser {
             const AxisGrid g = axis_grid(lo[a], hi[a]);
             std::memcpy(&out.words[a], &g.p, 4);
             exps |= uint32_t(g.e + 127) << (8 * a);
-            // 1 / 2^e, exact in double (e in [-100, 126]): the same quotients as a division.
-            const double per_cell = std::ldexp(1.0, -g.e);
             for (int s = 0; s < int(BVH_WIDTH); ++s) {
                 if (kid_in_slot[s] < 0) continue;
                 const BinNode& c = bin[kids[size_t(kid_in_slot[s])]];
-                const double qlo = std::floor((double(c.lo[a]) - g.p) * per_cell) - 1.0;
-                const double qhi = std::ceil((double(c.hi[a]) - g.p) * per_cell) + 1.0;
+                const double qlo = grid_below(c.lo[a], g), qhi = grid_above(c.hi[a], g);
                 out.words[plane_word(a, false, s)] = plane_bits(grid_byte(qlo), g.e);
                 out.words[plane_word(a, true, s)] = plane_bits(grid_byte(qhi), g.e);
             }
@@ -776,17 +781,14 @@ std::vector<BvhChild> bvh_children(const gpu::BvhNode& n) {
 }
 
 double bvh_sah_cost(const KdTree& tree, double node, double triangle) {
-    const Bounds& b = tree.bounds;
-    const double dx = double(b.max.x) - b.min.x, dy = double(b.max.y) - b.min.y,
-                 dz = double(b.max.z) - b.min.z;
-    const double root = dx * dy + dy * dz + dz * dx;
+    const float lo[3] = {tree.bounds.min.x, tree.bounds.min.y, tree.bounds.min.z};
+    const float hi[3] = {tree.bounds.max.x, tree.bounds.max.y, tree.bounds.max.z};
+    const double root = half_area(lo, hi);
     if (tree.leaf_indices.empty() || !(root > 0)) return 0;
     double cost = 0;
     for (uint32_t i = 0; i < bvh_node_count(tree); ++i)
-        for (const BvhChild& c : bvh_children(bvh_node(tree, i))) {
-            const double x = c.hi[0] - c.lo[0], y = c.hi[1] - c.lo[1], z = c.hi[2] - c.lo[2];
-            cost += (x * y + y * z + z * x) * (c.internal ? node : triangle * c.triangles);
-        }
+        for (const BvhChild& c : bvh_children(bvh_node(tree, i)))
+            cost += half_area(c.lo, c.hi) * (c.internal ? node : triangle * c.triangles);
     return cost / root;
 }
 
