@@ -1,5 +1,7 @@
-// mcpt tree: build the k-d tree of a scene and report its statistics and the work per ray
-// (triangle tests and node visits), measured with the shared traversal code on the CPU.
+// mcpt tree: build the scene's tree (k-d or BVH) and report its statistics (for the BVH its
+// SAH cost) and the work per ray (triangle tests and node visits), measured with the shared
+// traversal code on the CPU; for the BVH, a model of GPU warps over full paths (busy lanes,
+// the walk against lock-step, work-groups regrouped against not: docs/traversal.md).
 #include <algorithm>
 #include <chrono>
 #include <cstdio>

@@ -1,5 +1,5 @@
-// Helpers shared by the tests: the OpenCL device under test, simple statistics and a scoped
-// environment variable.
+// Helpers shared by the tests: the OpenCL device under test, simple statistics, a scoped
+// environment variable, runs of the mcpt binary and each test's own temporary folder.
 #pragma once
 
 #include <gtest/gtest.h>

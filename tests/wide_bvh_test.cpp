@@ -4,8 +4,10 @@
 // force and to the k-d tree on the k-d tests' meshes and rays, at extreme scales and far from
 // the origin (kdtree_test.cpp runs its device-traversal checks, any hit included, on the BVH
 // too). The negative control: a BVH whose leaf boxes stop one grid cell
-// short of their triangles is caught by rays that meet only that cell. Also the model of a GPU
-// warp that `mcpt tree --warps` prints (per-ray visit logs, lanes busy), worked by hand.
+// short of their triangles is caught by rays that meet only that cell. Both collapses (the
+// SAH-optimal one against the largest child first: a lower SAH cost, fewer nodes, the same tree
+// at every scale). Also the models of a GPU warp and work-group that `mcpt tree --warps`
+// prints (per-ray visit logs, lanes busy, the walk, the regroup), worked by hand.
 #include "common/accel/wide_bvh.h"
 
 #include <gtest/gtest.h>

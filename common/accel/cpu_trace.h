@@ -1,6 +1,7 @@
 // The device traversal and path tracer compiled for the CPU: the same functions the kernels
 // run, used by tests (against brute force; the rays the device oracle tests cast), `mcpt tree`
-// and `mcpt bench` (work per ray).
+// and `mcpt bench` (work per ray); and the models of a GPU warp (and a work-group of warps)
+// over the paths' rays that `mcpt tree` prints.
 // Only the plain data of gpu/ray_types.h is visible here, not the device dialect's macros.
 #pragma once
 #include <vector>

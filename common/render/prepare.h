@@ -1,4 +1,5 @@
-// From a validated scene to what one device renders: the k-d tree (auto: the device's cost
+// From a validated scene to what one device renders: the tree options the commands give
+// (tree_options: kind, depth, $MCPT_BVH_COLLAPSE), the tree (auto: the device's cost
 // model decides, and the reason is kept), the packed device layout, and a check against the
 // device's limits at the image size. Every client prepares a scene this way.
 #pragma once
