@@ -10,16 +10,6 @@
 
 namespace mcpt {
 
-namespace {
-
-template <class T>
-double half_area(const T lo[3], const T hi[3]) {
-    const double dx = double(hi[0]) - lo[0], dy = double(hi[1]) - lo[1], dz = double(hi[2]) - lo[2];
-    return dx * dy + dy * dz + dz * dx;
-}
-
-}  // namespace
-
 // The BVH: every node is entered with probability area(node) / area(root), its children's
 // boxes all tested there, and a leaf's triangles with its box's probability.
 TreeCost expected_bvh_cost(const KdTree& tree) {

@@ -57,14 +57,6 @@ struct BinNode {
     uint32_t left = 0, right = 0, first = 0, count = 0, below = 0;
 };
 
-// A box's half surface area from its extents. In double: float boxes up to 3.4e38 wide stay
-// finite.
-template <class T>
-double half_area(const T lo[3], const T hi[3]) {
-    const double dx = double(hi[0]) - lo[0], dy = double(hi[1]) - lo[1], dz = double(hi[2]) - lo[2];
-    return dx * dy + dy * dz + dz * dx;
-}
-
 // Bins of centroid coordinates over [lo, hi]: in float where every term is a normal float
 // well inside range (any mesh), else in double (finite for any finite floats, denormal
 // extents included). Binning and partitioning use the same one, so they agree.

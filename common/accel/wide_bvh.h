@@ -14,6 +14,14 @@
 
 namespace mcpt {
 
+// A box's half surface area (float or double corners), in double: float boxes up to 3.4e38
+// wide stay finite. (The builder's SAH, bvh_sah_cost and kdtree_cost.cpp's.)
+template <class T>
+double half_area(const T lo[3], const T hi[3]) {
+    const double dx = double(hi[0]) - lo[0], dy = double(hi[1]) - lo[1], dz = double(hi[2]) - lo[2];
+    return dx * dy + dy * dz + dz * dx;
+}
+
 // Builds the BVH (options: threads; the k-d tree's depth and costs do not apply).
 KdTree build_wide_bvh(const std::vector<Triangle>& triangles, const TreeOptions& options);
 
